@@ -1,0 +1,184 @@
+//! Typed errors, layered: [`LinearSolveError`] ⊂ [`NewtonError`] ⊂ [`StepError`] ⊂ [`IntegrateError`],
+//! and [`SetupError`] for what is detected when a scheme is built.
+//!
+//! Values in errors are `f64` (converted from the scalar type) so that every error is
+//! `Send + Sync + 'static` and independent of the scalar type.
+
+use thiserror::Error;
+
+/// A dense or sparse linear solve failed.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum LinearSolveError {
+    /// The matrix is singular to working precision: pivot `pivot` has magnitude `magnitude`,
+    /// `ratio` times the largest pivot.
+    #[error(
+        "singular matrix: pivot {pivot} has magnitude {magnitude:e} ({ratio:e} of the largest pivot)"
+    )]
+    Singular {
+        /// Index of the offending pivot (0-based, after row pivoting).
+        pivot: usize,
+        /// Its magnitude.
+        magnitude: f64,
+        /// Its magnitude relative to the largest pivot.
+        ratio: f64,
+    },
+    /// The matrix contains NaN or infinity.
+    #[error("matrix entry ({row}, {col}) is not finite")]
+    NonFinite {
+        /// Row of the first non-finite entry.
+        row: usize,
+        /// Column of the first non-finite entry.
+        col: usize,
+    },
+    /// The solver cannot hold a system of this size (e.g. a stack solver with a fixed capacity).
+    #[error("system of dimension {requested} exceeds the solver capacity {capacity}")]
+    TooLarge {
+        /// Requested dimension.
+        requested: usize,
+        /// Largest dimension the solver supports.
+        capacity: usize,
+    },
+}
+
+/// Newton's method failed to solve a nonlinear system.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum NewtonError {
+    /// The iteration limit was reached before the residual met the tolerance.
+    #[error("Newton did not converge in {iterations} iterations (residual {residual:e})")]
+    NotConverged {
+        /// Iterations performed.
+        iterations: usize,
+        /// Max-norm of the last residual.
+        residual: f64,
+    },
+    /// The Newton matrix could not be factored or solved.
+    #[error("Newton matrix: {0}")]
+    Linear(#[from] LinearSolveError),
+    /// The residual became NaN or infinite.
+    #[error("Newton residual is not finite at iteration {iteration}")]
+    NonFinite {
+        /// Iteration at which it happened.
+        iteration: usize,
+    },
+    /// Evaluating the residual failed (for instance an inner flow or fixed point failed).
+    #[error("residual evaluation failed: {0}")]
+    Residual(Box<StepError>),
+}
+
+/// One step of a flow failed. On error the state passed to `step` is left unchanged.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum StepError {
+    /// A multiplier system was not solved.
+    #[error("{stage}: {source}")]
+    Newton {
+        /// Which multiplier system (e.g. `"lambda_k from g = 0"`).
+        stage: &'static str,
+        /// The Newton failure.
+        source: NewtonError,
+    },
+    /// The implicit end point of a projection half-step did not converge.
+    #[error(
+        "implicit projection end point did not converge in {iterations} iterations (change {change:e})"
+    )]
+    FixedPointNotConverged {
+        /// Iterations performed.
+        iterations: usize,
+        /// Max-norm of the last change.
+        change: f64,
+    },
+    /// The state became NaN or infinite.
+    #[error("state component {component} is not finite")]
+    NonFinite {
+        /// First non-finite component.
+        component: usize,
+    },
+    /// The step size is not finite.
+    #[error("step size {h} is not finite")]
+    BadStepSize {
+        /// The offending step size.
+        h: f64,
+    },
+    /// A step assumed by the decoupled projection path was violated (the second half-step changed g).
+    #[error(
+        "decoupled projection assumption violated: |g| = {residual:e} after the second half-step; use Coupling::Coupled"
+    )]
+    CouplingViolated {
+        /// Max-norm of g after the step.
+        residual: f64,
+    },
+}
+
+/// A scheme could not be built for the given model and initial state.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum SetupError {
+    /// The initial state contains NaN or infinity.
+    #[error("initial state component {component} is not finite")]
+    NonFiniteState {
+        /// First non-finite component.
+        component: usize,
+    },
+    /// Neither ⟨g,g⟩ = G M Gᵀ nor ⟨φ,g⟩ is invertible: redundant constraints, or a constraint
+    /// that is a Casimir of M (already invariant). The multipliers are not determined.
+    #[error(
+        "multiplier matrix {bracket} is singular at the initial state (pivot {pivot}, ratio {ratio:e}): redundant constraints or a Casimir of M"
+    )]
+    SingularMultiplierMatrix {
+        /// Which bracket matrix (`"<g,g>"` or `"<phi,g>"`).
+        bracket: &'static str,
+        /// Index of the failing pivot.
+        pivot: usize,
+        /// Its magnitude relative to the largest pivot.
+        ratio: f64,
+    },
+    /// ⟨g,g⟩ is neither zero nor invertible: a mix of degenerate and non-degenerate constraints.
+    #[error(
+        "<g,g> is neither zero (|<g,g>| = {norm:e}) nor invertible: mixed degenerate/non-degenerate constraints are not supported"
+    )]
+    MixedCase {
+        /// Max-norm of ⟨g,g⟩.
+        norm: f64,
+    },
+    /// The initial state violates the constraint manifold by more than the tolerance.
+    #[error("initial state is off the constraint manifold: {what} = {residual:e}")]
+    OffManifold {
+        /// `"g"` or `"phi"`.
+        what: &'static str,
+        /// Max-norm of the violation.
+        residual: f64,
+    },
+    /// A linear solver could not be created for the multiplier system.
+    #[error("linear solver: {0}")]
+    Linear(#[from] LinearSolveError),
+    /// Dimensions of the model pieces do not match.
+    #[error("dimension mismatch: {what}")]
+    Dimension {
+        /// What did not match.
+        what: String,
+    },
+}
+
+/// The fixed-step driver stopped at a failing step.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum IntegrateError {
+    /// The initial state contains NaN or infinity.
+    #[error("initial state component {component} is not finite")]
+    NonFiniteInitialState {
+        /// First non-finite component.
+        component: usize,
+    },
+    /// Step `step` (0-based), starting at time `t`, failed; the state is the one at `t`.
+    #[error("step {step} at t = {t}: {source}")]
+    Step {
+        /// Index of the failing step.
+        step: usize,
+        /// Time at the start of the failing step.
+        t: f64,
+        /// What failed.
+        source: StepError,
+    },
+}

@@ -1,0 +1,214 @@
+use super::{CompositionTable, EXACT, Flow, FlowStats};
+use crate::error::StepError;
+use crate::real::Real;
+use crate::vector::Vector;
+
+/// `a` for `h`, then `b` for `h`: the Lie–Trotter splitting, order 1 (GNI §II.5).
+#[derive(Debug, Clone)]
+pub struct Then<V: Vector, A, B> {
+    a: A,
+    b: B,
+    backup: Backup<V>,
+}
+
+impl<V: Vector, A, B> Then<V, A, B> {
+    /// `b(h) ∘ a(h)`.
+    pub fn new(a: A, b: B) -> Self {
+        Self {
+            a,
+            b,
+            backup: Backup::default(),
+        }
+    }
+}
+
+impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Then<V, A, B> {
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        let guard = self.b.is_fallible();
+        self.backup.run(guard, x, |x| {
+            self.a.step(h, x)?;
+            self.b.step(h, x)
+        })
+    }
+    fn is_fallible(&self) -> bool {
+        self.a.is_fallible() || self.b.is_fallible()
+    }
+    fn order(&self) -> u32 {
+        if self.a.order() == EXACT && self.b.order() == EXACT {
+            1
+        } else {
+            self.a.order().min(self.b.order()).min(1)
+        }
+    }
+    fn is_symmetric(&self) -> bool {
+        false
+    }
+    fn prepare(&mut self, x: &V) {
+        self.backup.prepare(x);
+        self.a.prepare(x);
+        self.b.prepare(x);
+    }
+    fn stats(&self) -> FlowStats {
+        self.a.stats() + self.b.stats()
+    }
+}
+
+/// Strang splitting `a(h/2) ∘ b(h) ∘ a(h/2)`: order 2 and symmetric when `a` and `b` are
+/// symmetric (Strang 1968; GNI §II.5). With `a` a kick and `b` a drift this is Störmer–Verlet.
+#[derive(Debug, Clone)]
+pub struct Strang<V: Vector, A, B> {
+    a: A,
+    b: B,
+    backup: Backup<V>,
+}
+
+impl<V: Vector, A, B> Strang<V, A, B> {
+    /// `a(h/2) ∘ b(h) ∘ a(h/2)`.
+    pub fn new(a: A, b: B) -> Self {
+        Self {
+            a,
+            b,
+            backup: Backup::default(),
+        }
+    }
+}
+
+impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
+    #[inline]
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        let half = h * V::Real::lit(0.5);
+        let guard = self.is_fallible();
+        self.backup.run(guard, x, |x| {
+            self.a.step(half, x)?;
+            self.b.step(h, x)?;
+            self.a.step(half, x)
+        })
+    }
+    fn is_fallible(&self) -> bool {
+        self.a.is_fallible() || self.b.is_fallible()
+    }
+    fn order(&self) -> u32 {
+        if self.is_symmetric() {
+            self.a.order().min(self.b.order()).min(2)
+        } else {
+            self.a.order().min(self.b.order()).min(1)
+        }
+    }
+    fn is_symmetric(&self) -> bool {
+        self.a.is_symmetric() && self.b.is_symmetric()
+    }
+    fn prepare(&mut self, x: &V) {
+        self.backup.prepare(x);
+        self.a.prepare(x);
+        self.b.prepare(x);
+    }
+    fn stats(&self) -> FlowStats {
+        self.a.stats() + self.b.stats()
+    }
+}
+
+/// Symmetric composition `Φ_{γ_s h} ∘ … ∘ Φ_{γ_1 h}` of a symmetric flow `Φ` with the coefficients
+/// of a [`CompositionTable`]; raises order 2 to the table's order (Yoshida 1990; McLachlan 1995;
+/// GNI §V.3). If a stage fails, the state is restored to its value before the step.
+#[derive(Debug, Clone)]
+pub struct Composition<V: Vector, F> {
+    inner: F,
+    table: &'static CompositionTable,
+    backup: Backup<V>,
+}
+
+impl<V: Vector, F> Composition<V, F> {
+    /// Composes `inner` with `table`.
+    pub fn new(inner: F, table: &'static CompositionTable) -> Self {
+        Self {
+            inner,
+            table,
+            backup: Backup::default(),
+        }
+    }
+
+    /// The coefficient table.
+    pub fn table(&self) -> &'static CompositionTable {
+        self.table
+    }
+
+    /// The composed flow.
+    pub fn inner(&self) -> &F {
+        &self.inner
+    }
+}
+
+impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
+    #[inline]
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        let table = self.table;
+        let guard = self.inner.is_fallible();
+        self.backup.run(guard, x, |x| {
+            for i in 0..table.stages {
+                self.inner.step(V::Real::lit(table.gamma(i)) * h, x)?;
+            }
+            Ok(())
+        })
+    }
+    fn is_fallible(&self) -> bool {
+        self.inner.is_fallible()
+    }
+    fn order(&self) -> u32 {
+        let p = self.inner.order();
+        if self.inner.is_symmetric() && p >= 2 {
+            p.max(self.table.order)
+        } else {
+            p.min(1)
+        }
+    }
+    fn is_symmetric(&self) -> bool {
+        self.inner.is_symmetric()
+    }
+    fn prepare(&mut self, x: &V) {
+        self.backup.prepare(x);
+        self.inner.prepare(x);
+    }
+    fn stats(&self) -> FlowStats {
+        self.inner.stats()
+    }
+}
+
+/// A copy of the state taken before a multi-stage step, restored if a stage fails, so that
+/// compositions keep the [`Flow`] contract (state unchanged on error).
+#[derive(Debug, Clone)]
+struct Backup<V>(Option<V>);
+
+impl<V> Default for Backup<V> {
+    fn default() -> Self {
+        Self(None)
+    }
+}
+
+impl<V: Vector> Backup<V> {
+    fn prepare(&mut self, x: &V) {
+        if self.0.as_ref().is_none_or(|b| b.len() != x.len()) {
+            self.0 = Some(x.clone());
+        }
+    }
+
+    /// Runs `f` on `x`; when `guard` is set, saves `x` first and restores it if `f` fails.
+    #[inline(always)]
+    fn run(
+        &mut self,
+        guard: bool,
+        x: &mut V,
+        f: impl FnOnce(&mut V) -> Result<(), StepError>,
+    ) -> Result<(), StepError> {
+        if !guard {
+            return f(x);
+        }
+        self.prepare(x);
+        let b = self.0.as_mut().expect("prepared above");
+        b.copy_from(x);
+        let r = f(x);
+        if r.is_err() {
+            x.copy_from(b);
+        }
+        r
+    }
+}

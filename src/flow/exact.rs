@@ -1,0 +1,51 @@
+use super::{EXACT, Flow};
+use crate::error::StepError;
+use crate::vector::Vector;
+
+/// A flow given by a closure `f(h, x)` that advances `x` in place.
+///
+/// Built by [`from_fn`] for a closed-form (exact) sub-flow `exp(h D_K)` — a drift, a kick, a
+/// rotation, a linear flow — or by [`from_fn_with_order`] for an approximate one.
+#[derive(Debug, Clone, Copy)]
+pub struct FnFlow<F> {
+    f: F,
+    order: u32,
+    symmetric: bool,
+}
+
+/// An exact sub-flow `x ↦ exp(h D_K) x` from a closure: order [`EXACT`], symmetric.
+///
+/// The closure must be the exact flow of some vector field, so that `f(−h) ∘ f(h) = id`.
+pub fn from_fn<F>(f: F) -> FnFlow<F> {
+    FnFlow {
+        f,
+        order: EXACT,
+        symmetric: true,
+    }
+}
+
+/// An approximate flow from a closure, with its order and whether it is symmetric.
+pub fn from_fn_with_order<F>(f: F, order: u32, symmetric: bool) -> FnFlow<F> {
+    FnFlow {
+        f,
+        order,
+        symmetric,
+    }
+}
+
+impl<V: Vector, F: FnMut(V::Real, &mut V)> Flow<V> for FnFlow<F> {
+    #[inline(always)]
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        (self.f)(h, x);
+        Ok(())
+    }
+    fn order(&self) -> u32 {
+        self.order
+    }
+    fn is_symmetric(&self) -> bool {
+        self.symmetric
+    }
+    fn is_fallible(&self) -> bool {
+        false
+    }
+}

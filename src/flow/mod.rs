@@ -1,0 +1,181 @@
+//! One-step maps `x ↦ Φ_h(x)` and how to build them: closed-form sub-flows, composition
+//! (sequence, Strang, Yoshida and other symmetric tables) and the projection half-steps of
+//! Zhang & Deng (2004, §3).
+//!
+//! Flows are values; composition and projection are wrappers, chained like iterator adapters:
+//!
+//! ```text
+//! kick.strang(drift).projected(system, &x0, options)?.triple_jump()
+//! ```
+
+pub mod coefficients;
+mod compose;
+mod exact;
+mod projection;
+
+pub use coefficients::CompositionTable;
+pub use compose::{Composition, Strang, Then};
+pub use exact::{FnFlow, from_fn, from_fn_with_order};
+pub use projection::{Coupling, Projected, ProjectionOptions, Scheme};
+
+use crate::error::{SetupError, StepError};
+use crate::linalg::LinearSolver;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::vector::Vector;
+
+/// The order reported by a flow that is exact (a closed-form flow of a sub-Hamiltonian).
+pub const EXACT: u32 = u32::MAX;
+
+/// Counters a flow keeps about its work (cumulative since construction).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FlowStats {
+    /// Projected steps taken.
+    pub projected_steps: u64,
+    /// Newton solves for multipliers.
+    pub newton_solves: u64,
+    /// Newton iterations (updates), summed over solves.
+    pub newton_iterations: u64,
+    /// Residual evaluations inside Newton (each runs the inner flow or a constraint).
+    pub residual_evaluations: u64,
+    /// Newton-matrix factorizations.
+    pub factorizations: u64,
+}
+
+impl core::ops::Add for FlowStats {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Self {
+            projected_steps: self.projected_steps + o.projected_steps,
+            newton_solves: self.newton_solves + o.newton_solves,
+            newton_iterations: self.newton_iterations + o.newton_iterations,
+            residual_evaluations: self.residual_evaluations + o.residual_evaluations,
+            factorizations: self.factorizations + o.factorizations,
+        }
+    }
+}
+
+/// A one-step map `x ↦ Φ_h(x)`, applied in place.
+///
+/// Contract: on `Err`, `x` is left exactly as it was passed in (never partially updated, never
+/// NaN). `h` may be negative (symmetric flows satisfy `Φ_{−h} ∘ Φ_h = id`).
+pub trait Flow<V: Vector> {
+    /// Advances `x` by one step of size `h`.
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError>;
+    /// The order of accuracy ([`EXACT`] for an exact flow).
+    fn order(&self) -> u32;
+    /// `true` if `Φ_{−h} = Φ_h⁻¹` (time-symmetric).
+    fn is_symmetric(&self) -> bool;
+    /// Allocates any workspace for states like `x`. Called by the drivers before the first step;
+    /// a flow that is not prepared prepares itself on its first step.
+    fn prepare(&mut self, _x: &V) {}
+    /// Work counters.
+    fn stats(&self) -> FlowStats {
+        FlowStats::default()
+    }
+    /// `false` if `step` never returns an error (closed-form flows); compositions then skip
+    /// saving the state for a restore.
+    fn is_fallible(&self) -> bool {
+        true
+    }
+}
+
+impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for &mut F {
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        (**self).step(h, x)
+    }
+    fn order(&self) -> u32 {
+        (**self).order()
+    }
+    fn is_symmetric(&self) -> bool {
+        (**self).is_symmetric()
+    }
+    fn prepare(&mut self, x: &V) {
+        (**self).prepare(x)
+    }
+    fn stats(&self) -> FlowStats {
+        (**self).stats()
+    }
+    fn is_fallible(&self) -> bool {
+        (**self).is_fallible()
+    }
+}
+
+impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        (**self).step(h, x)
+    }
+    fn order(&self) -> u32 {
+        (**self).order()
+    }
+    fn is_symmetric(&self) -> bool {
+        (**self).is_symmetric()
+    }
+    fn prepare(&mut self, x: &V) {
+        (**self).prepare(x)
+    }
+    fn stats(&self) -> FlowStats {
+        (**self).stats()
+    }
+    fn is_fallible(&self) -> bool {
+        (**self).is_fallible()
+    }
+}
+
+/// Adapters that build schemes from flows.
+pub trait FlowExt<V: Vector>: Flow<V> + Sized {
+    /// `self` for `h`, then `next` for `h` (Lie–Trotter; order 1, not symmetric).
+    fn then<B: Flow<V>>(self, next: B) -> Then<V, Self, B> {
+        Then::new(self, next)
+    }
+
+    /// Strang splitting `self(h/2) ∘ inner(h) ∘ self(h/2)`: order 2, symmetric when both are.
+    fn strang<B: Flow<V>>(self, inner: B) -> Strang<V, Self, B> {
+        Strang::new(self, inner)
+    }
+
+    /// Symmetric composition with the coefficients of `table`.
+    fn composed(self, table: &'static CompositionTable) -> Composition<V, Self> {
+        Composition::new(self, table)
+    }
+
+    /// Yoshida's triple jump (order 4, 3 stages).
+    fn triple_jump(self) -> Composition<V, Self> {
+        Composition::new(self, &coefficients::TRIPLE_JUMP)
+    }
+
+    /// The projection half-steps of Zhang & Deng (2004, §3) around `self`, for `system`,
+    /// with the case and coupling decided at `x0` (see [`Projected`]).
+    #[allow(clippy::type_complexity)]
+    fn projected<Ms, H, C>(
+        self,
+        system: System<Ms, H, C>,
+        x0: &V,
+        options: ProjectionOptions<V::Real>,
+    ) -> Result<Projected<V, Self, Ms, H, C>, SetupError>
+    where
+        Ms: StructureMatrix<V>,
+        H: Hamiltonian<V>,
+        C: HolonomicConstraint<V>,
+    {
+        Projected::try_new(self, system, x0, options)
+    }
+
+    /// As [`projected`](Self::projected), with a chosen linear solver `L` for the multiplier systems.
+    #[allow(clippy::type_complexity)]
+    fn projected_with<Ms, H, C, L>(
+        self,
+        system: System<Ms, H, C>,
+        x0: &V,
+        options: ProjectionOptions<V::Real>,
+    ) -> Result<Projected<V, Self, Ms, H, C, L>, SetupError>
+    where
+        Ms: StructureMatrix<V>,
+        H: Hamiltonian<V>,
+        C: HolonomicConstraint<V>,
+        L: LinearSolver<V::Real>,
+    {
+        Projected::try_new(self, system, x0, options)
+    }
+}
+
+impl<V: Vector, F: Flow<V>> FlowExt<V> for F {}

@@ -1,0 +1,93 @@
+use super::{LinearSolver, check_finite, check_pivots};
+use crate::error::LinearSolveError;
+use crate::real::Real;
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::lu::partial_pivoting::{factor, solve};
+use faer::{Mat, MatMut, Par};
+
+/// faer's dense LU with partial pivoting, through the low-level in-place kernels.
+///
+/// The matrix, its factors, the permutation and the scratch memory are allocated once in
+/// [`with_dim`](LinearSolver::with_dim); `factor` and `solve_in_place` allocate nothing
+/// (faer's convenient `partial_piv_lu()` would allocate on every call). Sequential (`Par::Seq`):
+/// multiplier systems are small enough that threading costs more than it gains.
+pub struct DenseLu<T: Real + faer::traits::RealField> {
+    a: Mat<T>,
+    lu: Mat<T>,
+    perm: Vec<usize>,
+    perm_inv: Vec<usize>,
+    mem: MemBuffer,
+    factored: bool,
+}
+
+impl<T: Real + faer::traits::RealField> LinearSolver<T> for DenseLu<T> {
+    fn with_dim(k: usize) -> Result<Self, LinearSolveError> {
+        let req = StackReq::any_of(&[
+            factor::lu_in_place_scratch::<usize, T>(k, k, Par::Seq, Default::default()),
+            solve::solve_in_place_scratch::<usize, T>(k, 1, Par::Seq),
+        ]);
+        Ok(Self {
+            a: Mat::zeros(k, k),
+            lu: Mat::zeros(k, k),
+            perm: vec![0; k],
+            perm_inv: vec![0; k],
+            mem: MemBuffer::new(req),
+            factored: false,
+        })
+    }
+
+    fn dim(&self) -> usize {
+        self.a.nrows()
+    }
+
+    #[inline]
+    fn column_mut(&mut self, j: usize) -> &mut [T] {
+        self.a.col_as_slice_mut(j)
+    }
+
+    fn factor(&mut self) -> Result<(), LinearSolveError> {
+        let k = self.dim();
+        self.factored = false;
+        if let Some((row, col)) = check_finite(k, |idx| self.a[(idx % k, idx / k)]) {
+            return Err(LinearSolveError::NonFinite { row, col });
+        }
+        self.lu.copy_from(&self.a);
+        let stack = MemStack::new(&mut self.mem);
+        factor::lu_in_place(
+            self.lu.as_mut(),
+            &mut self.perm,
+            &mut self.perm_inv,
+            Par::Seq,
+            stack,
+            Default::default(),
+        );
+        check_pivots(k, |i| self.lu[(i, i)])?;
+        self.factored = true;
+        Ok(())
+    }
+
+    fn solve_in_place(&mut self, rhs: &mut [T]) -> Result<(), LinearSolveError> {
+        let k = self.dim();
+        if !self.factored {
+            return Err(LinearSolveError::Singular {
+                pivot: 0,
+                magnitude: 0.0,
+                ratio: 0.0,
+            });
+        }
+        let perm = faer::perm::PermRef::new_checked(&self.perm, &self.perm_inv, k);
+        let b = MatMut::from_column_major_slice_mut(&mut rhs[..k], k, 1);
+        let stack = MemStack::new(&mut self.mem);
+        solve::solve_in_place(self.lu.as_ref(), self.lu.as_ref(), perm, b, Par::Seq, stack);
+        Ok(())
+    }
+}
+
+impl<T: Real + faer::traits::RealField> core::fmt::Debug for DenseLu<T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("DenseLu")
+            .field("dim", &self.a.nrows())
+            .field("factored", &self.factored)
+            .finish_non_exhaustive()
+    }
+}

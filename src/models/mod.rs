@@ -1,0 +1,7 @@
+//! Ready-made models, one file each. Every model implements the traits generically for any
+//! [`Vector`](crate::Vector) storage, so the same model runs on the stack or on the heap.
+
+pub mod paper;
+pub mod spherical_pendulum;
+
+pub use spherical_pendulum::SphericalPendulum;

@@ -1,0 +1,149 @@
+//! The numerical example of Zhang & Deng (2004, §4).
+//!
+//! ```text
+//! x ∈ R⁴,   H = (x₃² + x₄²)/2,   g = (x₁² + x₂² − 1)/2,
+//! M = [[ 0, 0, 1, 0],
+//!      [ 0, 0, 0, 1],
+//!      [−1, 0, 0, 0],
+//!      [ 0,−2, 0, 0]],     x(0) = (1, 0, 0, −0.15),  h = 0.1.
+//! ```
+//!
+//! `exp(h D_H)` is the drift `x₁ += h x₃, x₂ += h x₄`; `M Gᵀ = (0, 0, −x₁, −2x₂)` moves only
+//! `x₃, x₄`; `⟨g,g⟩ = 0`, so this is the degenerate case with hidden constraint
+//! `φ = x₁x₃ + x₂x₄`. `H` is not conserved (the symmetric part of `M` is indefinite), but
+//! `H̃ = (x₃² + x₄²/2)/2` is: in `x₂ → x₂/√2, x₄ → x₄/√2` the system is a free particle on an ellipse.
+
+use crate::flow::{FnFlow, from_fn};
+use crate::real::Real;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::vector::Vector;
+
+/// The paper's constant structure matrix (applied without storing it).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Structure;
+
+/// `H = (x₃² + x₄²)/2`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Energy;
+
+/// `g = (x₁² + x₂² − 1)/2`, the unit circle in `(x₁, x₂)`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Circle;
+
+impl<V: Vector> StructureMatrix<V> for Structure {
+    #[inline(always)]
+    fn apply_add(&self, _x: &V, v: &V, alpha: V::Real, out: &mut V) {
+        let v = v.as_slice();
+        let o = out.as_mut_slice();
+        let two = V::Real::lit(2.0);
+        o[0] = o[0] + alpha * v[2];
+        o[1] = o[1] + alpha * v[3];
+        o[2] = o[2] - alpha * v[0];
+        o[3] = o[3] - alpha * two * v[1];
+    }
+    fn is_constant(&self) -> bool {
+        true
+    }
+}
+
+impl<V: Vector> Hamiltonian<V> for Energy {
+    #[inline(always)]
+    fn energy(&self, x: &V) -> V::Real {
+        let x = x.as_slice();
+        (x[2] * x[2] + x[3] * x[3]) * V::Real::lit(0.5)
+    }
+    #[inline(always)]
+    fn gradient(&self, x: &V, out: &mut V) {
+        let x = x.as_slice();
+        let o = out.as_mut_slice();
+        o[0] = V::Real::zero();
+        o[1] = V::Real::zero();
+        o[2] = x[2];
+        o[3] = x[3];
+    }
+}
+
+impl<V: Vector> HolonomicConstraint<V> for Circle {
+    fn dim(&self) -> usize {
+        1
+    }
+    #[inline(always)]
+    fn residual(&self, x: &V, out: &mut [V::Real]) {
+        let x = x.as_slice();
+        out[0] = (x[0] * x[0] + x[1] * x[1] - V::Real::one()) * V::Real::lit(0.5);
+    }
+    #[inline(always)]
+    fn jacobian_apply(&self, x: &V, v: &V, out: &mut [V::Real]) {
+        let (x, v) = (x.as_slice(), v.as_slice());
+        out[0] = x[0] * v[0] + x[1] * v[1];
+    }
+    #[inline(always)]
+    fn jacobian_transpose_apply_add(&self, x: &V, mu: &[V::Real], alpha: V::Real, out: &mut V) {
+        let x = x.as_slice();
+        let o = out.as_mut_slice();
+        o[0] = o[0] + alpha * mu[0] * x[0];
+        o[1] = o[1] + alpha * mu[0] * x[1];
+    }
+}
+
+use num_traits::{One, Zero};
+
+/// The paper's system: `M`, `H`, `g`.
+pub fn system() -> System<Structure, Energy, Circle> {
+    System::new(Structure, Energy, Circle)
+}
+
+/// The exact flow `exp(h D_H)`: the drift `x₁ += h x₃, x₂ += h x₄`.
+pub fn drift<V: Vector>() -> FnFlow<impl FnMut(V::Real, &mut V) + Clone + Copy> {
+    from_fn(|h: V::Real, x: &mut V| {
+        let x = x.as_mut_slice();
+        x[0] = x[0] + h * x[2];
+        x[1] = x[1] + h * x[3];
+    })
+}
+
+/// The paper's initial state `(1, 0, 0, −0.15)`.
+pub fn initial_state<V: Vector>() -> V {
+    state(&[1.0, 0.0, 0.0, -0.15])
+}
+
+/// A state of storage `V` from four values.
+pub fn state<V: Vector>(values: &[f64; 4]) -> V {
+    let mut x = V::zeros(4);
+    for (xi, &v) in x.as_mut_slice().iter_mut().zip(values) {
+        *xi = V::Real::lit(v);
+    }
+    x
+}
+
+/// The conserved quantity `H̃ = (x₃² + x₄²/2)/2`.
+pub fn h_tilde<V: Vector>(x: &V) -> V::Real {
+    let x = x.as_slice();
+    (x[2] * x[2] + x[3] * x[3] * V::Real::lit(0.5)) * V::Real::lit(0.5)
+}
+
+/// The exact solution at time `t` from `x(0) = (1, 0, 0, v₀)`, computed independently of any
+/// scheme: on the circle `x₁ = cos θ, x₂ = sin θ` the invariant is
+/// `H̃ = θ'² (sin²θ + cos²θ/2) / 2`, so `θ' = sign(v₀) √(2H̃ / (sin²θ + cos²θ/2))` with
+/// `H̃ = v₀²/4`. This scalar ODE is integrated with classical RK4 at step `dt` (error `O(dt⁴)`).
+pub fn reference(t: f64, v0: f64, dt: f64) -> [f64; 4] {
+    let h_t = 0.25 * v0 * v0;
+    let sign = if v0 < 0.0 { -1.0 } else { 1.0 };
+    let rate = |th: f64| {
+        let (s, c) = th.sin_cos();
+        sign * (2.0 * h_t / (s * s + 0.5 * c * c)).sqrt()
+    };
+    let n = (t / dt).ceil().max(1.0) as usize;
+    let dt = t / n as f64;
+    let mut th = 0.0f64;
+    for _ in 0..n {
+        let k1 = rate(th);
+        let k2 = rate(th + 0.5 * dt * k1);
+        let k3 = rate(th + 0.5 * dt * k2);
+        let k4 = rate(th + dt * k3);
+        th += dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    let w = rate(th);
+    let (s, c) = th.sin_cos();
+    [c, s, -s * w, c * w]
+}

@@ -1,0 +1,30 @@
+//! Nonlinear systems `F(z) = 0` for the Lagrange multipliers, and Newton's method.
+//!
+//! The multiplier systems of the projection half-steps are small (`m` or `2m` unknowns) but
+//! their residual runs the inner flow, so Newton's cost is counted in residual evaluations.
+
+mod newton;
+
+pub use newton::{JacobianUpdate, Newton, NewtonOptions, SolveReport};
+
+use crate::error::{NewtonError, StepError};
+use crate::real::Real;
+
+/// A square nonlinear system `F(z) = 0` with `dim()` unknowns.
+pub trait NonlinearProblem<T: Real> {
+    /// The number of unknowns (and equations).
+    fn dim(&self) -> usize;
+    /// `f = F(z)`.
+    fn residual(&mut self, z: &[T], f: &mut [T]) -> Result<(), StepError>;
+}
+
+/// A solver for [`NonlinearProblem`]s that owns its workspace.
+pub trait NonlinearSolver<T: Real> {
+    /// Solves `F(z) = 0` starting from `z` (overwritten with the solution).
+    /// On error `z` holds the last iterate.
+    fn solve<P: NonlinearProblem<T>>(
+        &mut self,
+        problem: &mut P,
+        z: &mut [T],
+    ) -> Result<SolveReport<T>, NewtonError>;
+}

@@ -1,0 +1,251 @@
+use super::{NonlinearProblem, NonlinearSolver};
+use crate::error::NewtonError;
+use crate::linalg::LinearSolver;
+use crate::real::Real;
+use crate::vector::{Vector, ops};
+use num_traits::Float as _;
+
+/// When Newton rebuilds its (finite-difference) Jacobian.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum JacobianUpdate {
+    /// Every iteration: full Newton, quadratic convergence, `k + 1` residual evaluations per
+    /// iteration.
+    EveryIteration,
+    /// Once per solve, at the starting guess: simplified Newton.
+    OncePerSolve,
+    /// Kept across solves and rebuilt only when an iteration contracts the residual by less
+    /// than [`NewtonOptions::max_contraction`] (or diverges): simplified Newton with the
+    /// Jacobian of an earlier step, the standard choice for implicit integrators (Hairer &
+    /// Wanner, *Solving ODEs II*, §IV.8). In a time-stepping loop the Jacobian changes by
+    /// `O(h)` per step, so most solves need no Jacobian at all.
+    #[default]
+    Reuse,
+}
+
+/// Options of [`Newton`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct NewtonOptions<T> {
+    /// Converged when `‖F(z)‖∞ ≤ ftol`. Default `8 ε` (1.8e-15 for `f64`).
+    pub ftol: T,
+    /// Also converged when the update is at round-off, `‖Δz‖∞ ≤ xtol (1 + ‖z‖∞)`, and
+    /// `‖F‖∞ ≤ 1000 ftol` (a residual whose round-off floor is above `ftol`). Default `16 ε`.
+    pub xtol: T,
+    /// Iteration limit. Default 25.
+    pub max_iterations: usize,
+    /// Relative forward-difference step for the Jacobian, `δ_j = fd_step · max(|z_j|, ‖z‖∞, 1)`.
+    /// Default `√ε`.
+    pub fd_step: T,
+    /// When to rebuild the Jacobian.
+    pub jacobian: JacobianUpdate,
+    /// With [`JacobianUpdate::Reuse`]: rebuild when `‖F(z_{i+1})‖ > max_contraction ‖F(z_i)‖`.
+    /// Default `0.1`.
+    pub max_contraction: T,
+}
+
+impl<T: Real> Default for NewtonOptions<T> {
+    fn default() -> Self {
+        Self {
+            ftol: T::lit(8.0) * T::epsilon(),
+            xtol: T::lit(16.0) * T::epsilon(),
+            max_iterations: 25,
+            fd_step: T::epsilon().sqrt(),
+            jacobian: JacobianUpdate::default(),
+            max_contraction: T::lit(0.1),
+        }
+    }
+}
+
+impl<T: Real> NewtonOptions<T> {
+    /// Sets the residual tolerance.
+    pub fn with_ftol(mut self, ftol: T) -> Self {
+        self.ftol = ftol;
+        self
+    }
+    /// Sets the update tolerance.
+    pub fn with_xtol(mut self, xtol: T) -> Self {
+        self.xtol = xtol;
+        self
+    }
+    /// Sets the iteration limit.
+    pub fn with_max_iterations(mut self, n: usize) -> Self {
+        self.max_iterations = n;
+        self
+    }
+    /// Sets the Jacobian update policy.
+    pub fn with_jacobian(mut self, j: JacobianUpdate) -> Self {
+        self.jacobian = j;
+        self
+    }
+}
+
+/// What one Newton solve did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SolveReport<T> {
+    /// Newton updates applied.
+    pub iterations: usize,
+    /// Residual evaluations (including those for the finite-difference Jacobian).
+    pub residual_evaluations: usize,
+    /// Jacobian factorizations.
+    pub factorizations: usize,
+    /// `‖F(z)‖∞` at the returned `z`.
+    pub residual: T,
+}
+
+/// Newton's method with a forward-difference Jacobian, for small dense systems.
+///
+/// Each Jacobian costs `k` extra residual evaluations (`k` = number of unknowns); the linear
+/// solver `L` is reused, and the workspace (vectors of storage `V`) is allocated once, in
+/// [`Newton::new`]: a solve allocates nothing. Reference: Deuflhard, *Newton Methods for
+/// Nonlinear Problems*, Springer 2004, ch. 2.
+#[derive(Debug)]
+pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
+    k: usize,
+    lin: L,
+    options: NewtonOptions<V::Real>,
+    f: V,
+    fp: V,
+    zp: V,
+    dz: V,
+    have_jacobian: bool,
+}
+
+impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
+    /// Newton for `k` unknowns. Allocates the workspace and the linear solver.
+    pub fn new(k: usize, options: NewtonOptions<V::Real>) -> Result<Self, crate::LinearSolveError> {
+        Ok(Self {
+            k,
+            lin: L::with_dim(k)?,
+            options,
+            f: V::zeros(k),
+            fp: V::zeros(k),
+            zp: V::zeros(k),
+            dz: V::zeros(k),
+            have_jacobian: false,
+        })
+    }
+
+    /// The options.
+    pub fn options(&self) -> &NewtonOptions<V::Real> {
+        &self.options
+    }
+
+    /// The number of unknowns.
+    pub fn dim(&self) -> usize {
+        self.k
+    }
+
+    /// Forgets a kept Jacobian (the next solve builds a new one).
+    pub fn invalidate_jacobian(&mut self) {
+        self.have_jacobian = false;
+    }
+
+    fn jacobian<P: NonlinearProblem<V::Real>>(
+        &mut self,
+        problem: &mut P,
+        z: &[V::Real],
+        report: &mut SolveReport<V::Real>,
+    ) -> Result<(), NewtonError> {
+        let k = self.k;
+        let one = V::Real::one();
+        let zmax = ops::norm_inf(z).max(one);
+        let f = &self.f.as_slice()[..k];
+        for j in 0..k {
+            let zp = &mut self.zp.as_mut_slice()[..k];
+            zp.copy_from_slice(z);
+            let delta = self.options.fd_step * z[j].abs().max(zmax);
+            zp[j] = z[j] + delta;
+            // The step actually taken, exactly representable.
+            let delta = zp[j] - z[j];
+            problem
+                .residual(zp, &mut self.fp.as_mut_slice()[..k])
+                .map_err(|e| NewtonError::Residual(Box::new(e)))?;
+            report.residual_evaluations += 1;
+            let col = self.lin.column_mut(j);
+            for ((c, &a), &b) in col.iter_mut().zip(&self.fp.as_slice()[..k]).zip(f) {
+                *c = (a - b) / delta;
+            }
+        }
+        self.lin.factor()?;
+        report.factorizations += 1;
+        Ok(())
+    }
+}
+
+use num_traits::One;
+
+impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V, L> {
+    fn solve<P: NonlinearProblem<V::Real>>(
+        &mut self,
+        problem: &mut P,
+        z: &mut [V::Real],
+    ) -> Result<SolveReport<V::Real>, NewtonError> {
+        let k = self.k;
+        debug_assert_eq!(problem.dim(), k, "problem and solver dimensions differ");
+        let z = &mut z[..k];
+        let mut report = SolveReport::default();
+        let eval = |p: &mut P, z: &[V::Real], f: &mut V, r: &mut SolveReport<V::Real>| {
+            p.residual(z, &mut f.as_mut_slice()[..k])
+                .map_err(|e| NewtonError::Residual(Box::new(e)))?;
+            r.residual_evaluations += 1;
+            Ok::<_, NewtonError>(ops::norm_inf(&f.as_slice()[..k]))
+        };
+        let mut r = eval(problem, z, &mut self.f, &mut report)?;
+        if !r.is_finite() {
+            return Err(NewtonError::NonFinite { iteration: 0 });
+        }
+        let opts = self.options;
+        let one = V::Real::one();
+        for it in 0..opts.max_iterations {
+            report.residual = r;
+            if r <= opts.ftol {
+                return Ok(report);
+            }
+            let fresh = match opts.jacobian {
+                JacobianUpdate::EveryIteration => true,
+                JacobianUpdate::OncePerSolve => it == 0,
+                JacobianUpdate::Reuse => !self.have_jacobian,
+            };
+            if fresh {
+                self.have_jacobian = false;
+                self.jacobian(problem, z, &mut report)?;
+                self.have_jacobian = true;
+            }
+            let dz = &mut self.dz.as_mut_slice()[..k];
+            for (d, &fi) in dz.iter_mut().zip(&self.f.as_slice()[..k]) {
+                *d = -fi;
+            }
+            self.lin.solve_in_place(dz)?;
+            ops::axpy(z, one, dz);
+            report.iterations += 1;
+            let step = ops::norm_inf(dz);
+            let r_new = eval(problem, z, &mut self.f, &mut report)?;
+            if !r_new.is_finite() {
+                if fresh {
+                    return Err(NewtonError::NonFinite { iteration: it + 1 });
+                }
+                // A stale Jacobian threw the iterate away: go back and rebuild it there.
+                ops::axpy(z, -one, &self.dz.as_slice()[..k]);
+                r = eval(problem, z, &mut self.f, &mut report)?;
+                self.have_jacobian = false;
+                continue;
+            }
+            report.residual = r_new;
+            if r_new <= opts.ftol
+                || (step <= opts.xtol * (one + ops::norm_inf(z))
+                    && r_new <= V::Real::lit(1000.0) * opts.ftol)
+            {
+                return Ok(report);
+            }
+            if r_new > opts.max_contraction * r {
+                self.have_jacobian = false;
+            }
+            r = r_new;
+        }
+        Err(NewtonError::NotConverged {
+            iterations: report.iterations,
+            residual: r.to_f64_lossy(),
+        })
+    }
+}

@@ -1,0 +1,133 @@
+use crate::real::Real;
+use crate::vector::{Vector, ops};
+
+/// The structure matrix `M(x)` of `x' = M(x) ∇H(x)`, applied to vectors.
+///
+/// Its skew part `J = (M − Mᵀ)/2` is the Poisson structure, its symmetric part `−R = (M + Mᵀ)/2`
+/// dissipation (`R ⪰ 0`) or exchange. Implement [`apply_add`](Self::apply_add); [`apply`](Self::apply)
+/// follows.
+pub trait StructureMatrix<V: Vector> {
+    /// `out += α M(x) v`.
+    fn apply_add(&self, x: &V, v: &V, alpha: V::Real, out: &mut V);
+
+    /// `out = M(x) v`.
+    #[inline]
+    fn apply(&self, x: &V, v: &V, out: &mut V) {
+        ops::fill_zero(out.as_mut_slice());
+        self.apply_add(x, v, V::Real::one(), out);
+    }
+
+    /// `true` if `M` does not depend on `x`.
+    fn is_constant(&self) -> bool {
+        false
+    }
+}
+
+use num_traits::One;
+
+/// The canonical symplectic matrix `M = [[0, I], [−I, 0]]` on `x = (q, p)`, `q, p ∈ Rᵈ`, `n = 2d`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Canonical;
+
+impl<V: Vector> StructureMatrix<V> for Canonical {
+    #[inline]
+    fn apply_add(&self, _x: &V, v: &V, alpha: V::Real, out: &mut V) {
+        let v = v.as_slice();
+        let d = v.len() / 2;
+        let out = out.as_mut_slice();
+        let (oq, op) = out.split_at_mut(d);
+        ops::axpy(oq, alpha, &v[d..]);
+        ops::axpy(op, -alpha, &v[..d]);
+    }
+    fn is_constant(&self) -> bool {
+        true
+    }
+}
+
+/// A constant dense `n × n` structure matrix, stored row-major (allocated once).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Constant<T> {
+    n: usize,
+    rows: Vec<T>,
+}
+
+impl<T: Real> Constant<T> {
+    /// Builds `M` from its rows. Panics if the rows are not all of length `rows.len()`.
+    #[track_caller]
+    pub fn from_rows<R: AsRef<[T]>>(rows: &[R]) -> Self {
+        let n = rows.len();
+        let mut data = Vec::with_capacity(n * n);
+        for (i, r) in rows.iter().enumerate() {
+            let r = r.as_ref();
+            assert_eq!(
+                r.len(),
+                n,
+                "row {i} of the structure matrix has {} entries, expected {n}",
+                r.len()
+            );
+            data.extend_from_slice(r);
+        }
+        Self { n, rows: data }
+    }
+
+    /// The entry `M_ij`.
+    pub fn get(&self, i: usize, j: usize) -> T {
+        self.rows[i * self.n + j]
+    }
+
+    /// The dimension `n`.
+    pub fn dim(&self) -> usize {
+        self.n
+    }
+}
+
+impl<V: Vector> StructureMatrix<V> for Constant<V::Real> {
+    #[inline]
+    fn apply_add(&self, _x: &V, v: &V, alpha: V::Real, out: &mut V) {
+        let v = v.as_slice();
+        for (oi, row) in out
+            .as_mut_slice()
+            .iter_mut()
+            .zip(self.rows.chunks_exact(self.n))
+        {
+            let mut s = V::Real::zero();
+            for (&a, &b) in row.iter().zip(v) {
+                s = s + a * b;
+            }
+            *oi = *oi + alpha * s;
+        }
+    }
+    fn is_constant(&self) -> bool {
+        true
+    }
+}
+
+use num_traits::Zero;
+
+/// The port-Hamiltonian structure `M(x) = J(x) − R(x)`: `J` skew (interconnection),
+/// `R ⪰ 0` symmetric (dissipation). Both parts are themselves structure matrices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JMinusR<J, R> {
+    /// The skew-symmetric interconnection part.
+    pub j: J,
+    /// The symmetric positive semi-definite dissipation part.
+    pub r: R,
+}
+
+impl<J, R> JMinusR<J, R> {
+    /// `M = J − R`.
+    pub fn new(j: J, r: R) -> Self {
+        Self { j, r }
+    }
+}
+
+impl<V: Vector, J: StructureMatrix<V>, R: StructureMatrix<V>> StructureMatrix<V> for JMinusR<J, R> {
+    #[inline]
+    fn apply_add(&self, x: &V, v: &V, alpha: V::Real, out: &mut V) {
+        self.j.apply_add(x, v, alpha, out);
+        self.r.apply_add(x, v, -alpha, out);
+    }
+    fn is_constant(&self) -> bool {
+        self.j.is_constant() && self.r.is_constant()
+    }
+}

@@ -1,0 +1,162 @@
+//! State vectors: one API over stack storage (nalgebra `SVector`) and heap storage (faer `Col`).
+//!
+//! Everything the integrators do to a state goes through [`Vector::as_slice`] /
+//! [`Vector::as_mut_slice`] and the slice kernels in this module, so both storages run the same
+//! arithmetic in the same order and give bit-identical trajectories.
+
+use crate::linalg::{DenseLu, LinearSolver, StackLu};
+use crate::real::Real;
+use core::fmt::Debug;
+
+/// A state (or workspace) vector.
+///
+/// Implemented for `nalgebra::SVector<T, N>` (stack, fixed size, for small models) and
+/// `faer::Col<T>` (heap, any size). Each storage names the dense linear solver used for its
+/// multiplier systems: [`StackLu`] on the stack, [`DenseLu`] (faer, workspace reused) on the heap.
+pub trait Vector: Clone + Debug + Send + Sync + 'static {
+    /// The scalar type.
+    type Real: Real;
+    /// The default dense solver for multiplier systems of states stored like this.
+    type Solver: LinearSolver<Self::Real>;
+
+    /// A zero vector with at least `len` entries (fixed-size vectors have exactly `N`; they
+    /// panic if `len > N`). Allocates for heap storage: call it at construction, never per step.
+    fn zeros(len: usize) -> Self;
+    /// Number of entries.
+    fn len(&self) -> usize;
+    /// `true` if the vector has no entries.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The entries, contiguous.
+    fn as_slice(&self) -> &[Self::Real];
+    /// The entries, contiguous and mutable.
+    fn as_mut_slice(&mut self) -> &mut [Self::Real];
+    /// A zero vector of the same length.
+    fn zeros_like(&self) -> Self {
+        Self::zeros(self.len())
+    }
+    /// Copies `other` into `self` (same length).
+    #[inline]
+    #[track_caller]
+    fn copy_from(&mut self, other: &Self) {
+        self.as_mut_slice().copy_from_slice(other.as_slice());
+    }
+}
+
+/// Stack storage, for small models.
+impl<T, const N: usize> Vector for nalgebra::SVector<T, N>
+where
+    T: Real + nalgebra::Scalar,
+{
+    type Real = T;
+    type Solver = StackLu<T, N>;
+
+    #[track_caller]
+    fn zeros(len: usize) -> Self {
+        assert!(
+            len <= N,
+            "a fixed vector of size {N} cannot hold {len} entries"
+        );
+        nalgebra::SVector::from_element(T::zero())
+    }
+    #[inline(always)]
+    fn len(&self) -> usize {
+        N
+    }
+    #[inline(always)]
+    fn as_slice(&self) -> &[T] {
+        nalgebra::Matrix::as_slice(self)
+    }
+    #[inline(always)]
+    fn as_mut_slice(&mut self) -> &mut [T] {
+        nalgebra::Matrix::as_mut_slice(self)
+    }
+}
+
+impl<T> Vector for faer::Col<T>
+where
+    T: Real + faer::traits::RealField,
+{
+    type Real = T;
+    type Solver = DenseLu<T>;
+
+    fn zeros(len: usize) -> Self {
+        faer::Col::from_fn(len, |_| T::zero())
+    }
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.nrows()
+    }
+    #[inline(always)]
+    fn as_slice(&self) -> &[T] {
+        self.try_as_col_major()
+            .expect("an owned faer column is contiguous")
+            .as_slice()
+    }
+    #[inline(always)]
+    fn as_mut_slice(&mut self) -> &mut [T] {
+        self.try_as_col_major_mut()
+            .expect("an owned faer column is contiguous")
+            .as_slice_mut()
+    }
+}
+
+/// Slice kernels shared by every storage.
+pub mod ops {
+    use crate::real::Real;
+
+    /// `y += a x`.
+    #[inline(always)]
+    pub fn axpy<T: Real>(y: &mut [T], a: T, x: &[T]) {
+        for (yi, &xi) in y.iter_mut().zip(x) {
+            *yi = *yi + a * xi;
+        }
+    }
+
+    /// `out = x + a v`.
+    #[inline(always)]
+    pub fn add_scaled<T: Real>(out: &mut [T], x: &[T], a: T, v: &[T]) {
+        for ((oi, &xi), &vi) in out.iter_mut().zip(x).zip(v) {
+            *oi = xi + a * vi;
+        }
+    }
+
+    /// Sets every entry to zero.
+    #[inline(always)]
+    pub fn fill_zero<T: Real>(x: &mut [T]) {
+        x.iter_mut().for_each(|v| *v = T::zero());
+    }
+
+    /// Max-norm `max |x_i|` (0 for an empty slice; NaN propagates).
+    #[inline]
+    pub fn norm_inf<T: Real>(x: &[T]) -> T {
+        let mut m = T::zero();
+        for &v in x {
+            let a = v.abs();
+            if a > m || a.is_nan() {
+                m = a;
+            }
+        }
+        m
+    }
+
+    /// Max-norm of `x − y`.
+    #[inline]
+    pub fn dist_inf<T: Real>(x: &[T], y: &[T]) -> T {
+        let mut m = T::zero();
+        for (&a, &b) in x.iter().zip(y) {
+            let d = (a - b).abs();
+            if d > m || d.is_nan() {
+                m = d;
+            }
+        }
+        m
+    }
+
+    /// Index of the first NaN or infinite entry.
+    #[inline]
+    pub fn first_non_finite<T: Real>(x: &[T]) -> Option<usize> {
+        x.iter().position(|v| !v.is_finite())
+    }
+}
