@@ -132,7 +132,10 @@ pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
     system: System<Ms, H, C>,
     scheme: Scheme,
     m: usize,
+    /// Newton for `λ_k` (decoupled), `(λ_k, λ_{k+1})` (coupled) or `λ` (symmetric).
     newton: Newton<V, L>,
+    /// Newton for `λ_{k+1}` (decoupled only): a separate solver keeps its own Jacobian.
+    newton_k1: Option<Newton<V, L>>,
     fixed_point_max_iterations: usize,
     guard_tol: V::Real,
     w: Work<V>,
@@ -202,6 +205,10 @@ where
         };
         let k = if scheme == Scheme::Coupled { 2 * m } else { m };
         let newton = Newton::new(k, options.newton)?;
+        let newton_k1 = match scheme {
+            Scheme::Decoupled => Some(Newton::new(m, options.newton)?),
+            _ => None,
+        };
         inner.prepare(x0);
         let zeros = x0.zeros_like();
         let w = Work {
@@ -222,6 +229,7 @@ where
             scheme,
             m,
             newton,
+            newton_k1,
             fixed_point_max_iterations: options.fixed_point_max_iterations,
             guard_tol: V::Real::lit(1000.0) * options.newton.ftol,
             w,
@@ -298,9 +306,11 @@ where
             y_valid,
             fixed_point_max_iterations: self.fixed_point_max_iterations,
         };
-        let result = self
-            .newton
-            .solve(&mut problem, &mut z.as_mut_slice()[range]);
+        let newton = match (mode, self.newton_k1.as_mut()) {
+            (Mode::LambdaK1, Some(n)) => n,
+            _ => &mut self.newton,
+        };
+        let result = newton.solve(&mut problem, &mut z.as_mut_slice()[range]);
         match result {
             Ok(report) => {
                 self.record(&report);

@@ -24,7 +24,8 @@ pub trait LinearSolver<T: Real>: Sized + Send {
     fn with_dim(k: usize) -> Result<Self, LinearSolveError>;
     /// The dimension `k`.
     fn dim(&self) -> usize;
-    /// Column `j` of the matrix, `k` entries, to be overwritten before [`factor`](Self::factor).
+    /// Column `j` of the stored matrix (`k` entries). The matrix persists across
+    /// [`factor`](Self::factor) calls, so it can be rewritten whole or updated in place.
     fn column_mut(&mut self, j: usize) -> &mut [T];
     /// Factors the matrix written through [`column_mut`](Self::column_mut).
     ///

@@ -60,7 +60,7 @@ impl<T: Real> SphericalPendulum<T> {
     }
 
     /// The exact flow of the potential: `p_z −= h m g`.
-    pub fn kick<V: Vector<Real = T>>(&self) -> FnFlow<impl FnMut(T, &mut V) + Clone> {
+    pub fn kick<V: Vector<Real = T>>(&self) -> FnFlow<impl FnMut(T, &mut V) + Clone + use<T, V>> {
         let f = self.mass * self.gravity;
         from_fn(move |h: T, x: &mut V| {
             let x = x.as_mut_slice();
@@ -69,7 +69,7 @@ impl<T: Real> SphericalPendulum<T> {
     }
 
     /// The exact flow of the kinetic energy: `q += h p / m`.
-    pub fn drift<V: Vector<Real = T>>(&self) -> FnFlow<impl FnMut(T, &mut V) + Clone> {
+    pub fn drift<V: Vector<Real = T>>(&self) -> FnFlow<impl FnMut(T, &mut V) + Clone + use<T, V>> {
         let inv_m = T::one() / self.mass;
         from_fn(move |h: T, x: &mut V| {
             let x = x.as_mut_slice();
