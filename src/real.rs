@@ -13,7 +13,9 @@ pub trait Real:
     /// Converts an `f64` literal or coefficient to this type (rounding to nearest).
     #[inline(always)]
     fn lit(v: f64) -> Self {
-        <Self as FromPrimitive>::from_f64(v).unwrap_or_else(Self::nan)
+        // Through `NumCast`: some extended-precision types only implement the integer
+        // conversions of `FromPrimitive`, whose default `from_f64` truncates.
+        <Self as num_traits::NumCast>::from(v).unwrap_or_else(Self::nan)
     }
 
     /// Converts to `f64` for reports and error values.

@@ -16,8 +16,12 @@ pub struct CompositionTable {
     pub order: u32,
     /// Number of stages `s`.
     pub stages: usize,
-    /// `γ₁ … γ_{(s+1)/2}`; the rest follow by symmetry.
+    /// `γ₁ … γ_{(s+1)/2}` rounded to `f64`; the rest follow by symmetry.
     pub half: &'static [f64],
+    /// The rounding errors of [`half`](Self::half): `γ_i ≈ half[i] + half_lo[i]` to about 27
+    /// digits, so extended-precision scalars get coefficients that satisfy the order conditions
+    /// to their own precision (for `f64` the sum rounds to `half[i]`).
+    pub half_lo: &'static [f64],
     /// Where the coefficients come from.
     pub reference: &'static str,
 }
@@ -27,6 +31,13 @@ impl CompositionTable {
     #[inline(always)]
     pub fn gamma(&self, i: usize) -> f64 {
         self.half[i.min(self.stages - 1 - i)]
+    }
+
+    /// The coefficient `γ_{i+1}` in the scalar type `T`, to the precision of `T` (up to ~27 digits).
+    #[inline(always)]
+    pub fn gamma_in<T: crate::Real>(&self, i: usize) -> T {
+        let j = i.min(self.stages - 1 - i);
+        T::lit(self.half[j]) + T::lit(self.half_lo[j])
     }
 
     /// All `s` coefficients, in order.
@@ -46,7 +57,8 @@ pub const TRIPLE_JUMP: CompositionTable = CompositionTable {
     name: "triple-jump",
     order: 4,
     stages: 3,
-    half: &[1.351_207_191_959_657_6, -1.702_414_383_919_315_3],
+    half: &[1.3512071919596575, -1.7024143839193153],
+    half_lo: &[8.42741775545176e-17, 5.349624981599612e-17],
     reference: "H. Yoshida, Phys. Lett. A 150 (1990) 262-268",
 };
 
@@ -56,10 +68,11 @@ pub const SUZUKI4: CompositionTable = CompositionTable {
     name: "suzuki4",
     order: 4,
     stages: 5,
-    half: &[
-        0.414_490_771_794_375_7,
-        0.414_490_771_794_375_7,
-        -0.657_963_087_177_502_9,
+    half: &[0.4144907717943757, 0.4144907717943757, -0.657963087177503],
+    half_lo: &[
+        2.5197374150855977e-17,
+        2.5197374150855977e-17,
+        1.023280585909174e-17,
     ],
     reference: "M. Suzuki, Phys. Lett. A 146 (1990) 319-323",
 };
@@ -71,10 +84,16 @@ pub const YOSHIDA6: CompositionTable = CompositionTable {
     order: 6,
     stages: 7,
     half: &[
-        0.784_513_610_477_557_3,
-        0.235_573_213_359_358_1,
-        -1.177_679_984_178_871,
-        1.315_186_320_683_911_2,
+        0.7845136104775573,
+        0.23557321335935813,
+        -1.177679984178871,
+        1.3151863206839112,
+    ],
+    half_lo: &[
+        -3.5563524752244235e-17,
+        3.5702639627194945e-18,
+        -2.0335583674318997e-17,
+        4.9146537686429645e-17,
     ],
     reference: "H. Yoshida, Phys. Lett. A 150 (1990) 262-268",
 };
@@ -86,11 +105,18 @@ pub const KAHAN_LI6: CompositionTable = CompositionTable {
     order: 6,
     stages: 9,
     half: &[
-        0.392_158_462_265_581_35,
-        0.332_602_888_496_393_83,
-        -0.706_246_073_592_300_9,
-        0.082_212_727_292_436_41,
-        0.798_543_991_075_778_6,
+        0.3921584622655814,
+        0.33260288849639386,
+        -0.7062460735923008,
+        0.08221272729243641,
+        0.7985439910757786,
+    ],
+    half_lo: &[
+        -2.1723614144229618e-17,
+        -2.739845775510275e-17,
+        -3.610734528820911e-17,
+        2.3491828086268915e-18,
+        2.698259067968461e-17,
     ],
     reference: "W. Kahan, R.-C. Li, Math. Comp. 66 (1997) 1089-1099",
 };
@@ -102,14 +128,24 @@ pub const SUZUKI_UMENO8: CompositionTable = CompositionTable {
     order: 8,
     stages: 15,
     half: &[
-        0.741_670_364_350_612_9,
-        -0.409_100_825_800_031_6,
-        0.190_754_710_296_238_38,
-        -0.573_862_471_116_082_3,
-        0.299_064_181_303_655_9,
-        0.334_624_918_245_298_2,
-        0.315_293_092_396_766_6,
-        -0.796_887_939_352_914,
+        0.741670364350613,
+        -0.4091008258000316,
+        0.1907547102962384,
+        -0.5738624711160822,
+        0.2990641813036559,
+        0.33462491824529816,
+        0.3152930923967666,
+        -0.7968879393529164,
+    ],
+    half_lo: &[
+        -5.148655322769124e-19,
+        3.8036097216716665e-18,
+        -8.968542234075828e-18,
+        -2.662617822523361e-17,
+        5.612964695238482e-18,
+        1.9697115983338846e-17,
+        -1.9948748815678063e-17,
+        -1.6218624372269903e-18,
     ],
     reference: "M. Suzuki, K. Umeno (1993); R. I. McLachlan, SIAM J. Sci. Comput. 16 (1995)",
 };
@@ -121,15 +157,26 @@ pub const KAHAN_LI8: CompositionTable = CompositionTable {
     order: 8,
     stages: 17,
     half: &[
-        0.130_202_483_088_890_08,
-        0.561_162_981_775_108_4,
-        -0.389_474_962_644_847_3,
-        0.158_841_906_555_155_6,
-        -0.395_903_894_133_237_6,
-        0.184_539_640_978_315_7,
-        0.258_374_387_686_322,
-        0.295_011_723_609_310_3,
-        -0.605_508_533_830_034_5,
+        0.13020248308889007,
+        0.5611629817751084,
+        -0.38947496264484727,
+        0.1588419065551556,
+        -0.39590389413323757,
+        0.1845396409783157,
+        0.25837438768632204,
+        0.2950117236093103,
+        -0.6055085338300346,
+    ],
+    half_lo: &[
+        1.1160926478587086e-17,
+        1.3032594121955553e-17,
+        -1.9606416555400348e-17,
+        7.801358343533911e-18,
+        -1.1269790435660099e-17,
+        -3.914442028717345e-18,
+        9.400318801672474e-18,
+        2.648390331662844e-17,
+        4.4845398377316304e-17,
     ],
     reference: "W. Kahan, R.-C. Li, Math. Comp. 66 (1997) 1089-1099",
 };

@@ -145,7 +145,7 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
         let guard = self.inner.is_fallible();
         self.backup.run(guard, x, |x| {
             for i in 0..table.stages {
-                self.inner.step(V::Real::lit(table.gamma(i)) * h, x)?;
+                self.inner.step(table.gamma_in::<V::Real>(i) * h, x)?;
             }
             Ok(())
         })

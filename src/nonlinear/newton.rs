@@ -78,6 +78,11 @@ impl<T: Real> NewtonOptions<T> {
         self.max_iterations = n;
         self
     }
+    /// Sets the relative finite-difference step of the Jacobian.
+    pub fn with_fd_step(mut self, fd_step: T) -> Self {
+        self.fd_step = fd_step;
+        self
+    }
     /// Sets the Jacobian update policy.
     pub fn with_jacobian(mut self, j: JacobianUpdate) -> Self {
         self.jacobian = j;
