@@ -1,0 +1,113 @@
+//! Zero heap allocations per step after construction, on the stack and on the heap storage.
+//! A counting global allocator counts the allocations made by the current thread only, so
+//! tests running in parallel do not disturb each other.
+
+use lieflow::models::{SphericalPendulum, paper};
+use lieflow::prelude::*;
+use nalgebra::SVector;
+use std::alloc::{GlobalAlloc, Layout, System as SystemAlloc};
+use std::cell::Cell;
+
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+// SAFETY: delegates to the system allocator; only counts.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        unsafe { SystemAlloc.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { SystemAlloc.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        unsafe { SystemAlloc.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations() -> u64 {
+    ALLOCATIONS.with(|c| c.get())
+}
+
+/// Steps `flow` once (a composition prepares its backup on the first step if nobody called
+/// `prepare`), then counts the allocations of `steps` more steps.
+fn allocations_per_run<V: Vector<Real = f64>, F: Flow<V>>(flow: &mut F, x: &mut V, h: f64) -> u64 {
+    flow.prepare(x);
+    flow.step(h, x).unwrap();
+    let before = allocations();
+    for _ in 0..1000 {
+        flow.step(h, x).unwrap();
+    }
+    allocations() - before
+}
+
+#[test]
+fn the_counter_counts() {
+    let before = allocations();
+    let v = std::hint::black_box(vec![1u8; 16]);
+    assert_eq!(allocations() - before, 1);
+    drop(v);
+}
+
+#[test]
+fn stack_storage_steps_allocate_nothing() {
+    type V = SVector<f64, 4>;
+    let mut x: V = paper::initial_state();
+    let mut f = paper::drift()
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    let mut f = paper::drift()
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap()
+        .composed(&coefficients::SUZUKI_UMENO8);
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    let mut f = paper::drift()
+        .projected(
+            paper::system(),
+            &x,
+            ProjectionOptions::default().with_coupling(Coupling::Coupled),
+        )
+        .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+
+    let model = SphericalPendulum::try_new(1.0, 1.0, 9.81).unwrap();
+    let mut x: SVector<f64, 6> = model.state(1.0, 1.0);
+    let mut f = model
+        .kick()
+        .strang(model.drift())
+        .projected(model.system(), &x, ProjectionOptions::default())
+        .unwrap()
+        .triple_jump();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.01), 0);
+}
+
+#[test]
+fn heap_storage_steps_allocate_nothing_after_construction() {
+    type V = faer::Col<f64>;
+    let mut x: V = paper::initial_state();
+    let mut f = paper::drift()
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    let mut f = paper::drift()
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap()
+        .triple_jump();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    let mut f = paper::drift()
+        .projected(
+            paper::system(),
+            &x,
+            ProjectionOptions::default().with_coupling(Coupling::Coupled),
+        )
+        .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+}
