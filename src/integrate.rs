@@ -119,7 +119,7 @@ impl<V: Vector> Trajectory<V> {
 
 impl<V: Vector> Observer<V> for Trajectory<V> {
     fn observe(&mut self, k: usize, t: V::Real, x: &V) {
-        if k % self.every == 0 {
+        if k.is_multiple_of(self.every) {
             self.t.push(t);
             self.x.push(x.clone());
         }

@@ -68,6 +68,11 @@ pub use real::Real;
 pub use system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
 pub use vector::{Vector, ops};
 
+/// The README's code blocks, compiled and run as doctests so the quickstart cannot rot.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
 /// The names most programs need.
 pub mod prelude {
     pub use crate::error::{IntegrateError, SetupError, StepError};

@@ -335,7 +335,7 @@ where
                 let r = &mut self.w.r.as_mut_slice()[..m];
                 self.system.constraint.residual(&self.w.xe, r);
                 let res = ops::norm_inf(r);
-                if !(res <= self.guard_tol) {
+                if res.is_nan() || res > self.guard_tol {
                     return Err(StepError::CouplingViolated {
                         residual: res.to_f64_lossy(),
                     });
@@ -473,7 +473,7 @@ where
         }
         *self.y_valid = false;
         let half = self.h * V::Real::lit(0.5);
-        self.system.constraint_force(&*self.x, a, self.t1, self.t2);
+        self.system.constraint_force(self.x, a, self.t1, self.t2);
         ops::add_scaled(
             self.xhat.as_mut_slice(),
             self.x.as_slice(),

@@ -94,7 +94,7 @@ pub fn system() -> System<Structure, Energy, Circle> {
 }
 
 /// The exact flow `exp(h D_H)`: the drift `x₁ += h x₃, x₂ += h x₄`.
-pub fn drift<V: Vector>() -> FnFlow<impl FnMut(V::Real, &mut V) + Clone + Copy> {
+pub fn drift<V: Vector>() -> FnFlow<impl FnMut(V::Real, &mut V) + Copy> {
     from_fn(|h: V::Real, x: &mut V| {
         let x = x.as_mut_slice();
         x[0] = x[0] + h * x[2];

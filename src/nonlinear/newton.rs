@@ -27,7 +27,7 @@ pub enum JacobianUpdate {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
 pub struct NewtonOptions<T> {
-    /// Converged when `‖F(z)‖∞ ≤ ftol`. Default `8 ε` (1.8e-15 for `f64`).
+    /// Converged when `‖F(z)‖∞ ≤ ftol`. Default `2 ε` (4.4e-16 for `f64`).
     pub ftol: T,
     /// Also converged when the update is at round-off, `‖Δz‖∞ ≤ xtol (1 + ‖z‖∞)`, and
     /// `‖F‖∞ ≤ 1000 ftol` (a residual whose round-off floor is above `ftol`). Default `16 ε`.
@@ -51,7 +51,7 @@ pub struct NewtonOptions<T> {
 impl<T: Real> Default for NewtonOptions<T> {
     fn default() -> Self {
         Self {
-            ftol: T::lit(8.0) * T::epsilon(),
+            ftol: T::lit(2.0) * T::epsilon(),
             xtol: T::lit(16.0) * T::epsilon(),
             max_iterations: 25,
             fd_step: T::epsilon().sqrt(),
@@ -157,7 +157,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         let k = self.k;
         let dz = &self.dz.as_slice()[..k];
         let denom = dz.iter().fold(V::Real::zero(), |s, &d| s + d * d);
-        if !(denom > V::Real::zero()) {
+        if denom.is_nan() || denom <= V::Real::zero() {
             return Ok(());
         }
         let f = &self.f.as_slice()[..k];

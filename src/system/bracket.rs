@@ -309,7 +309,7 @@ fn small_lu<T: Real>(k: usize, mut a: Vec<T>, rcond: T) -> Result<SmallLu<T>, (u
         } else {
             T::zero()
         };
-        if !(ratio > rcond) {
+        if ratio.is_nan() || ratio <= rcond {
             return Err((col, ratio.to_f64_lossy()));
         }
         if p != col {
