@@ -555,6 +555,15 @@ where
         }
     }
 
+    /// `∂g/∂λ_k ≈ (h²/2) G M ∇²H M Gᵀ` in the degenerate case (the `O(h)` term is
+    /// `(h/2) G M Gᵀ = 0`); the other systems scale like `h`.
+    fn jacobian_scale(&self) -> V::Real {
+        match self.mode {
+            Mode::LambdaK => self.h * self.h,
+            _ => self.h,
+        }
+    }
+
     fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
         let m = self.m;
         match self.mode {

@@ -1,4 +1,4 @@
-use super::{LinearSolver, check_finite, check_pivots};
+use super::{LinearSolver, check_pivots};
 use crate::error::LinearSolveError;
 use crate::real::Real;
 use nalgebra::SMatrix;
@@ -54,11 +54,17 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
     fn factor(&mut self) -> Result<(), LinearSolveError> {
         let k = self.k;
         self.factored = false;
-        if let Some((row, col)) = check_finite(k, |idx| self.a[(idx % k, idx / k)]) {
-            return Err(LinearSolveError::NonFinite { row, col });
+        // Copy the k × k block only, checking finiteness on the way.
+        for j in 0..k {
+            for i in 0..k {
+                let v = self.a[(i, j)];
+                if !v.is_finite() {
+                    return Err(LinearSolveError::NonFinite { row: i, col: j });
+                }
+                self.lu[(i, j)] = v;
+            }
         }
         let a = &mut self.lu;
-        a.copy_from(&self.a);
         for c in 0..k {
             let mut p = c;
             let mut best = a[(c, c)].abs();

@@ -16,6 +16,13 @@ pub trait NonlinearProblem<T: Real> {
     fn dim(&self) -> usize;
     /// `f = F(z)`.
     fn residual(&mut self, z: &[T], f: &mut [T]) -> Result<(), StepError>;
+    /// How the Jacobian scales from one solve to the next: a solver that keeps a Jacobian
+    /// built at scale `s₀` reuses it at scale `s` as `(s/s₀) J`. Multiplier systems of a
+    /// projected step scale like `h` or `h²`, so a kept Jacobian stays valid across the
+    /// different (even negative) sub-steps of a composition. Default `1`.
+    fn jacobian_scale(&self) -> T {
+        T::one()
+    }
 }
 
 /// A solver for [`NonlinearProblem`]s that owns its workspace.

@@ -119,6 +119,9 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     zp: V,
     dz: V,
     have_jacobian: bool,
+    /// The problem's [`jacobian_scale`](NonlinearProblem::jacobian_scale) when the kept
+    /// Jacobian was built.
+    jacobian_scale: V::Real,
 }
 
 impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
@@ -133,6 +136,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             zp: V::zeros(k),
             dz: V::zeros(k),
             have_jacobian: false,
+            jacobian_scale: V::Real::one(),
         })
     }
 
@@ -153,7 +157,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
 
     /// Broyden's rank-one secant update `J += F(z_new) Δzᵀ / (Δzᵀ Δz)` (the "good" update,
     /// simplified because `J Δz = −F(z_old)`), then refactors. Broyden, Math. Comp. 19 (1965).
-    fn broyden_update(&mut self) -> Result<(), NewtonError> {
+    /// `ratio = s₀/s` converts the update to the scale the Jacobian is kept at.
+    fn broyden_update(&mut self, ratio: V::Real) -> Result<(), NewtonError> {
         let k = self.k;
         let dz = &self.dz.as_slice()[..k];
         let denom = dz.iter().fold(V::Real::zero(), |s, &d| s + d * d);
@@ -162,7 +167,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         }
         let f = &self.f.as_slice()[..k];
         for (j, &dzj) in dz.iter().enumerate() {
-            let c = dzj / denom;
+            let c = ratio * dzj / denom;
             for (a, &fi) in self.lin.column_mut(j).iter_mut().zip(f) {
                 *a = *a + fi * c;
             }
@@ -230,6 +235,13 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
         }
         let opts = self.options;
         let one = V::Real::one();
+        let scale = problem.jacobian_scale();
+        // The kept Jacobian J₀ was built at scale s₀; here J ≈ (s/s₀) J₀, so steps are J₀⁻¹
+        // steps times s₀/s.
+        let mut ratio = self.jacobian_scale / scale;
+        if !(ratio.is_finite() && ratio != V::Real::zero()) {
+            self.have_jacobian = false;
+        }
         for it in 0..opts.max_iterations {
             report.residual = r;
             if r <= opts.ftol {
@@ -244,12 +256,17 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                 self.have_jacobian = false;
                 self.jacobian(problem, z, &mut report)?;
                 self.have_jacobian = true;
+                self.jacobian_scale = scale;
+                ratio = one;
             }
             let dz = &mut self.dz.as_mut_slice()[..k];
             for (d, &fi) in dz.iter_mut().zip(&self.f.as_slice()[..k]) {
                 *d = -fi;
             }
             self.lin.solve_in_place(dz)?;
+            if ratio != one {
+                dz.iter_mut().for_each(|d| *d = *d * ratio);
+            }
             ops::axpy(z, one, dz);
             report.iterations += 1;
             let step = ops::norm_inf(dz);
@@ -274,7 +291,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             if opts.jacobian != JacobianUpdate::EveryIteration && r_new > opts.max_contraction * r {
                 self.have_jacobian = false;
             } else if opts.broyden && opts.jacobian != JacobianUpdate::EveryIteration {
-                self.broyden_update()?;
+                self.broyden_update(ratio)?;
             }
             r = r_new;
         }
