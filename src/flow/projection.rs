@@ -119,6 +119,8 @@ struct Work<V> {
     y_valid: bool,
     /// Scratch for `m` residual entries.
     r: V,
+    /// `(λ_k − previous λ_{k+1}) / h` of the last decoupled step, for the warm start.
+    offset: V,
 }
 
 /// The projected flow of Zhang & Deng (2004, §3) around an inner flow `F` (see the module docs).
@@ -222,6 +224,7 @@ where
             a_cached: V::zeros(m),
             y_valid: false,
             r: V::zeros(m),
+            offset: V::zeros(m),
         };
         Ok(Self {
             inner,
@@ -288,7 +291,7 @@ where
             z,
             a_cached,
             y_valid,
-            r: _,
+            ..
         } = &mut self.w;
         let mut problem = Stage {
             mode,
@@ -327,9 +330,20 @@ where
         self.w.y_valid = false;
         match self.scheme {
             Scheme::Decoupled => {
-                // Warm start λ_k from the previous λ_{k+1}: both approximate the force at t_k.
-                self.w.z.as_mut_slice().copy_within(m..2 * m, 0);
+                // Warm start: λ_k and the previous λ_{k+1} both approximate the force at t_k but
+                // differ by O(h); predict λ_k as the previous λ_{k+1} plus the last offset,
+                // kept per unit step so that it follows sub-steps of other sizes and signs.
+                let (z, off) = (self.w.z.as_mut_slice(), self.w.offset.as_slice());
+                for j in 0..m {
+                    z[j] = z[m + j] + h * off[j];
+                }
                 self.solve(Mode::LambdaK, h, "lambda_k from g(x_{k+1}) = 0")?;
+                if h != V::Real::zero() {
+                    let (z, off) = (self.w.z.as_slice(), self.w.offset.as_mut_slice());
+                    for j in 0..m {
+                        off[j] = (z[j] - z[m + j]) / h;
+                    }
+                }
                 self.solve(Mode::LambdaK1, h, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
                 // The decoupling assumption: the second half-step did not move g.
                 let r = &mut self.w.r.as_mut_slice()[..m];
@@ -468,7 +482,12 @@ where
     /// `y = Φ_h(x + h/2 M(x) G(x)ᵀ a)`, reusing the last `y` when `a` is unchanged.
     fn compute_y(&mut self, a: &[V::Real]) -> Result<(), StepError> {
         let m = self.m;
-        if *self.y_valid && &self.a_cached.as_slice()[..m] == a {
+        if *self.y_valid
+            && self.a_cached.as_slice()[..m]
+                .iter()
+                .zip(a)
+                .all(|(c, v)| c == v)
+        {
             return Ok(());
         }
         *self.y_valid = false;
@@ -482,7 +501,11 @@ where
         );
         self.y.copy_from(self.xhat);
         self.inner.step(self.h, self.y)?;
-        self.a_cached.as_mut_slice()[..m].copy_from_slice(a);
+        // An element loop: `copy_from_slice` of a run-time length is a `memcpy` call, which
+        // costs more than the copy for a handful of multipliers.
+        for (c, &v) in self.a_cached.as_mut_slice()[..m].iter_mut().zip(a) {
+            *c = v;
+        }
         *self.y_valid = true;
         Ok(())
     }
