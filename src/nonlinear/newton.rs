@@ -29,8 +29,9 @@ pub enum JacobianUpdate {
 pub struct NewtonOptions<T> {
     /// Converged when `‖F(z)‖∞ ≤ ftol`. Default `2 ε` (4.4e-16 for `f64`).
     pub ftol: T,
-    /// Also converged when the update is at round-off, `‖Δz‖∞ ≤ xtol (1 + ‖z‖∞)`, and
-    /// `‖F‖∞ ≤ 1000 ftol` (a residual whose round-off floor is above `ftol`). Default `16 ε`.
+    /// Also converged when `‖F‖∞ ≤ 1000 ftol` (the round-off floor of a residual can lie above
+    /// `ftol`) and either the update is at round-off, `‖Δz‖∞ ≤ xtol (1 + ‖z‖∞)`, or the residual
+    /// stopped decreasing (by at least half). Default `16 ε`.
     pub xtol: T,
     /// Iteration limit. Default 25.
     pub max_iterations: usize,
@@ -282,15 +283,23 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                 continue;
             }
             report.residual = r_new;
+            // Below `noise` the residual is dominated by its own round-off: an update at
+            // round-off, or one that no longer decreases it, means the root is reached.
+            let noise = V::Real::lit(1000.0) * opts.ftol;
             if r_new <= opts.ftol
-                || (step <= opts.xtol * (one + ops::norm_inf(z))
-                    && r_new <= V::Real::lit(1000.0) * opts.ftol)
+                || (r_new <= noise
+                    && (step <= opts.xtol * (one + ops::norm_inf(z))
+                        || r_new >= V::Real::lit(0.5) * r))
             {
                 return Ok(report);
             }
             if opts.jacobian != JacobianUpdate::EveryIteration && r_new > opts.max_contraction * r {
                 self.have_jacobian = false;
-            } else if opts.broyden && opts.jacobian != JacobianUpdate::EveryIteration {
+            } else if opts.broyden
+                && opts.jacobian != JacobianUpdate::EveryIteration
+                && r_new > noise
+            {
+                // A secant through round-off noise would corrupt the kept Jacobian.
                 self.broyden_update(ratio)?;
             }
             r = r_new;

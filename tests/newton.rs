@@ -1,0 +1,93 @@
+//! Newton on small problems with known roots: every Jacobian policy converges, a residual whose
+//! round-off floor lies above `ftol` still converges, and failure is reported with numbers.
+
+use lieflow::error::{NewtonError, StepError};
+use lieflow::nonlinear::{
+    JacobianUpdate, Newton, NewtonOptions, NonlinearProblem, NonlinearSolver,
+};
+use nalgebra::SVector;
+
+/// `F(z) = s (z₁² + z₂² − 4, z₁ − z₂)`: root `(√2, √2)`; `s` scales the round-off floor.
+struct Circle {
+    s: f64,
+}
+
+impl NonlinearProblem<f64> for Circle {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+        f[0] = self.s * (z[0] * z[0] + z[1] * z[1] - 4.0);
+        f[1] = self.s * (z[0] - z[1]);
+        Ok(())
+    }
+}
+
+type V = SVector<f64, 4>;
+
+fn solve(policy: JacobianUpdate, s: f64) -> (Vec<f64>, lieflow::nonlinear::SolveReport<f64>) {
+    let mut newton: Newton<V> =
+        Newton::new(2, NewtonOptions::default().with_jacobian(policy)).unwrap();
+    let mut z = [1.0, 2.0];
+    let report = newton.solve(&mut Circle { s }, &mut z).unwrap();
+    (z.to_vec(), report)
+}
+
+#[test]
+fn every_policy_finds_the_root_to_round_off() {
+    let r = 2f64.sqrt();
+    for policy in [
+        JacobianUpdate::EveryIteration,
+        JacobianUpdate::OncePerSolve,
+        JacobianUpdate::Reuse,
+    ] {
+        let (z, report) = solve(policy, 1.0);
+        assert!(
+            (z[0] - r).abs() < 4e-16 && (z[1] - r).abs() < 4e-16,
+            "{policy:?}: {z:?}"
+        );
+        // Round-off floor of z₁² + z₂² − 4 at the root: one ulp of 4, i.e. 4ε.
+        assert!(
+            report.residual <= 4.0 * f64::EPSILON,
+            "{policy:?}: {report:?}"
+        );
+        assert!(report.iterations <= 25);
+    }
+    // Full Newton converges quadratically: few iterations from (1, 2).
+    assert!(solve(JacobianUpdate::EveryIteration, 1.0).1.iterations <= 6);
+}
+
+#[test]
+fn a_residual_with_a_round_off_floor_above_ftol_converges() {
+    // With s = 100 the residual near the root is ~100 ε·4 ≈ 1e-13 > ftol = 2ε, < 1000 ftol.
+    let (z, report) = solve(JacobianUpdate::Reuse, 100.0);
+    assert!((z[0] - 2f64.sqrt()).abs() < 1e-15, "{z:?}");
+    assert!(report.residual < 1e3 * 2.0 * f64::EPSILON, "{report:?}");
+}
+
+#[test]
+fn a_problem_without_root_fails_with_numbers() {
+    struct NoRoot;
+    impl NonlinearProblem<f64> for NoRoot {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+            f[0] = z[0] * z[0] + 1.0;
+            Ok(())
+        }
+    }
+    let mut newton: Newton<V> = Newton::new(1, NewtonOptions::default()).unwrap();
+    let mut z = [0.5];
+    match newton.solve(&mut NoRoot, &mut z) {
+        Err(NewtonError::NotConverged {
+            iterations,
+            residual,
+        }) => {
+            assert_eq!(iterations, 25);
+            assert!(residual >= 1.0);
+        }
+        Err(NewtonError::Linear(_)) => {} // a zero derivative at z = 0 is also a clean failure
+        other => panic!("unexpected {other:?}"),
+    }
+}
