@@ -117,7 +117,7 @@ criterion_group! {
     name = benches;
     config = Criterion::default()
         .warm_up_time(std::time::Duration::from_millis(500))
-        .measurement_time(std::time::Duration::from_secs(1));
+        .measurement_time(std::time::Duration::from_secs(2));
     targets = bench
 }
 criterion_main!(benches);
