@@ -108,15 +108,20 @@ fn single_precision_runs_with_residuals_at_its_round_off() {
         f.step(0.1, &mut x).unwrap();
         let g = 0.5 * (x[0] * x[0] + x[1] * x[1] - 1.0);
         let phi = x[0] * x[2] + x[1] * x[3];
-        // A few ulps of f32 (ε = 1.2e-7).
+        // Newton stops at ‖F‖ ≤ 2ε or at a floor below 100·2ε (ε = 1.2e-7 for f32).
+        let tol = 200.0 * f32::EPSILON;
         assert!(
-            g.abs() <= 1e-6 && phi.abs() <= 1e-6,
+            g.abs() <= tol && phi.abs() <= tol,
             "g = {g:e}, phi = {phi:e}"
         );
     }
+    // Discretization error of the f64 run (3.6e-7) plus round-off of 3000 sub-steps, each of
+    // relative size ε_f32: at most 3000 · 1.2e-7 ≈ 3.6e-4 if every rounding added up.
     let r = paper::reference(100.0, -0.15, 1e-3);
     let err = (0..4)
         .map(|i| (x[i] as f64 - r[i]).abs())
         .fold(0.0, f64::max);
-    assert!(err < 1e-4, "f32 error at T = 100: {err:e}");
+    let bound = 3.6e-7 + 3000.0 * f32::EPSILON as f64;
+    eprintln!("f32 triple jump error at T = 100: {err:e} (bound {bound:e})");
+    assert!(err < bound, "f32 error at T = 100: {err:e}");
 }

@@ -225,19 +225,132 @@ fn a_flow_that_blows_up_is_stopped_with_the_last_good_state() {
     );
 }
 
+/// Fails on negative step sizes, steps the inner flow otherwise.
+struct ForwardOnly<F>(F);
+impl<F: Flow<V4>> Flow<V4> for ForwardOnly<F> {
+    fn step(&mut self, h: f64, x: &mut V4) -> Result<(), StepError> {
+        if h < 0.0 {
+            return Err(StepError::BadStepSize { h });
+        }
+        self.0.step(h, x)
+    }
+    fn order(&self) -> u32 {
+        self.0.order()
+    }
+    fn is_symmetric(&self) -> bool {
+        self.0.is_symmetric()
+    }
+}
+
 #[test]
 fn a_failing_stage_inside_a_composition_restores_the_state() {
+    // Stage 1 of the triple jump (γ₁ > 0) succeeds and moves x; stage 2 (γ₂ < 0) fails.
     let x0: V4 = paper::initial_state();
-    let newton = NewtonOptions::default().with_max_iterations(1);
+    let projected = paper::drift()
+        .projected(paper::system(), &x0, ProjectionOptions::default())
+        .unwrap();
+    let mut f = ForwardOnly(projected).triple_jump();
+    let mut x = x0;
+    let err = f.step(0.1, &mut x).unwrap_err();
+    assert!(
+        matches!(err, StepError::BadStepSize { h } if h < 0.0),
+        "{err:?}"
+    );
+    assert_eq!(
+        x, x0,
+        "the composition must restore the state after stage 1 moved it"
+    );
+}
+
+/// Counts its steps and fails once, at call number `fail_at`.
+struct Flaky<F> {
+    inner: F,
+    fail_at: std::rc::Rc<std::cell::Cell<u32>>,
+    calls: std::rc::Rc<std::cell::Cell<u32>>,
+}
+impl<F: Flow<V4>> Flow<V4> for Flaky<F> {
+    fn step(&mut self, h: f64, x: &mut V4) -> Result<(), StepError> {
+        self.calls.set(self.calls.get() + 1);
+        if self.calls.get() == self.fail_at.get() {
+            return Err(StepError::NonFinite { component: 0 });
+        }
+        self.inner.step(h, x)
+    }
+    fn order(&self) -> u32 {
+        self.inner.order()
+    }
+    fn is_symmetric(&self) -> bool {
+        self.inner.is_symmetric()
+    }
+}
+
+#[test]
+fn a_failed_step_does_not_poison_the_next_ones() {
+    use std::cell::Cell;
+    use std::rc::Rc;
+    // The inner flow fails while Newton iterates on λ_k (its second residual), once.
+    let fail_at = Rc::new(Cell::new(u32::MAX));
+    let calls = Rc::new(Cell::new(0u32));
+    let x0: V4 = paper::initial_state();
+    let flaky = Flaky {
+        inner: paper::drift(),
+        fail_at: fail_at.clone(),
+        calls: calls.clone(),
+    };
+    let mut f = flaky
+        .projected(paper::system(), &x0, ProjectionOptions::default())
+        .unwrap();
+    let mut reference = paper::drift()
+        .projected(paper::system(), &x0, ProjectionOptions::default())
+        .unwrap();
+    let (mut x, mut xr) = (x0, x0);
+    for k in 0..200 {
+        if k == 50 {
+            fail_at.set(calls.get() + 2);
+            let before = x;
+            assert!(f.step(0.1, &mut x).is_err());
+            assert_eq!(x, before);
+        }
+        f.step(0.1, &mut x).unwrap();
+        reference.step(0.1, &mut xr).unwrap();
+    }
+    let d = (x - xr).amax();
+    assert!(
+        d <= 1e-13,
+        "after a failed step the trajectory differs by {d:e}"
+    );
+}
+
+#[test]
+fn an_initial_state_off_the_manifold_is_refused() {
+    let mut x: V4 = paper::initial_state();
+    x[0] = 1.1;
+    let err = paper::drift()
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap_err();
+    assert!(
+        matches!(err, SetupError::OffManifold { what: "g", .. }),
+        "{err:?}"
+    );
+    let mut x: V4 = paper::initial_state();
+    x[2] = 0.1; // φ = x₁x₃ + x₂x₄ = 0.1
+    let err = paper::drift()
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap_err();
+    assert!(
+        matches!(err, SetupError::OffManifold { what: "phi", .. }),
+        "{err:?}"
+    );
+    // Asked to skip the check, the first step projects onto g = 0, φ = 0.
     let mut f = paper::drift()
         .projected(
             paper::system(),
-            &x0,
-            ProjectionOptions::default().with_newton(newton),
+            &x,
+            ProjectionOptions::default().with_manifold_tol(None),
         )
-        .unwrap()
-        .triple_jump();
-    let mut x = x0;
-    assert!(f.step(0.1, &mut x).is_err());
-    assert_eq!(x, x0);
+        .unwrap();
+    f.step(0.1, &mut x).unwrap();
+    let phi = x[0] * x[2] + x[1] * x[3];
+    let g = 0.5 * (x[0] * x[0] + x[1] * x[1] - 1.0);
+    assert!(g.abs() < 1e-14 && phi.abs() < 1e-14);
 }

@@ -193,3 +193,67 @@ fn pendulum_energy_bounded_without_drift_over_1e6_steps() {
     // RATTLE's O(h²) energy oscillation (1.3e-3 at h = 0.01 over T = 100, |E0| = 4.8).
     assert_no_drift("pendulum energy", &windows, 5e-3);
 }
+
+#[test]
+fn tiny_step_sizes_keep_residuals_at_round_off() {
+    // The multiplier Jacobians scale like h² and h; the difference steps follow, so Newton
+    // works for any h (before, h ≤ 1e-5 made the λ_k column vanish).
+    for &h in &[1e-3, 1e-4, 1e-5, 1e-6, -1e-5] {
+        let mut x: V4 = paper::initial_state();
+        let mut flow = paper::drift()
+            .projected(paper::system(), &x, ProjectionOptions::default())
+            .unwrap()
+            .triple_jump();
+        for _ in 0..100 {
+            flow.step(h, &mut x)
+                .unwrap_or_else(|e| panic!("h = {h:e}: {e}"));
+            let (g, p) = paper_g_phi(&x);
+            assert!(
+                g.abs() <= 1e-14 && p.abs() <= 1e-14,
+                "h = {h:e}: g = {g:e}, phi = {p:e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn coupled_solve_inside_a_composition_matches_the_decoupled_one() {
+    // Sub-steps of the triple jump change size and sign; the coupled system's kept Jacobian
+    // must follow (its g-rows are divided by h so every row scales like h).
+    let x0: V4 = paper::initial_state();
+    let opts = ProjectionOptions::default();
+    let mut a = paper::drift()
+        .projected(paper::system(), &x0, opts)
+        .unwrap()
+        .triple_jump();
+    let mut b = paper::drift()
+        .projected(paper::system(), &x0, opts.with_coupling(Coupling::Coupled))
+        .unwrap()
+        .triple_jump();
+    let (mut xa, mut xb) = (x0, x0);
+    for _ in 0..1000 {
+        a.step(0.1, &mut xa).unwrap();
+        b.step(0.1, &mut xb).unwrap();
+        let (g, p) = paper_g_phi(&xb);
+        assert!(
+            g.abs() <= 1e-14 && p.abs() <= 1e-14,
+            "g = {g:e}, phi = {p:e}"
+        );
+    }
+    let d = (xa - xb).amax();
+    assert!(
+        d <= 1e-12,
+        "coupled and decoupled triple jumps differ by {d:e}"
+    );
+}
+
+#[test]
+fn a_zero_step_is_the_identity() {
+    let x0: V4 = paper::initial_state();
+    let mut f = paper::drift()
+        .projected(paper::system(), &x0, ProjectionOptions::default())
+        .unwrap();
+    let mut x = x0;
+    f.step(0.0, &mut x).unwrap();
+    assert_eq!(x, x0);
+}

@@ -59,10 +59,37 @@ fn every_policy_finds_the_root_to_round_off() {
 
 #[test]
 fn a_residual_with_a_round_off_floor_above_ftol_converges() {
-    // With s = 100 the residual near the root is ~100 ε·4 ≈ 1e-13 > ftol = 2ε, < 1000 ftol.
-    let (z, report) = solve(JacobianUpdate::Reuse, 100.0);
+    // With s = 10 the round-off floor of F near the root is s · ulp(4) = 40 ε ≈ 8.9e-15: above
+    // ftol = 2ε, below the 100 ftol up to which Newton recognizes a floor.
+    let (z, report) = solve(JacobianUpdate::Reuse, 10.0);
     assert!((z[0] - 2f64.sqrt()).abs() < 1e-15, "{z:?}");
-    assert!(report.residual < 1e3 * 2.0 * f64::EPSILON, "{report:?}");
+    assert!(report.residual <= 40.0 * f64::EPSILON, "{report:?}");
+}
+
+#[test]
+fn a_floor_far_above_ftol_is_reported_not_hidden() {
+    // s = 1e4: floor 4e4 ε ≈ 8.9e-12 = 4e4 ftol. ftol is absolute; Newton must say it did not
+    // reach it rather than accept the floor silently.
+    let mut newton: Newton<V> = Newton::new(2, NewtonOptions::default()).unwrap();
+    let mut z = [1.0, 2.0];
+    match newton.solve(&mut Circle { s: 1e4 }, &mut z) {
+        Err(NewtonError::NotConverged { residual, .. }) => {
+            assert!(
+                residual > 2.0 * f64::EPSILON && residual < 1e-10,
+                "{residual:e}"
+            )
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    // With ftol scaled to the residual's units it converges.
+    let mut newton: Newton<V> = Newton::new(
+        2,
+        NewtonOptions::default().with_ftol(1e4 * 8.0 * f64::EPSILON),
+    )
+    .unwrap();
+    let mut z = [1.0, 2.0];
+    newton.solve(&mut Circle { s: 1e4 }, &mut z).unwrap();
+    assert!((z[0] - 2f64.sqrt()).abs() < 1e-15);
 }
 
 #[test]

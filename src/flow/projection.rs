@@ -70,6 +70,11 @@ pub struct ProjectionOptions<T> {
     pub rcond: T,
     /// Iteration limit of the fixed point for the implicit end point. Default 50.
     pub fixed_point_max_iterations: usize,
+    /// The initial state must satisfy `‖g(x₀)‖∞ ≤ manifold_tol` (and `‖φ(x₀)‖∞ ≤ manifold_tol` in
+    /// the degenerate case), or construction fails with [`SetupError::OffManifold`]: the
+    /// scheme's symmetry and invariants hold on the manifold. `None` skips the check (the first
+    /// step then projects onto `g = 0`, `φ = 0`). Default `√ε`.
+    pub manifold_tol: Option<T>,
 }
 
 impl<T: Real> Default for ProjectionOptions<T> {
@@ -81,6 +86,7 @@ impl<T: Real> Default for ProjectionOptions<T> {
             degeneracy_tol: T::epsilon().sqrt(),
             rcond: T::lit(1e-8),
             fixed_point_max_iterations: 50,
+            manifold_tol: Some(T::epsilon().sqrt()),
         }
     }
 }
@@ -99,6 +105,11 @@ impl<T: Real> ProjectionOptions<T> {
     /// Sets the Newton options.
     pub fn with_newton(mut self, newton: NewtonOptions<T>) -> Self {
         self.newton = newton;
+        self
+    }
+    /// Sets (or with `None` disables) the check that the initial state is on the manifold.
+    pub fn with_manifold_tol(mut self, tol: Option<T>) -> Self {
+        self.manifold_tol = tol;
         self
     }
 }
@@ -121,6 +132,10 @@ struct Work<V> {
     r: V,
     /// `(λ_k − previous λ_{k+1}) / h` of the last decoupled step, for the warm start.
     offset: V,
+    /// `z` and `offset` at the start of the step, restored if the step fails so that a failed
+    /// iterate never becomes the next warm start.
+    z_saved: V,
+    offset_saved: V,
 }
 
 /// The projected flow of Zhang & Deng (2004, §3) around an inner flow `F` (see the module docs).
@@ -139,7 +154,10 @@ pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
     /// Newton for `λ_{k+1}` (decoupled only): a separate solver keeps its own Jacobian.
     newton_k1: Option<Newton<V, L>>,
     fixed_point_max_iterations: usize,
+    /// Bound on `|g(x_{k+1}) − g(y)|` in the decoupled variant (exactly 0 when it applies).
     guard_tol: V::Real,
+    /// Relative tolerance of the fixed point for the implicit end point.
+    fixed_point_tol: V::Real,
     w: Work<V>,
     stats: FlowStats,
 }
@@ -181,9 +199,9 @@ where
         }
         let n = x0.len();
         let m = system.constraint.dim();
-        if 2 * m > n {
+        if m > n {
             return Err(SetupError::Dimension {
-                what: format!("{m} constraints on a state of dimension {n}: need 2m <= n"),
+                what: format!("{m} constraints on a state of dimension {n}"),
             });
         }
         let brackets = Brackets::new(&system);
@@ -191,6 +209,33 @@ where
             Some(c) => c,
             None => brackets.case(x0, options.degeneracy_tol, options.rcond)?,
         };
+        if case == Case::Degenerate && 2 * m > n {
+            return Err(SetupError::Dimension {
+                what: format!(
+                    "{m} constraints and {m} hidden constraints on a state of dimension {n}: need 2m <= n"
+                ),
+            });
+        }
+        if let Some(tol) = options.manifold_tol {
+            let mut gv = vec![V::Real::zero(); m];
+            system.constraint.residual(x0, &mut gv);
+            let g = ops::norm_inf(&gv);
+            if g.is_nan() || g > tol {
+                return Err(SetupError::OffManifold {
+                    what: "g",
+                    residual: g.to_f64_lossy(),
+                });
+            }
+            if case == Case::Degenerate {
+                let phi = ops::norm_inf(&brackets.g_h(x0));
+                if phi.is_nan() || phi > tol {
+                    return Err(SetupError::OffManifold {
+                        what: "phi",
+                        residual: phi.to_f64_lossy(),
+                    });
+                }
+            }
+        }
         let scheme = match case {
             Case::NonDegenerate => Scheme::Symmetric,
             Case::Degenerate => match options.coupling {
@@ -212,6 +257,11 @@ where
             _ => None,
         };
         inner.prepare(x0);
+        let k_z = if scheme == Scheme::Symmetric {
+            m
+        } else {
+            2 * m
+        };
         let zeros = x0.zeros_like();
         let w = Work {
             start: zeros.clone(),
@@ -220,11 +270,13 @@ where
             xe: zeros.clone(),
             t1: zeros.clone(),
             t2: zeros,
-            z: V::zeros(2 * m),
+            z: V::zeros(k_z),
+            z_saved: V::zeros(k_z),
             a_cached: V::zeros(m),
             y_valid: false,
             r: V::zeros(m),
             offset: V::zeros(m),
+            offset_saved: V::zeros(m),
         };
         Ok(Self {
             inner,
@@ -234,7 +286,8 @@ where
             newton,
             newton_k1,
             fixed_point_max_iterations: options.fixed_point_max_iterations,
-            guard_tol: V::Real::lit(1000.0) * options.newton.ftol,
+            guard_tol: options.newton.ftol,
+            fixed_point_tol: options.newton.xtol,
             w,
             stats: FlowStats::default(),
         })
@@ -308,6 +361,7 @@ where
             a_cached,
             y_valid,
             fixed_point_max_iterations: self.fixed_point_max_iterations,
+            fixed_point_tol: self.fixed_point_tol,
         };
         let newton = match (mode, self.newton_k1.as_mut()) {
             (Mode::LambdaK1, Some(n)) => n,
@@ -345,13 +399,17 @@ where
                     }
                 }
                 self.solve(Mode::LambdaK1, h, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
-                // The decoupling assumption: the second half-step did not move g.
-                let r = &mut self.w.r.as_mut_slice()[..m];
-                self.system.constraint.residual(&self.w.xe, r);
-                let res = ops::norm_inf(r);
-                if res.is_nan() || res > self.guard_tol {
+                // The decoupling assumption: the second half-step did not move g (for position
+                // constraints and a momentum-only direction, g(x_{k+1}) and g(y) are the same
+                // floating-point numbers).
+                let w = &mut self.w;
+                let (gx, gy) = (&mut w.r.as_mut_slice()[..m], &mut w.t1.as_mut_slice()[..m]);
+                self.system.constraint.residual(&w.xe, gx);
+                self.system.constraint.residual(&w.y, gy);
+                let change = ops::dist_inf(gx, gy);
+                if change.is_nan() || change > self.guard_tol {
                     return Err(StepError::CouplingViolated {
-                        residual: res.to_f64_lossy(),
+                        residual: change.to_f64_lossy(),
                     });
                 }
             }
@@ -384,10 +442,27 @@ where
         if let Some(component) = ops::first_non_finite(x.as_slice()) {
             return Err(StepError::NonFinite { component });
         }
+        if h == V::Real::zero() {
+            return Ok(());
+        }
         self.w.start.copy_from(x);
-        self.step_impl(h)?;
-        if let Some(component) = ops::first_non_finite(self.w.xe.as_slice()) {
-            return Err(StepError::NonFinite { component });
+        self.w.z_saved.copy_from(&self.w.z);
+        self.w.offset_saved.copy_from(&self.w.offset);
+        let result =
+            self.step_impl(h)
+                .and_then(|()| match ops::first_non_finite(self.w.xe.as_slice()) {
+                    Some(component) => Err(StepError::NonFinite { component }),
+                    None => Ok(()),
+                });
+        if let Err(e) = result {
+            // A failed iterate must not become the next warm start or kept Jacobian.
+            self.w.z.copy_from(&self.w.z_saved);
+            self.w.offset.copy_from(&self.w.offset_saved);
+            self.newton.invalidate_jacobian();
+            if let Some(n) = self.newton_k1.as_mut() {
+                n.invalidate_jacobian();
+            }
+            return Err(e);
         }
         x.copy_from(&self.w.xe);
         self.stats.projected_steps += 1;
@@ -469,6 +544,7 @@ struct Stage<'a, V: Vector, F, Ms, H, C> {
     a_cached: &'a mut V,
     y_valid: &'a mut bool,
     fixed_point_max_iterations: usize,
+    fixed_point_tol: V::Real,
 }
 
 impl<V, F, Ms, H, C> Stage<'_, V, F, Ms, H, C>
@@ -527,7 +603,7 @@ where
     fn end_point_implicit(&mut self, b: &[V::Real]) -> Result<(), StepError> {
         let half = self.h * V::Real::lit(0.5);
         self.end_point_explicit(b);
-        let tol = V::Real::lit(4.0) * V::Real::epsilon();
+        let tol = self.fixed_point_tol;
         let mut change = V::Real::infinity();
         for _ in 0..self.fixed_point_max_iterations {
             self.system.constraint_force(&*self.xe, b, self.t1, self.t2);
@@ -579,7 +655,8 @@ where
     }
 
     /// `∂g/∂λ_k ≈ (h²/2) G M ∇²H M Gᵀ` in the degenerate case (the `O(h)` term is
-    /// `(h/2) G M Gᵀ = 0`); the other systems scale like `h`.
+    /// `(h/2) G M Gᵀ = 0`); the other systems scale like `h` (the coupled one after dividing
+    /// its `g` rows by `h`).
     fn jacobian_scale(&self) -> V::Real {
         match self.mode {
             Mode::LambdaK => self.h * self.h,
@@ -603,6 +680,10 @@ where
                 self.end_point_implicit(&z[m..])?;
                 let (fg, fp) = f.split_at_mut(m);
                 self.system.constraint.residual(&*self.xe, fg);
+                // g-rows of the Jacobian scale like h², φ-rows like h: g/h puts every row on the
+                // scale h that `jacobian_scale` reports (and asks |g| ≤ |h| ftol).
+                let inv_h = V::Real::one() / self.h;
+                fg.iter_mut().for_each(|v| *v = *v * inv_h);
                 self.hidden(fp);
             }
             Mode::Symmetric => {

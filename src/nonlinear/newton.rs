@@ -29,14 +29,16 @@ pub enum JacobianUpdate {
 pub struct NewtonOptions<T> {
     /// Converged when `‖F(z)‖∞ ≤ ftol`. Default `2 ε` (4.4e-16 for `f64`).
     pub ftol: T,
-    /// Also converged when `‖F‖∞ ≤ 1000 ftol` (the round-off floor of a residual can lie above
-    /// `ftol`) and either the update is at round-off, `‖Δz‖∞ ≤ xtol (1 + ‖z‖∞)`, or the residual
-    /// stopped decreasing (by at least half). Default `16 ε`.
+    /// Also converged when `‖F‖∞ ≤ 100 ftol` (the round-off floor of a residual can lie above
+    /// `ftol`) and, right after a freshly built Jacobian, either the update is at round-off,
+    /// `‖Δz‖∞ ≤ xtol (1 + ‖z‖∞)`, or the residual stopped decreasing (by at least half).
+    /// Default `16 ε`.
     pub xtol: T,
     /// Iteration limit. Default 25.
     pub max_iterations: usize,
-    /// Relative forward-difference step for the Jacobian, `δ_j = fd_step · max(|z_j|, ‖z‖∞, 1)`.
-    /// Default `√ε`.
+    /// Relative forward-difference step for the Jacobian,
+    /// `δ_j = fd_step · max(|z_j|, ‖z‖∞, 1/|s|)` with `s` the problem's
+    /// [`jacobian_scale`](super::NonlinearProblem::jacobian_scale). Default `√ε`.
     pub fd_step: T,
     /// When to rebuild the Jacobian.
     pub jacobian: JacobianUpdate,
@@ -180,15 +182,22 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         Ok(())
     }
 
+    /// Forward differences `J e_j ≈ (F(z + δ_j e_j) − F(z)) / δ_j` with
+    /// `δ_j = fd_step · max(|z_j|, ‖z‖∞, 1/|s|)`, `s` the problem's Jacobian scale: when `F`
+    /// depends on `z` through `s z` (a multiplier times `h` or `h²`), the perturbation of `s z`
+    /// stays at `fd_step` relative, so the difference is accurate for every step size.
     fn jacobian<P: NonlinearProblem<V::Real>>(
         &mut self,
         problem: &mut P,
         z: &[V::Real],
+        scale: V::Real,
         report: &mut SolveReport<V::Real>,
     ) -> Result<(), NewtonError> {
         let k = self.k;
         let one = V::Real::one();
-        let zmax = ops::norm_inf(z).max(one);
+        let inv = one / scale.abs();
+        let floor = if inv.is_finite() { inv } else { one };
+        let zmax = ops::norm_inf(z).max(floor);
         let f = &self.f.as_slice()[..k];
         for j in 0..k {
             let zp = &mut self.zp.as_mut_slice()[..k];
@@ -213,6 +222,9 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
 }
 
 use num_traits::{One, Zero};
+
+/// Residuals below `NOISE_FACTOR · ftol` are treated as possibly at their round-off floor.
+const NOISE_FACTOR: f64 = 100.0;
 
 impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V, L> {
     fn solve<P: NonlinearProblem<V::Real>>(
@@ -248,14 +260,15 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             if r <= opts.ftol {
                 return Ok(report);
             }
-            let fresh = match opts.jacobian {
-                JacobianUpdate::EveryIteration => true,
-                JacobianUpdate::OncePerSolve => it == 0,
-                JacobianUpdate::Reuse => !self.have_jacobian,
-            };
+            let fresh = !self.have_jacobian
+                || match opts.jacobian {
+                    JacobianUpdate::EveryIteration => true,
+                    JacobianUpdate::OncePerSolve => it == 0,
+                    JacobianUpdate::Reuse => false,
+                };
             if fresh {
                 self.have_jacobian = false;
-                self.jacobian(problem, z, &mut report)?;
+                self.jacobian(problem, z, scale, &mut report)?;
                 self.have_jacobian = true;
                 self.jacobian_scale = scale;
                 ratio = one;
@@ -272,26 +285,29 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             report.iterations += 1;
             let step = ops::norm_inf(dz);
             let r_new = eval(problem, z, &mut self.f, &mut report)?;
-            if !r_new.is_finite() {
-                if fresh {
-                    return Err(NewtonError::NonFinite { iteration: it + 1 });
-                }
-                // A stale Jacobian threw the iterate away: go back and rebuild it there.
+            if !r_new.is_finite() && fresh {
+                return Err(NewtonError::NonFinite { iteration: it + 1 });
+            }
+            report.residual = r_new;
+            if r_new <= opts.ftol {
+                return Ok(report);
+            }
+            // Below `noise` the residual is dominated by its own round-off: an update at
+            // round-off, or a step with a fresh Jacobian that no longer decreases it, means the
+            // root is reached. With a kept Jacobian, slow progress is not evidence of that.
+            let noise = V::Real::lit(NOISE_FACTOR) * opts.ftol;
+            if r_new <= noise
+                && fresh
+                && (step <= opts.xtol * (one + ops::norm_inf(z)) || r_new >= V::Real::lit(0.5) * r)
+            {
+                return Ok(report);
+            }
+            if !fresh && (r_new.is_nan() || r_new >= r) {
+                // A kept Jacobian made things worse (or non-finite): go back, rebuild it there.
                 ops::axpy(z, -one, &self.dz.as_slice()[..k]);
                 r = eval(problem, z, &mut self.f, &mut report)?;
                 self.have_jacobian = false;
                 continue;
-            }
-            report.residual = r_new;
-            // Below `noise` the residual is dominated by its own round-off: an update at
-            // round-off, or one that no longer decreases it, means the root is reached.
-            let noise = V::Real::lit(1000.0) * opts.ftol;
-            if r_new <= opts.ftol
-                || (r_new <= noise
-                    && (step <= opts.xtol * (one + ops::norm_inf(z))
-                        || r_new >= V::Real::lit(0.5) * r))
-            {
-                return Ok(report);
             }
             if opts.jacobian != JacobianUpdate::EveryIteration && r_new > opts.max_contraction * r {
                 self.have_jacobian = false;
