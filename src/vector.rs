@@ -2,7 +2,8 @@
 //!
 //! Everything the integrators do to a state goes through [`Vector::as_slice`] /
 //! [`Vector::as_mut_slice`] and the slice kernels in this module, so both storages run the same
-//! arithmetic in the same order and give bit-identical trajectories.
+//! model arithmetic in the same order; only the LU kernels of the multiplier systems differ
+//! (nalgebra-storage LU on the stack, faer's on the heap), so trajectories agree to round-off.
 
 use crate::linalg::{DenseLu, LinearSolver, StackLu};
 use crate::real::Real;

@@ -481,7 +481,8 @@ where
 
 /// Probes at `x0` whether a second half-step `x ↦ x + s M(x) G(x)ᵀ μ` leaves both `g` and the
 /// direction `M Gᵀ μ` unchanged (position constraints with `M Gᵀ` acting on momenta).
-/// Every decoupled step re-checks `g` afterwards, so a wrong answer cannot go unnoticed.
+/// Every decoupled step re-checks that `g(x_{k+1})` equals `g(y)`, which catches a second
+/// half-step that moves `g`; a direction `M Gᵀ` that changes along it is only probed here.
 fn probe_decoupled<V, Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> bool
 where
     V: Vector,
