@@ -1,0 +1,105 @@
+//! The examples' command lines and final JSON line are an interface: flags, exit codes, keys.
+//! `cargo test` builds the examples next to the test binaries (`target/<profile>/examples`).
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn example(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let dir = exe.parent().unwrap().parent().unwrap().join("examples");
+    let path = dir.join(name);
+    assert!(path.exists(), "example binary {} not built", path.display());
+    path
+}
+
+fn run(name: &str, args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(example(name)).args(args).output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The value of `"key":` in a one-line JSON object (numbers and strings only).
+fn field<'a>(json: &'a str, key: &str) -> &'a str {
+    let pat = format!("\"{key}\":");
+    let start = json
+        .find(&pat)
+        .unwrap_or_else(|| panic!("no key {key} in {json}"))
+        + pat.len();
+    let rest = &json[start..];
+    let end = if rest.starts_with('[') {
+        rest.find(']').unwrap() + 1
+    } else {
+        rest.find([',', '}']).unwrap()
+    };
+    &rest[..end]
+}
+
+#[test]
+fn paper_example_prints_the_json_contract_last() {
+    let (code, out, _) = run(
+        "paper_example",
+        &["--t-end", "5", "--scheme", "triple-jump"],
+    );
+    assert_eq!(code, 0);
+    let last = out.lines().last().unwrap();
+    assert!(last.starts_with('{') && last.ends_with('}'), "{last}");
+    for key in [
+        "t",
+        "x",
+        "steps",
+        "max_abs_g",
+        "max_abs_phi",
+        "h_tilde_max_err",
+        "newton_iterations",
+        "ns_per_step",
+    ] {
+        field(last, key);
+    }
+    assert_eq!(field(last, "steps"), "50");
+    assert_eq!(field(last, "scheme"), "\"triple-jump\"");
+    let g: f64 = field(last, "max_abs_g").parse().unwrap();
+    assert!(g <= 1e-14);
+}
+
+#[test]
+fn spherical_pendulum_prints_the_json_contract_last() {
+    let (code, out, _) = run("spherical_pendulum", &["--t-end", "1"]);
+    assert_eq!(code, 0);
+    let last = out.lines().last().unwrap();
+    for key in [
+        "t",
+        "x",
+        "steps",
+        "max_abs_g",
+        "max_abs_phi",
+        "energy_max_err",
+        "ns_per_step",
+    ] {
+        field(last, key);
+    }
+    let e: f64 = field(last, "energy_max_err").parse().unwrap();
+    assert!(e.is_finite() && e < 1e-2);
+}
+
+#[test]
+fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
+    for args in [
+        &["--bogus", "1"][..],
+        &["--dt", "-0.1"],
+        &["--dt", "abc"],
+        &["--scheme", "rk4"],
+        &["--t-end"],
+    ] {
+        for name in ["paper_example", "spherical_pendulum"] {
+            let (code, out, err) = run(name, args);
+            assert_eq!(code, 2, "{name} {args:?}: exit {code}, stdout {out}");
+            assert!(err.contains("error:"), "{name} {args:?}: {err}");
+        }
+    }
+    let (code, out, _) = run("paper_example", &["--help"]);
+    assert_eq!(code, 0);
+    assert!(out.contains("--scheme") && out.contains("--plot"));
+}
