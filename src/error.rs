@@ -101,6 +101,19 @@ pub enum StepError {
         /// The offending step size.
         h: f64,
     },
+    /// A composition with a negative coefficient was asked to step a dissipative flow
+    /// (see [`Composition`](crate::flow::Composition)).
+    #[error(
+        "composition '{table}' takes a backward sub-step (stage {stage}, gamma = {gamma}) on a dissipative flow: damping would run backwards; use Strang or allow it explicitly"
+    )]
+    BackwardDissipation {
+        /// The composition table.
+        table: &'static str,
+        /// The first stage with a negative coefficient.
+        stage: usize,
+        /// Its coefficient.
+        gamma: f64,
+    },
     /// A step assumed by the decoupled projection path was violated (the second half-step changed g).
     #[error(
         "decoupled projection assumption violated: |g| = {residual:e} after the second half-step; use Coupling::Coupled"

@@ -33,6 +33,9 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Then<V, A, B> {
     fn is_fallible(&self) -> bool {
         self.a.is_fallible() || self.b.is_fallible()
     }
+    fn dissipates(&self) -> bool {
+        self.a.dissipates() || self.b.dissipates()
+    }
     fn order(&self) -> u32 {
         if self.a.order() == EXACT && self.b.order() == EXACT {
             1
@@ -87,6 +90,9 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
     fn is_fallible(&self) -> bool {
         self.a.is_fallible() || self.b.is_fallible()
     }
+    fn dissipates(&self) -> bool {
+        self.a.dissipates() || self.b.dissipates()
+    }
     fn order(&self) -> u32 {
         if self.is_symmetric() {
             self.a.order().min(self.b.order()).min(2)
@@ -110,11 +116,20 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
 /// Symmetric composition `Φ_{γ_s h} ∘ … ∘ Φ_{γ_1 h}` of a symmetric flow `Φ` with the coefficients
 /// of a [`CompositionTable`]; raises order 2 to the table's order (Yoshida 1990; McLachlan 1995;
 /// GNI §V.3). If a stage fails, the state is restored to its value before the step.
+///
+/// Every table above order 2 has negative coefficients. On a flow that
+/// [dissipates](Flow::dissipates) a negative sub-step runs the damping backwards and adds
+/// energy, which blows up when the damping is stiff; such a composition returns
+/// [`StepError::BackwardDissipation`] (before touching the state) unless
+/// [`allow_backward_dissipation`](Self::allow_backward_dissipation) was called. Positive-weight
+/// alternatives: [`Strang`] with the exact damping flow as one of its parts (order 2), or complex
+/// coefficients with positive real part (Blanes, Casas & Murua, arXiv:1102.1622; not provided).
 #[derive(Debug, Clone)]
 pub struct Composition<V: Vector, F> {
     inner: F,
     table: &'static CompositionTable,
     backup: Backup<V>,
+    allow_backward_dissipation: bool,
 }
 
 impl<V: Vector, F> Composition<V, F> {
@@ -124,7 +139,15 @@ impl<V: Vector, F> Composition<V, F> {
             inner,
             table,
             backup: Backup::default(),
+            allow_backward_dissipation: false,
         }
+    }
+
+    /// Runs the composition even on a dissipative flow, accepting that its negative sub-steps
+    /// run the dissipation backwards (stable only for weak damping and small steps).
+    pub fn allow_backward_dissipation(mut self) -> Self {
+        self.allow_backward_dissipation = true;
+        self
     }
 
     /// The coefficient table.
@@ -142,6 +165,17 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
     #[inline]
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
         let table = self.table;
+        if table.has_negative_steps() && !self.allow_backward_dissipation && self.inner.dissipates()
+        {
+            let stage = (0..table.stages)
+                .find(|&i| table.gamma(i) < 0.0)
+                .unwrap_or(0);
+            return Err(StepError::BackwardDissipation {
+                table: table.name,
+                stage,
+                gamma: table.gamma(stage),
+            });
+        }
         let guard = self.inner.is_fallible();
         self.backup.run(guard, x, |x| {
             for i in 0..table.stages {
@@ -152,6 +186,9 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
     }
     fn is_fallible(&self) -> bool {
         self.inner.is_fallible()
+    }
+    fn dissipates(&self) -> bool {
+        self.inner.dissipates()
     }
     fn order(&self) -> u32 {
         let p = self.inner.order();

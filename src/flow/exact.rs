@@ -11,6 +11,16 @@ pub struct FnFlow<F> {
     f: F,
     order: u32,
     symmetric: bool,
+    dissipative: bool,
+}
+
+impl<F> FnFlow<F> {
+    /// Marks the flow as dissipative (for instance the exact damping flow `p ← e^{−ch} p`), so
+    /// that compositions with backward sub-steps refuse it. See [`Flow::dissipates`].
+    pub fn dissipative(mut self) -> Self {
+        self.dissipative = true;
+        self
+    }
 }
 
 /// An exact sub-flow `x ↦ exp(h D_K) x` from a closure: order [`EXACT`], symmetric.
@@ -21,6 +31,7 @@ pub fn from_fn<F>(f: F) -> FnFlow<F> {
         f,
         order: EXACT,
         symmetric: true,
+        dissipative: false,
     }
 }
 
@@ -30,6 +41,7 @@ pub fn from_fn_with_order<F>(f: F, order: u32, symmetric: bool) -> FnFlow<F> {
         f,
         order,
         symmetric,
+        dissipative: false,
     }
 }
 
@@ -47,5 +59,8 @@ impl<V: Vector, F: FnMut(V::Real, &mut V)> Flow<V> for FnFlow<F> {
     }
     fn is_fallible(&self) -> bool {
         false
+    }
+    fn dissipates(&self) -> bool {
+        self.dissipative
     }
 }

@@ -77,6 +77,12 @@ pub trait Flow<V: Vector> {
     fn is_fallible(&self) -> bool {
         true
     }
+    /// `true` if the flow contains dissipation (energy decays forward in time), so that a
+    /// negative step runs it backwards and adds energy — unstable when the damping is stiff.
+    /// Compositions with negative coefficients refuse such flows (see [`Composition`]).
+    fn dissipates(&self) -> bool {
+        false
+    }
 }
 
 impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for &mut F {
@@ -98,6 +104,9 @@ impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for &mut F {
     fn is_fallible(&self) -> bool {
         (**self).is_fallible()
     }
+    fn dissipates(&self) -> bool {
+        (**self).dissipates()
+    }
 }
 
 impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
@@ -118,6 +127,9 @@ impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
     }
     fn is_fallible(&self) -> bool {
         (**self).is_fallible()
+    }
+    fn dissipates(&self) -> bool {
+        (**self).dissipates()
     }
 }
 

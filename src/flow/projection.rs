@@ -477,6 +477,10 @@ where
     fn stats(&self) -> FlowStats {
         self.stats + self.inner.stats()
     }
+    /// The inner flow dissipates, or the half-steps do: `M Gᵀλ` has a dissipative part when `M` has.
+    fn dissipates(&self) -> bool {
+        self.inner.dissipates() || self.system.structure.is_dissipative()
+    }
 }
 
 /// Probes at `x0` whether a second half-step `x ↦ x + s M(x) G(x)ᵀ μ` leaves both `g` and the

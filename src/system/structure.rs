@@ -21,6 +21,12 @@ pub trait StructureMatrix<V: Vector> {
     fn is_constant(&self) -> bool {
         false
     }
+
+    /// `true` if `M` has a dissipative symmetric part (`R ≠ 0` in `M = J − R`). Flows built on
+    /// it then report [`Flow::dissipates`](crate::Flow::dissipates).
+    fn is_dissipative(&self) -> bool {
+        false
+    }
 }
 
 use num_traits::One;
@@ -129,5 +135,8 @@ impl<V: Vector, J: StructureMatrix<V>, R: StructureMatrix<V>> StructureMatrix<V>
     }
     fn is_constant(&self) -> bool {
         self.j.is_constant() && self.r.is_constant()
+    }
+    fn is_dissipative(&self) -> bool {
+        true
     }
 }
