@@ -78,38 +78,46 @@ fn check_same_algorithm() {
 
 fn bench(c: &mut Criterion) {
     check_same_algorithm();
-    let h = 0.1;
     let x0: V = paper::initial_state();
 
-    let mut group = c.benchmark_group("paper_projection_step");
-    let mut generic = paper::drift()
-        .projected(paper::system(), &x0, ProjectionOptions::default())
-        .unwrap();
-    let mut x = x0;
-    group.bench_function("generic", |b| {
-        b.iter(|| generic.step(black_box(h), &mut x).unwrap())
-    });
+    let projected = || {
+        paper::drift()
+            .projected(paper::system(), &x0, ProjectionOptions::default())
+            .unwrap()
+    };
+    let mut generic = projected();
     let mut hand = HandWritten { lambda: 0.0 };
-    let mut x = x0;
-    group.bench_function("hand_written", |b| {
-        b.iter(|| hand.step(black_box(h), &mut x))
-    });
-    group.finish();
+    pair(
+        c,
+        "paper_projection_step",
+        &x0,
+        |h, x| generic.step(h, x).unwrap(),
+        |h, x| hand.step(h, x),
+    );
+    let mut generic = projected().triple_jump();
+    let mut hand = HandWritten { lambda: 0.0 };
+    pair(
+        c,
+        "paper_triple_jump_step",
+        &x0,
+        |h, x| generic.step(h, x).unwrap(),
+        |h, x| hand.triple_jump(h, x),
+    );
+}
 
-    let mut group = c.benchmark_group("paper_triple_jump_step");
-    let mut generic = paper::drift()
-        .projected(paper::system(), &x0, ProjectionOptions::default())
-        .unwrap()
-        .triple_jump();
-    let mut x = x0;
-    group.bench_function("generic", |b| {
-        b.iter(|| generic.step(black_box(h), &mut x).unwrap())
-    });
-    let mut hand = HandWritten { lambda: 0.0 };
-    let mut x = x0;
-    group.bench_function("hand_written", |b| {
-        b.iter(|| hand.triple_jump(black_box(h), &mut x))
-    });
+/// One criterion group: the generic step against the hand-written one, each from `x0` at h = 0.1.
+fn pair(
+    c: &mut Criterion,
+    name: &str,
+    x0: &V,
+    mut generic: impl FnMut(f64, &mut V),
+    mut hand: impl FnMut(f64, &mut V),
+) {
+    let mut group = c.benchmark_group(name);
+    let mut x = *x0;
+    group.bench_function("generic", |b| b.iter(|| generic(black_box(0.1), &mut x)));
+    let mut x = *x0;
+    group.bench_function("hand_written", |b| b.iter(|| hand(black_box(0.1), &mut x)));
     group.finish();
 }
 

@@ -11,21 +11,20 @@
 
 mod common;
 
-use common::{Args, Json};
-use lieflow::flow::coefficients::table_by_name;
+use common::{Args, Json, fatal, scheme_table, time_steps};
+use lieflow::flow::CompositionTable;
 use lieflow::models::paper;
 use lieflow::prelude::*;
 use nalgebra::SVector;
 use std::io::Write as _;
-use std::time::Instant;
 
 type V = SVector<f64, 4>;
 
-fn build(scheme: &str, x0: &V) -> Result<Box<dyn Flow<V>>, SetupError> {
+fn build(table: Option<&'static CompositionTable>, x0: &V) -> Result<Box<dyn Flow<V>>, SetupError> {
     let base = paper::drift().projected(paper::system(), x0, ProjectionOptions::default())?;
-    Ok(match scheme {
-        "projection" => Box::new(base),
-        name => Box::new(base.composed(table_by_name(name).expect("validated scheme name"))),
+    Ok(match table {
+        None => Box::new(base),
+        Some(t) => Box::new(base.composed(t)),
     })
 }
 
@@ -57,32 +56,20 @@ fn main() {
         ],
     );
     let scheme = args.get("scheme", "projection".to_string());
-    if scheme != "projection" && table_by_name(&scheme).is_none() {
-        args.fail(&format!("unknown scheme '{scheme}'"));
-    }
+    let table = scheme_table(&args, &scheme, "projection");
     let dt = args.positive("dt", 0.1);
     let t_end = args.positive("t-end", 100.0);
-    let steps = (t_end / dt).round() as usize;
-    if steps == 0 {
-        args.fail("--t-end must be at least --dt");
-    }
+    let steps = common::steps(&args, dt, t_end);
 
     let x0: V = paper::initial_state();
     let h0 = paper::h_tilde(&x0);
 
     // Timed run: stepping only, nothing observed.
-    let mut flow = build(&scheme, &x0).unwrap_or_else(|e| fatal(&e));
-    let mut x = x0;
-    let start = Instant::now();
-    for k in 0..steps {
-        if let Err(e) = flow.step(dt, &mut x) {
-            fatal(&format!("step {k}: {e}"));
-        }
-    }
-    let ns_per_step = start.elapsed().as_nanos() as f64 / steps as f64;
+    let mut flow = build(table, &x0).unwrap_or_else(|e| fatal(&e));
+    let ns_per_step = time_steps(&mut *flow, &x0, dt, steps);
 
     // Observed run: residuals and the invariant after every step.
-    let mut flow = build(&scheme, &x0).unwrap_or_else(|e| fatal(&e));
+    let mut flow = build(table, &x0).unwrap_or_else(|e| fatal(&e));
     let mut x = x0;
     let (mut max_g, mut max_phi, mut max_dh) = (0.0f64, 0.0f64, 0.0f64);
     let mut series: Vec<(f64, V)> = Vec::with_capacity(steps + 1);
@@ -153,11 +140,6 @@ fn main() {
         .int("residual_evaluations", stats.residual_evaluations)
         .num("ns_per_step", ns_per_step)
         .print();
-}
-
-fn fatal(e: &dyn std::fmt::Display) -> ! {
-    eprintln!("error: {e}");
-    std::process::exit(1);
 }
 
 fn write_csv(path: &str, series: &[(f64, V)]) -> std::io::Result<()> {

@@ -8,18 +8,17 @@
 
 mod common;
 
-use common::{Args, Json};
-use lieflow::flow::coefficients::table_by_name;
+use common::{Args, Json, fatal, scheme_table, time_steps};
+use lieflow::flow::CompositionTable;
 use lieflow::models::SphericalPendulum;
 use lieflow::prelude::*;
 use nalgebra::SVector;
-use std::time::Instant;
 
 type V = SVector<f64, 6>;
 
 fn build(
     model: &SphericalPendulum<f64>,
-    scheme: &str,
+    table: Option<&'static CompositionTable>,
     x0: &V,
 ) -> Result<Box<dyn Flow<V>>, SetupError> {
     let rattle = model.kick().strang(model.drift()).projected(
@@ -27,9 +26,9 @@ fn build(
         x0,
         ProjectionOptions::default(),
     )?;
-    Ok(match scheme {
-        "rattle" => Box::new(rattle),
-        name => Box::new(rattle.composed(table_by_name(name).expect("validated scheme name"))),
+    Ok(match table {
+        None => Box::new(rattle),
+        Some(t) => Box::new(rattle.composed(t)),
     })
 }
 
@@ -56,9 +55,7 @@ fn main() {
         ],
     );
     let scheme = args.get("scheme", "rattle".to_string());
-    if scheme != "rattle" && table_by_name(&scheme).is_none() {
-        args.fail(&format!("unknown scheme '{scheme}'"));
-    }
+    let table = scheme_table(&args, &scheme, "rattle");
     let dt = args.positive("dt", 0.01);
     let t_end = args.positive("t-end", 100.0);
     let theta0: f64 = args.get("theta0", 1.0);
@@ -72,27 +69,17 @@ fn main() {
     if !(theta0.is_finite() && speed.is_finite()) {
         args.fail("--theta0 and --speed must be finite");
     }
-    let steps = (t_end / dt).round() as usize;
-    if steps == 0 {
-        args.fail("--t-end must be at least --dt");
-    }
+    let steps = common::steps(&args, dt, t_end);
 
     let x0: V = model.state(theta0, speed);
     let e0 = model.energy(&x0);
     let l0 = model.vertical_angular_momentum(&x0);
     let sys = model.system();
 
-    let mut flow = build(&model, &scheme, &x0).unwrap_or_else(|e| fatal(&e));
-    let mut x = x0;
-    let start = Instant::now();
-    for k in 0..steps {
-        if let Err(e) = flow.step(dt, &mut x) {
-            fatal(&format!("step {k}: {e}"));
-        }
-    }
-    let ns_per_step = start.elapsed().as_nanos() as f64 / steps as f64;
+    let mut flow = build(&model, table, &x0).unwrap_or_else(|e| fatal(&e));
+    let ns_per_step = time_steps(&mut *flow, &x0, dt, steps);
 
-    let mut flow = build(&model, &scheme, &x0).unwrap_or_else(|e| fatal(&e));
+    let mut flow = build(&model, table, &x0).unwrap_or_else(|e| fatal(&e));
     let mut x = x0;
     let (mut max_g, mut max_phi, mut max_de, mut max_dl) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     let report = integrate(
@@ -151,9 +138,4 @@ fn main() {
         .int("newton_iterations", stats.newton_iterations)
         .num("ns_per_step", ns_per_step)
         .print();
-}
-
-fn fatal(e: &dyn std::fmt::Display) -> ! {
-    eprintln!("error: {e}");
-    std::process::exit(1);
 }

@@ -18,9 +18,10 @@ impl Args {
     pub fn parse(about: &str, flags: &[(&str, &str, &str)]) -> Self {
         let mut usage = format!("{about}\n\nFlags:\n");
         for (name, value, help) in flags {
-            let _ = writeln!(usage, "  --{name} {value:<10} {help}");
+            let flag = format!("--{name} {value}");
+            let _ = writeln!(usage, "  {flag:<20} {help}");
         }
-        let _ = writeln!(usage, "  --help            print this help");
+        let _ = writeln!(usage, "  {:<20} print this help", "--help");
         let mut values = BTreeMap::new();
         let mut it = std::env::args().skip(1);
         while let Some(arg) = it.next() {
@@ -146,4 +147,51 @@ fn push_num(s: &mut String, v: f64) {
     } else {
         s.push_str("null");
     }
+}
+
+/// Prints `error: …` to stderr and exits 1 (a failure of the run, not of the command line).
+pub fn fatal(e: &dyn std::fmt::Display) -> ! {
+    eprintln!("error: {e}");
+    std::process::exit(1);
+}
+
+/// The composition table for `--scheme NAME`: `None` for `base` (the plain second-order
+/// scheme), the table for a known table name, exit 2 otherwise.
+pub fn scheme_table(
+    args: &Args,
+    scheme: &str,
+    base: &str,
+) -> Option<&'static lieflow::flow::CompositionTable> {
+    if scheme == base {
+        return None;
+    }
+    match lieflow::flow::coefficients::table_by_name(scheme) {
+        Some(t) => Some(t),
+        None => args.fail(&format!("unknown scheme '{scheme}'")),
+    }
+}
+
+/// The number of steps of size `dt` to reach `t_end` (at least 1; exits 2 otherwise).
+pub fn steps(args: &Args, dt: f64, t_end: f64) -> usize {
+    let steps = (t_end / dt).round();
+    if steps < 1.0 {
+        args.fail("--t-end must be at least --dt");
+    }
+    steps as usize
+}
+
+/// Times `steps` steps of `flow` from `x0` with nothing observed: nanoseconds per step.
+pub fn time_steps<V, F>(flow: &mut F, x0: &V, dt: V::Real, steps: usize) -> f64
+where
+    V: lieflow::Vector,
+    F: lieflow::Flow<V> + ?Sized,
+{
+    let mut x = x0.clone();
+    let start = std::time::Instant::now();
+    for k in 0..steps {
+        if let Err(e) = flow.step(dt, &mut x) {
+            fatal(&format!("step {k}: {e}"));
+        }
+    }
+    start.elapsed().as_nanos() as f64 / steps as f64
 }
