@@ -1,5 +1,5 @@
 use super::{NonlinearProblem, NonlinearSolver};
-use crate::error::NewtonError;
+use crate::error::{LinearSolveError, NewtonError};
 use crate::linalg::LinearSolver;
 use crate::real::Real;
 use crate::vector::{Vector, ops};
@@ -125,6 +125,8 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     /// The problem's [`jacobian_scale`](NonlinearProblem::jacobian_scale) when the kept
     /// Jacobian was built.
     jacobian_scale: V::Real,
+    /// The Jacobian when `k = 1` (kept here instead of in the linear solver).
+    j11: V::Real,
 }
 
 impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
@@ -140,6 +142,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             dz: V::zeros(k),
             have_jacobian: false,
             jacobian_scale: V::Real::one(),
+            j11: V::Real::zero(),
         })
     }
 
@@ -163,6 +166,16 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
     /// `ratio = s₀/s` converts the update to the scale the Jacobian is kept at.
     fn broyden_update(&mut self, ratio: V::Real) -> Result<(), NewtonError> {
         let k = self.k;
+        if k == 1 {
+            // The secant slope: J += ratio f / Δz.
+            let j = self.j11 + ratio * self.f.as_slice()[0] / self.dz.as_slice()[0];
+            if j.is_finite() && j != V::Real::zero() {
+                self.j11 = j;
+            } else {
+                self.have_jacobian = false;
+            }
+            return Ok(());
+        }
         let dz = &self.dz.as_slice()[..k];
         let denom = dz.iter().fold(V::Real::zero(), |s, &d| s + d * d);
         if denom.is_nan() || denom <= V::Real::zero() {
@@ -210,13 +223,32 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
                 .residual(zp, &mut self.fp.as_mut_slice()[..k])
                 .map_err(|e| NewtonError::Residual(Box::new(e)))?;
             report.residual_evaluations += 1;
+            if k == 1 {
+                self.j11 = (self.fp.as_slice()[0] - f[0]) / delta;
+                continue;
+            }
             let col = self.lin.column_mut(j);
             for ((c, &a), &b) in col.iter_mut().zip(&self.fp.as_slice()[..k]).zip(f) {
                 *c = (a - b) / delta;
             }
         }
-        self.lin.factor()?;
         report.factorizations += 1;
+        if k == 1 {
+            let j = self.j11;
+            if !j.is_finite() {
+                return Err(LinearSolveError::NonFinite { row: 0, col: 0 }.into());
+            }
+            if j == V::Real::zero() {
+                return Err(LinearSolveError::Singular {
+                    pivot: 0,
+                    magnitude: 0.0,
+                    ratio: 0.0,
+                }
+                .into());
+            }
+            return Ok(());
+        }
+        self.lin.factor()?;
         Ok(())
     }
 }
@@ -277,7 +309,12 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             for (d, &fi) in dz.iter_mut().zip(&self.f.as_slice()[..k]) {
                 *d = -fi;
             }
-            self.lin.solve_in_place(dz)?;
+            if k == 1 {
+                // One unknown: the linear solver's machinery costs more than the division.
+                dz[0] = dz[0] / self.j11;
+            } else {
+                self.lin.solve_in_place(dz)?;
+            }
             if ratio != one {
                 dz.iter_mut().for_each(|d| *d = *d * ratio);
             }
