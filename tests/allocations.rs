@@ -90,6 +90,33 @@ fn stack_storage_steps_allocate_nothing() {
 }
 
 #[test]
+fn implicit_midpoint_steps_allocate_nothing() {
+    use lieflow::flow::ImplicitMidpoint;
+    use lieflow::models::RigidBody;
+    use lieflow::nonlinear::NewtonOptions;
+    let body = RigidBody::gni();
+    let mut y: SVector<f64, 3> = RigidBody::gni_initial_state();
+    let mut f = ImplicitMidpoint::<SVector<f64, 3>, _, _>::try_new(
+        body.structure(),
+        body,
+        &y,
+        NewtonOptions::default(),
+    )
+    .unwrap()
+    .triple_jump();
+    assert_eq!(allocations_per_run(&mut f, &mut y, 0.1), 0);
+    let mut y: faer::Col<f64> = RigidBody::gni_initial_state();
+    let mut f = ImplicitMidpoint::<faer::Col<f64>, _, _>::try_new(
+        body.structure(),
+        body,
+        &y,
+        NewtonOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut y, 0.1), 0);
+}
+
+#[test]
 fn heap_storage_steps_allocate_nothing_after_construction() {
     type V = faer::Col<f64>;
     let mut x: V = paper::initial_state();

@@ -85,6 +85,25 @@ fn spherical_pendulum_prints_the_json_contract_last() {
 }
 
 #[test]
+fn rigid_body_prints_the_json_contract_last() {
+    let (code, out, _) = run("rigid_body", &["--t-end", "10"]);
+    assert_eq!(code, 0);
+    let last = out.lines().last().unwrap();
+    for key in [
+        "t",
+        "x",
+        "steps",
+        "casimir_max_err",
+        "energy_max_err",
+        "ns_per_step",
+    ] {
+        field(last, key);
+    }
+    let c: f64 = field(last, "casimir_max_err").parse().unwrap();
+    assert!(c <= 1e-14, "{c:e}");
+}
+
+#[test]
 fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
     for args in [
         &["--bogus", "1"][..],
@@ -93,7 +112,7 @@ fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
         &["--scheme", "rk4"],
         &["--t-end"],
     ] {
-        for name in ["paper_example", "spherical_pendulum"] {
+        for name in ["paper_example", "spherical_pendulum", "rigid_body"] {
             let (code, out, err) = run(name, args);
             assert_eq!(code, 2, "{name} {args:?}: exit {code}, stdout {out}");
             assert!(err.contains("error:"), "{name} {args:?}: {err}");

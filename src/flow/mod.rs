@@ -11,11 +11,13 @@
 pub mod coefficients;
 mod compose;
 mod exact;
+mod implicit;
 mod projection;
 
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};
 pub use exact::{FnFlow, from_fn, from_fn_with_order};
+pub use implicit::ImplicitMidpoint;
 pub use projection::{Coupling, Projected, ProjectionOptions, Scheme};
 
 use crate::error::{SetupError, StepError};

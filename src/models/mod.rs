@@ -2,6 +2,8 @@
 //! [`Vector`](crate::Vector) storage, so the same model runs on the stack or on the heap.
 
 pub mod paper;
+pub mod rigid_body;
 pub mod spherical_pendulum;
 
+pub use rigid_body::RigidBody;
 pub use spherical_pendulum::SphericalPendulum;

@@ -15,7 +15,7 @@ mod structure;
 pub use bracket::{Brackets, Case, bracket};
 pub use constraint::HolonomicConstraint;
 pub use hamiltonian::Hamiltonian;
-pub use structure::{Canonical, Constant, JMinusR, StructureMatrix};
+pub use structure::{Canonical, Constant, JMinusR, LiePoissonSo3, StructureMatrix};
 
 use crate::vector::{Vector, ops};
 

@@ -140,3 +140,20 @@ impl<V: Vector, J: StructureMatrix<V>, R: StructureMatrix<V>> StructureMatrix<V>
         true
     }
 }
+
+/// The Lie–Poisson structure of `so(3)*`: `M(y) = ŷ`, `ŷ v = y × v`
+/// (`ŷ = [[0, −y₃, y₂], [y₃, 0, −y₁], [−y₂, y₁, 0]]`), state-dependent and skew. `|y|²` is a
+/// Casimir. With `H = ½ Σ yᵢ²/Iᵢ` it is the free rigid body (GNI §IV.1, §VII.5).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LiePoissonSo3;
+
+impl<V: Vector> StructureMatrix<V> for LiePoissonSo3 {
+    #[inline]
+    fn apply_add(&self, x: &V, v: &V, alpha: V::Real, out: &mut V) {
+        let (y, v) = (x.as_slice(), v.as_slice());
+        let o = out.as_mut_slice();
+        o[0] = o[0] + alpha * (y[1] * v[2] - y[2] * v[1]);
+        o[1] = o[1] + alpha * (y[2] * v[0] - y[0] * v[2]);
+        o[2] = o[2] + alpha * (y[0] * v[1] - y[1] * v[0]);
+    }
+}
