@@ -17,7 +17,9 @@ mod projection;
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};
 pub use exact::{FnFlow, from_fn, from_fn_with_order};
-pub use implicit::ImplicitMidpoint;
+pub use implicit::{
+    DiscreteGradient, GonzalezRule, GradientRule, ImplicitMidpoint, IncrementFlow, MidpointRule,
+};
 pub use projection::{Coupling, Projected, ProjectionOptions, Scheme};
 
 use crate::error::{SetupError, StepError};

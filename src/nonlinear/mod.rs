@@ -23,6 +23,12 @@ pub trait NonlinearProblem<T: Real> {
     fn jacobian_scale(&self) -> T {
         T::one()
     }
+    /// An estimate of the rounding noise in the last residual evaluated (max-norm). Newton
+    /// accepts `‖F‖∞ ≤ max(ftol, 4 · noise_floor)`: a residual computed with cancellation
+    /// cannot be driven below its own noise. Default `0`.
+    fn noise_floor(&self) -> T {
+        T::zero()
+    }
 }
 
 /// A solver for [`NonlinearProblem`]s that owns its workspace.

@@ -289,7 +289,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
         }
         for it in 0..opts.max_iterations {
             report.residual = r;
-            if r <= opts.ftol {
+            if r <= opts.ftol.max(V::Real::lit(4.0) * problem.noise_floor()) {
                 return Ok(report);
             }
             let fresh = !self.have_jacobian
@@ -326,7 +326,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                 return Err(NewtonError::NonFinite { iteration: it + 1 });
             }
             report.residual = r_new;
-            if r_new <= opts.ftol {
+            if r_new <= opts.ftol.max(V::Real::lit(4.0) * problem.noise_floor()) {
                 return Ok(report);
             }
             // Below `noise` the residual is dominated by its own round-off: an update at

@@ -6,4 +6,12 @@ pub trait Hamiltonian<V: Vector> {
     fn energy(&self, x: &V) -> V::Real;
     /// `out = ∇H(x)` (overwrites).
     fn gradient(&self, x: &V, out: &mut V);
+    /// `H(y) − H(x)`. The default subtracts the two energies, which loses all accuracy when
+    /// `y → x` (relative error `ε |H| / |H(y) − H(x)|`). Discrete-gradient flows divide this
+    /// difference by `|y − x|²`; a model that overrides it with a cancellation-free formula
+    /// (e.g. `(p'−p)(p'+p)/2` for `p²/2`, `2 sin((q+q')/2) sin((q'−q)/2)` for `cos q − cos q'`)
+    /// makes them accurate down to the smallest steps.
+    fn energy_difference(&self, x: &V, y: &V) -> V::Real {
+        self.energy(y) - self.energy(x)
+    }
 }
