@@ -137,6 +137,23 @@ impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
     }
 }
 
+/// Validates the input of a step: `h` and `x` finite. `Ok(false)` when `h = 0` (the step is the
+/// identity and nothing needs to be computed).
+pub(crate) fn check_step<V: Vector>(h: V::Real, x: &V) -> Result<bool, StepError> {
+    use num_traits::Float as _;
+    if !h.is_finite() {
+        return Err(StepError::BadStepSize {
+            h: crate::Real::to_f64_lossy(h),
+        });
+    }
+    if let Some(component) = crate::ops::first_non_finite(x.as_slice()) {
+        return Err(StepError::NonFinite { component });
+    }
+    Ok(h != V::Real::zero())
+}
+
+use num_traits::Zero as _;
+
 /// Adapters that build schemes from flows.
 pub trait FlowExt<V: Vector>: Flow<V> + Sized {
     /// `self` for `h`, then `next` for `h` (Lie–Trotter; order 1, not symmetric).

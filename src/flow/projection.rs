@@ -434,15 +434,7 @@ where
     L: LinearSolver<V::Real>,
 {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
-        if !h.is_finite() {
-            return Err(StepError::BadStepSize {
-                h: h.to_f64_lossy(),
-            });
-        }
-        if let Some(component) = ops::first_non_finite(x.as_slice()) {
-            return Err(StepError::NonFinite { component });
-        }
-        if h == V::Real::zero() {
+        if !super::check_step(h, x)? {
             return Ok(());
         }
         self.w.start.copy_from(x);
