@@ -26,6 +26,7 @@ use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
 use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
 use crate::vector::Vector;
+use num_traits::Zero as _;
 
 /// The order reported by a flow that is exact (a closed-form flow of a sub-Hamiltonian).
 pub const EXACT: u32 = u32::MAX;
@@ -151,8 +152,6 @@ pub(crate) fn check_step<V: Vector>(h: V::Real, x: &V) -> Result<bool, StepError
     }
     Ok(h != V::Real::zero())
 }
-
-use num_traits::Zero as _;
 
 /// Adapters that build schemes from flows.
 pub trait FlowExt<V: Vector>: Flow<V> + Sized {

@@ -12,7 +12,6 @@ use crate::flow::{FnFlow, from_fn};
 use crate::real::Real;
 use crate::system::{Canonical, Hamiltonian, HolonomicConstraint, System};
 use crate::vector::Vector;
-use num_traits::Zero;
 
 /// Mass, rod length and gravitational acceleration (gravity along `−z`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -157,11 +156,4 @@ impl<T: Real> Default for SphericalPendulum<T> {
             gravity: T::one(),
         }
     }
-}
-
-#[allow(unused_imports)]
-use num_traits::One as _;
-#[allow(dead_code)]
-fn _zero<T: Zero>() -> T {
-    T::zero()
 }

@@ -3,7 +3,7 @@ use crate::error::{LinearSolveError, NewtonError};
 use crate::linalg::LinearSolver;
 use crate::real::Real;
 use crate::vector::{Vector, ops};
-use num_traits::Float as _;
+use num_traits::{Float as _, One, Zero};
 
 /// When Newton rebuilds its (finite-difference) Jacobian.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -252,8 +252,6 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         Ok(())
     }
 }
-
-use num_traits::{One, Zero};
 
 /// Residuals below `NOISE_FACTOR · ftol` are treated as possibly at their round-off floor.
 const NOISE_FACTOR: f64 = 100.0;

@@ -20,7 +20,7 @@ use super::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
 use crate::error::SetupError;
 use crate::real::Real;
 use crate::vector::{Vector, ops};
-use num_traits::Float as _;
+use num_traits::{Float as _, One, Zero};
 
 /// Which of the paper's two cases a constraint falls in at a given state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,8 +60,6 @@ where
     }
     out
 }
-
-use num_traits::{One, Zero};
 
 /// Bracket computations for one [`System`]: `⟨g,g⟩`, `⟨g,H⟩ = φ`, `⟨φ,g⟩`, `⟨φ,H⟩`, the case, and
 /// the modified-Hamiltonian multiplier `μ`.

@@ -18,6 +18,7 @@ pub use hamiltonian::Hamiltonian;
 pub use structure::{Canonical, Constant, JMinusR, LiePoissonSo3, StructureMatrix};
 
 use crate::vector::{Vector, ops};
+use num_traits::One;
 
 /// A constrained generalized Hamiltonian system: structure matrix, Hamiltonian and constraint.
 #[derive(Debug, Clone)]
@@ -82,5 +83,3 @@ impl<Ms, H, C> System<Ms, H, C> {
         self.structure.apply(x, tmp, out);
     }
 }
-
-use num_traits::One;

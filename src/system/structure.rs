@@ -1,5 +1,6 @@
 use crate::real::Real;
 use crate::vector::{Vector, ops};
+use num_traits::{One, Zero};
 
 /// The structure matrix `M(x)` of `x' = M(x) ∇H(x)`, applied to vectors.
 ///
@@ -28,8 +29,6 @@ pub trait StructureMatrix<V: Vector> {
         false
     }
 }
-
-use num_traits::One;
 
 /// The canonical symplectic matrix `M = [[0, I], [−I, 0]]` on `x = (q, p)`, `q, p ∈ Rᵈ`, `n = 2d`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -107,8 +106,6 @@ impl<V: Vector> StructureMatrix<V> for Constant<V::Real> {
         true
     }
 }
-
-use num_traits::Zero;
 
 /// The port-Hamiltonian structure `M(x) = J(x) − R(x)`: `J` skew (interconnection),
 /// `R ⪰ 0` symmetric (dissipation). Both parts are themselves structure matrices.
