@@ -122,6 +122,16 @@ pub enum StepError {
         /// Max-norm of g after the step.
         residual: f64,
     },
+    /// The state passed to a flow has a different length than the flow was built for.
+    #[error("{flow}: state of length {got}, built for length {expected}")]
+    StateLength {
+        /// The flow.
+        flow: &'static str,
+        /// The length the flow was built for.
+        expected: usize,
+        /// The length passed.
+        got: usize,
+    },
 }
 
 /// A scheme could not be built for the given model and initial state.

@@ -123,6 +123,12 @@ pub mod ops {
         }
     }
 
+    /// `x · y`.
+    #[inline(always)]
+    pub fn dot<T: Real>(x: &[T], y: &[T]) -> T {
+        x.iter().zip(y).fold(T::zero(), |s, (&a, &b)| s + a * b)
+    }
+
     /// Sets every entry to zero.
     #[inline(always)]
     pub fn fill_zero<T: Real>(x: &mut [T]) {
