@@ -238,18 +238,38 @@ where
             self.grad,
         );
         self.structure.apply(self.xm, self.grad, self.f);
-        self.noise = if noise > V::Real::zero() {
-            // The noise lies along δ/|δ|: its image under M, times h.
-            let dn = delta.iter().fold(V::Real::zero(), |s, &d| s + d * d).sqrt();
-            for (t, &d) in self.tmp.as_mut_slice().iter_mut().zip(delta) {
-                *t = d / dn;
-            }
-            self.structure.apply(self.xm, self.tmp, self.grad);
-            self.h.abs() * noise * ops::norm_inf(self.grad.as_slice())
-        } else {
-            V::Real::zero()
-        };
+        self.noise = noise_image(
+            self.structure,
+            self.xm,
+            delta,
+            noise,
+            self.h,
+            self.tmp,
+            self.grad,
+        );
     }
+}
+
+/// The rounding noise `noise` of a discrete gradient, which lies along `δ/|δ|`, as it shows in
+/// the increment: `|h| noise ‖M(x̄) δ/|δ|‖∞`. `tmp` and `out` are workspace.
+pub(crate) fn noise_image<V: Vector, Ms: StructureMatrix<V>>(
+    structure: &Ms,
+    xm: &V,
+    delta: &[V::Real],
+    noise: V::Real,
+    h: V::Real,
+    tmp: &mut V,
+    out: &mut V,
+) -> V::Real {
+    if noise <= V::Real::zero() {
+        return V::Real::zero();
+    }
+    let dn = ops::dot(delta, delta).sqrt();
+    for (t, &d) in tmp.as_mut_slice().iter_mut().zip(delta) {
+        *t = d / dn;
+    }
+    structure.apply(xm, tmp, out);
+    h.abs() * noise * ops::norm_inf(out.as_slice())
 }
 
 impl<V, Ms, H, R> NonlinearProblem<V::Real> for Increment<'_, V, Ms, H, R>

@@ -10,16 +10,20 @@
 
 pub mod coefficients;
 mod compose;
+mod constrained_dg;
 mod exact;
 mod implicit;
+mod linear;
 mod projection;
 
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};
+pub use constrained_dg::{ConstrainedDiscreteGradient, EnergyBalance};
 pub use exact::{FnFlow, from_fn, from_fn_with_order};
 pub use implicit::{
     DiscreteGradient, GonzalezRule, GradientRule, ImplicitMidpoint, IncrementFlow, MidpointRule,
 };
+pub use linear::{LINEAR_FLOW_CACHE, LinearFlow};
 pub use projection::{Coupling, Projected, ProjectionOptions, Scheme};
 
 use crate::error::{SetupError, StepError};

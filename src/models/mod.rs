@@ -1,9 +1,11 @@
 //! Ready-made models, one file each. Every model implements the traits generically for any
 //! [`Vector`](crate::Vector) storage, so the same model runs on the stack or on the heap.
 
+pub mod damped_pendulum;
 pub mod paper;
 pub mod rigid_body;
 pub mod spherical_pendulum;
 
+pub use damped_pendulum::DampedPendulum;
 pub use rigid_body::RigidBody;
 pub use spherical_pendulum::SphericalPendulum;

@@ -24,10 +24,17 @@ pub trait NonlinearProblem<T: Real> {
         T::one()
     }
     /// An estimate of the rounding noise in the last residual evaluated (max-norm). Newton
-    /// accepts `‖F‖∞ ≤ max(ftol, 4 · noise_floor)`: a residual computed with cancellation
+    /// accepts rows within `4 · noise_floor` ([`noisy_rows`](Self::noisy_rows)), the others at
+    /// `ftol`: a residual computed with cancellation
     /// cannot be driven below its own noise. Default `0`.
     fn noise_floor(&self) -> T {
         T::zero()
+    }
+    /// The number of leading residual rows the [`noise_floor`](Self::noise_floor) applies to;
+    /// the rows after them must meet the tolerance on their own (for instance the constraint
+    /// rows of a discrete-gradient step, which carry no cancellation). Default: all rows.
+    fn noisy_rows(&self) -> usize {
+        self.dim()
     }
 }
 

@@ -256,6 +256,20 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
 /// Residuals below `NOISE_FACTOR · ftol` are treated as possibly at their round-off floor.
 const NOISE_FACTOR: f64 = 100.0;
 
+/// The residual as the convergence test sees it: the rows the problem's noise floor applies to
+/// count as zero while within `4 · noise_floor`; the other rows count as they are.
+fn effective_residual<T: Real, P: NonlinearProblem<T>>(problem: &P, f: &[T]) -> T {
+    let (noisy, exact) = f.split_at(problem.noisy_rows().min(f.len()));
+    let r_noisy = ops::norm_inf(noisy);
+    let r_exact = ops::norm_inf(exact);
+    let r_noisy = if r_noisy <= T::lit(4.0) * problem.noise_floor() {
+        T::zero()
+    } else {
+        r_noisy
+    };
+    r_noisy.max(r_exact)
+}
+
 impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V, L> {
     fn solve<P: NonlinearProblem<V::Real>>(
         &mut self,
@@ -287,7 +301,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
         }
         for it in 0..opts.max_iterations {
             report.residual = r;
-            if r <= opts.ftol.max(V::Real::lit(4.0) * problem.noise_floor()) {
+            if effective_residual(problem, &self.f.as_slice()[..k]) <= opts.ftol {
                 return Ok(report);
             }
             let fresh = !self.have_jacobian
@@ -324,14 +338,15 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                 return Err(NewtonError::NonFinite { iteration: it + 1 });
             }
             report.residual = r_new;
-            if r_new <= opts.ftol.max(V::Real::lit(4.0) * problem.noise_floor()) {
+            let r_eff = effective_residual(problem, &self.f.as_slice()[..k]);
+            if r_eff <= opts.ftol {
                 return Ok(report);
             }
             // Below `noise` the residual is dominated by its own round-off: an update at
             // round-off, or a step with a fresh Jacobian that no longer decreases it, means the
             // root is reached. With a kept Jacobian, slow progress is not evidence of that.
             let noise = V::Real::lit(NOISE_FACTOR) * opts.ftol;
-            if r_new <= noise
+            if r_eff <= noise
                 && fresh
                 && (step <= opts.xtol * (one + ops::norm_inf(z)) || r_new >= V::Real::lit(0.5) * r)
             {

@@ -15,7 +15,9 @@ mod structure;
 pub use bracket::{Brackets, Case, bracket};
 pub use constraint::HolonomicConstraint;
 pub use hamiltonian::Hamiltonian;
-pub use structure::{Canonical, Constant, JMinusR, LiePoissonSo3, StructureMatrix};
+pub use structure::{
+    Canonical, Constant, JMinusR, LiePoissonSo3, MomentumDamping, StructureMatrix,
+};
 
 use crate::vector::{Vector, ops};
 use num_traits::One;

@@ -138,6 +138,37 @@ impl<V: Vector, J: StructureMatrix<V>, R: StructureMatrix<V>> StructureMatrix<V>
     }
 }
 
+/// Linear damping of the momenta, `R = c · diag(0, I)` on `x = (q, p)`, `q, p ∈ Rᵈ`, `n = 2d`,
+/// `c ≥ 0`: the dissipative part of `JMinusR::new(Canonical, MomentumDamping::new(c))`, i.e.
+/// `p' = −∇_q H − c ∇_p H` (viscous friction on every particle).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MomentumDamping<T> {
+    /// The damping coefficient `c ≥ 0`.
+    pub c: T,
+}
+
+impl<T: Real> MomentumDamping<T> {
+    /// `R = c · diag(0, I)`; `None` unless `c` is finite and `c ≥ 0` (so that `R ⪰ 0`).
+    pub fn new(c: T) -> Option<Self> {
+        (c.is_finite() && c >= T::zero()).then_some(Self { c })
+    }
+}
+
+impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for MomentumDamping<T> {
+    #[inline]
+    fn apply_add(&self, _x: &V, v: &V, alpha: T, out: &mut V) {
+        let v = v.as_slice();
+        let d = v.len() / 2;
+        ops::axpy(&mut out.as_mut_slice()[d..], alpha * self.c, &v[d..]);
+    }
+    fn is_constant(&self) -> bool {
+        true
+    }
+    fn is_dissipative(&self) -> bool {
+        self.c > T::zero()
+    }
+}
+
 /// The Lie–Poisson structure of `so(3)*`: `M(y) = ŷ`, `ŷ v = y × v`
 /// (`ŷ = [[0, −y₃, y₂], [y₃, 0, −y₁], [−y₂, y₁, 0]]`), state-dependent and skew. `|y|²` is a
 /// Casimir. With `H = ½ Σ yᵢ²/Iᵢ` it is the free rigid body (GNI §IV.1, §VII.5).

@@ -1,0 +1,522 @@
+//! The discrete-gradient method with holonomic constraints (Gonzalez 1999).
+
+use super::implicit::{GonzalezRule, GradientRule, noise_image};
+use super::{Flow, FlowStats, ProjectionOptions};
+use crate::error::{NewtonError, SetupError, StepError};
+use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver};
+use crate::real::Real;
+use crate::system::{Brackets, Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::vector::{Vector, ops};
+use num_traits::{Float as _, One, Zero};
+
+/// The energy bookkeeping of the last step of a [`ConstrainedDiscreteGradient`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergyBalance<T> {
+    /// `H(x_k)`.
+    pub before: T,
+    /// `H(x')` after the discrete-gradient step, before the hidden-constraint projection.
+    pub after_step: T,
+    /// `H(x_{k+1})`, after the projection (equal to `after_step` without one).
+    pub after: T,
+    /// `h F̄ᵀ M(x̄) F̄`, `F̄ = ∇̄H + ∇̄gᵀλ`: the energy the step supplies. The discrete-gradient
+    /// identity is `after_step − before = supplied` (to round-off): `≤ 0` when `M + Mᵀ ⪯ 0`,
+    /// `0` when `M` is skew. The constraint force does no work.
+    pub supplied: T,
+}
+
+/// The discrete-gradient method for the constrained system `x' = M(x)(∇H + Gᵀλ)`, `g(x) = 0`
+/// (Gonzalez, J. Nonlinear Sci. 9, 1999; Gonzalez, J. Nonlinear Sci. 6, 1996):
+///
+/// ```text
+/// x_{k+1} = x_k + h M(x̄) (∇̄H(x_k, x_{k+1}) + ∇̄g(x_k, x_{k+1})ᵀ λ),     g(x_{k+1}) = 0,
+/// ```
+///
+/// with Gonzalez's midpoint discrete gradient `∇̄` (see [`DiscreteGradient`](super::DiscreteGradient))
+/// applied to `H` and to each constraint `gᵢ`. Since `∇̄gᵢ · Δ = gᵢ(x_{k+1}) − gᵢ(x_k) = 0`, the
+/// constraint force does no work, and with `F̄ = ∇̄H + ∇̄gᵀλ`
+///
+/// ```text
+/// H(x_{k+1}) − H(x_k) = ∇̄H · Δ = F̄ · Δ = h F̄ᵀ M(x̄) F̄
+/// ```
+///
+/// holds to round-off for any `M`: energy is conserved when `M` is skew and never increases when
+/// `M + Mᵀ ⪯ 0` ([`EnergyBalance`], [`energy_balance`](Self::energy_balance)). Order 2.
+///
+/// **Hidden constraint.** The step enforces `g = 0` but not the hidden constraint
+/// `φ = G M ∇H = 0` of the degenerate (mechanical) case, which it keeps only to `O(h²)`. By
+/// default each step is therefore followed by the projection `x ← x + M(x) G(x)ᵀ ν` with
+/// `φ(x) = 0` (the direction of the projection half-steps of Zhang & Deng). For a mechanical
+/// system (`g` depends on positions only, `H` quadratic in the momenta, `R` acting on momenta)
+/// this changes only momenta, keeps `g = 0` exactly, and removes the kinetic energy of the
+/// constraint-violating velocity: it never increases `H`. The step is then not symmetric.
+/// [`without_hidden_projection`](Self::without_hidden_projection) turns it off (symmetric step,
+/// `|φ| = O(h²)`). In the non-degenerate case there is no hidden constraint and no projection.
+///
+/// Each step solves for `(δ, hλ)` (`n + m` unknowns) by Newton with a finite-difference Jacobian
+/// kept across steps, stored in `W` (heap `faer::Col` by default, since `n + m` exceeds a stack
+/// vector's capacity `n`). The increment is added with compensated summation. Workspace is
+/// allocated at construction; a step allocates nothing; on error the state is unchanged.
+pub struct ConstrainedDiscreteGradient<
+    V: Vector,
+    Ms,
+    H,
+    C,
+    W: Vector<Real = V::Real> = faer::Col<<V as Vector>::Real>,
+> {
+    system: System<Ms, H, C>,
+    newton: Newton<W>,
+    hidden: Option<Newton<V>>,
+    /// Unknowns `(δ, ℓ = hλ)`.
+    z: W,
+    /// The multiplier `λ` of the last step (warm start).
+    lambda: Vec<V::Real>,
+    nu: Vec<V::Real>,
+    g0: Vec<V::Real>,
+    g1: Vec<V::Real>,
+    gd: Vec<V::Real>,
+    start: V,
+    xm: V,
+    xe: V,
+    grad: V,
+    f: V,
+    tmp: V,
+    t2: V,
+    comp: V,
+    comp_next: V,
+    last: V,
+    /// `x'` before the hidden-constraint projection.
+    after_step: V,
+    last_h: V::Real,
+    have_step: bool,
+    stats: FlowStats,
+}
+
+impl<V: Vector, Ms, H, C, W: Vector<Real = V::Real>> core::fmt::Debug
+    for ConstrainedDiscreteGradient<V, Ms, H, C, W>
+{
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("ConstrainedDiscreteGradient")
+            .field("n", &self.start.len())
+            .field("m", &self.g0.len())
+            .field("hidden_projection", &self.hidden.is_some())
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<V, Ms, H, C, W> ConstrainedDiscreteGradient<V, Ms, H, C, W>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+    W: Vector<Real = V::Real>,
+{
+    /// The constrained discrete-gradient flow of `system` for states shaped like `x0`, which
+    /// must satisfy `g(x0) = 0` to `options.manifold_tol`. The case (whether a hidden constraint
+    /// exists) comes from `options.case` or the brackets at `x0`; `options.newton` is used for
+    /// both Newton solves.
+    pub fn try_new(
+        system: System<Ms, H, C>,
+        x0: &V,
+        options: ProjectionOptions<V::Real>,
+    ) -> Result<Self, SetupError> {
+        if let Some(component) = ops::first_non_finite(x0.as_slice()) {
+            return Err(SetupError::NonFiniteState { component });
+        }
+        let n = x0.len();
+        let m = system.constraint.dim();
+        if m > n {
+            return Err(SetupError::Dimension {
+                what: format!("{m} constraints on a state of dimension {n}"),
+            });
+        }
+        let case = match options.case {
+            Some(c) => c,
+            None => Brackets::new(&system).case(x0, options.degeneracy_tol, options.rcond)?,
+        };
+        let mut g0 = vec![V::Real::zero(); m];
+        if let Some(tol) = options.manifold_tol {
+            system.constraint.residual(x0, &mut g0);
+            let g = ops::norm_inf(&g0);
+            if g.is_nan() || g > tol {
+                return Err(SetupError::OffManifold {
+                    what: "g",
+                    residual: g.to_f64_lossy(),
+                });
+            }
+        }
+        let hidden = match case {
+            Case::Degenerate => Some(Newton::new(m, options.newton)?),
+            Case::NonDegenerate => None,
+        };
+        Ok(Self {
+            newton: Newton::new(n + m, options.newton)?,
+            hidden,
+            z: W::zeros(n + m),
+            lambda: vec![V::Real::zero(); m],
+            nu: vec![V::Real::zero(); m],
+            g1: g0.clone(),
+            gd: g0.clone(),
+            g0,
+            start: x0.zeros_like(),
+            xm: x0.zeros_like(),
+            xe: x0.zeros_like(),
+            grad: x0.zeros_like(),
+            f: x0.zeros_like(),
+            tmp: x0.zeros_like(),
+            t2: x0.zeros_like(),
+            comp: x0.zeros_like(),
+            comp_next: x0.zeros_like(),
+            last: x0.zeros_like(),
+            after_step: x0.zeros_like(),
+            last_h: V::Real::zero(),
+            have_step: false,
+            stats: FlowStats::default(),
+            system,
+        })
+    }
+
+    /// Turns the hidden-constraint projection off: the step is the symmetric Gonzalez step,
+    /// `φ` stays `O(h²)`.
+    pub fn without_hidden_projection(mut self) -> Self {
+        self.hidden = None;
+        self
+    }
+
+    /// The system.
+    pub fn system(&self) -> &System<Ms, H, C> {
+        &self.system
+    }
+
+    /// The multipliers `λ` of the last step.
+    pub fn multipliers(&self) -> &[V::Real] {
+        &self.lambda
+    }
+
+    /// The energy bookkeeping of the last successful step (`None` before the first), recomputed
+    /// from the stored step (costs one residual evaluation and three energies).
+    pub fn energy_balance(&mut self) -> Option<EnergyBalance<V::Real>> {
+        if !self.have_step {
+            return None;
+        }
+        let h = self.last_h;
+        let zs = self.z.as_slice().to_vec();
+        let mut out = vec![V::Real::zero(); zs.len()];
+        let mut problem = problem!(self, h);
+        problem.residual(&zs, &mut out).ok()?;
+        // grad = h F̄, f = h M(x̄) F̄.
+        let supplied = ops::dot(problem.grad.as_slice(), problem.f.as_slice()) / h;
+        let sys = &self.system;
+        Some(EnergyBalance {
+            before: sys.hamiltonian.energy(&self.start),
+            after_step: sys.hamiltonian.energy(&self.after_step),
+            after: sys.hamiltonian.energy(&self.last),
+            supplied,
+        })
+    }
+}
+
+/// The step's nonlinear problem, borrowing the flow's fields one by one (so that the flow's
+/// Newton solvers stay usable alongside).
+macro_rules! problem {
+    ($s:expr, $h:expr) => {
+        Problem {
+            h: $h,
+            noise: V::Real::zero(),
+            x: &$s.start,
+            xm: &mut $s.xm,
+            xe: &mut $s.xe,
+            grad: &mut $s.grad,
+            f: &mut $s.f,
+            tmp: &mut $s.tmp,
+            g0: &$s.g0,
+            g1: &mut $s.g1,
+            gd: &mut $s.gd,
+            system: &$s.system,
+        }
+    };
+}
+use problem;
+
+/// `F(δ, ℓ) = (δ − h M(x̄)(∇̄H + ∇̄gᵀℓ/h),  g(x + δ))`.
+struct Problem<'a, V: Vector, Ms, H, C> {
+    h: V::Real,
+    noise: V::Real,
+    x: &'a V,
+    xm: &'a mut V,
+    xe: &'a mut V,
+    grad: &'a mut V,
+    f: &'a mut V,
+    tmp: &'a mut V,
+    g0: &'a [V::Real],
+    g1: &'a mut [V::Real],
+    gd: &'a mut [V::Real],
+    system: &'a System<Ms, H, C>,
+}
+
+impl<V, Ms, H, C> NonlinearProblem<V::Real> for Problem<'_, V, Ms, H, C>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    fn dim(&self) -> usize {
+        self.x.len() + self.g0.len()
+    }
+
+    fn noise_floor(&self) -> V::Real {
+        self.noise
+    }
+
+    fn noisy_rows(&self) -> usize {
+        self.x.len()
+    }
+
+    fn residual(&mut self, z: &[V::Real], out: &mut [V::Real]) -> Result<(), StepError> {
+        let n = self.x.len();
+        let (delta, ell) = z.split_at(n);
+        let x = self.x.as_slice();
+        ops::add_scaled(self.xm.as_mut_slice(), x, V::Real::lit(0.5), delta);
+        ops::add_scaled(self.xe.as_mut_slice(), x, V::Real::one(), delta);
+        let sys = self.system;
+        // grad = h ∇̄H.
+        let noise = GonzalezRule::gradient(
+            &sys.hamiltonian,
+            self.x,
+            delta,
+            self.xm,
+            self.tmp,
+            self.grad,
+        );
+        for gi in self.grad.as_mut_slice() {
+            *gi = *gi * self.h;
+        }
+        // grad += ∇̄gᵀ ℓ = G(x̄)ᵀ ℓ + (ℓ · c) δ,  cᵢ = (gᵢ(x') − gᵢ(x) − (G(x̄) δ)ᵢ) / |δ|².
+        sys.constraint.residual(self.xe, self.g1);
+        sys.constraint
+            .jacobian_transpose_apply_add(self.xm, ell, V::Real::one(), self.grad);
+        let d2 = ops::dot(delta, delta);
+        let x2 = ops::dot(x, x);
+        if d2 > V::Real::epsilon().powf(V::Real::lit(2.0 / 3.0)) * (V::Real::one() + x2) {
+            for (t, &d) in self.tmp.as_mut_slice().iter_mut().zip(delta) {
+                *t = d;
+            }
+            sys.constraint.jacobian_apply(self.xm, self.tmp, self.gd);
+            let mut lc = V::Real::zero();
+            for (((&l, &g1), &g0), &gd) in ell.iter().zip(&*self.g1).zip(self.g0).zip(&*self.gd) {
+                lc = lc + l * (g1 - g0 - gd);
+            }
+            ops::axpy(self.grad.as_mut_slice(), lc / d2, delta);
+        }
+        sys.structure.apply(self.xm, self.grad, self.f);
+        self.noise = noise_image(
+            &sys.structure,
+            self.xm,
+            delta,
+            noise,
+            self.h,
+            self.tmp,
+            self.xe,
+        );
+        let (od, og) = out.split_at_mut(n);
+        for ((o, &d), &fi) in od.iter_mut().zip(delta).zip(self.f.as_slice()) {
+            *o = d - fi;
+        }
+        og.copy_from_slice(self.g1);
+        Ok(())
+    }
+}
+
+/// `F(ν) = φ(x' + M(x') G(x')ᵀ ν)`: the hidden-constraint projection.
+struct Hidden<'a, V: Vector, Ms, H, C> {
+    base: &'a V,
+    /// `M(x') G(x')ᵀ` applied to `ν` lands here: `x = base + dir(ν)`.
+    x: &'a mut V,
+    t1: &'a mut V,
+    t2: &'a mut V,
+    system: &'a System<Ms, H, C>,
+}
+
+impl<V, Ms, H, C> Hidden<'_, V, Ms, H, C>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    /// `x = base + M(base) G(base)ᵀ ν`.
+    fn place(&mut self, nu: &[V::Real]) {
+        ops::fill_zero(self.t1.as_mut_slice());
+        self.system
+            .constraint
+            .jacobian_transpose_apply_add(self.base, nu, V::Real::one(), self.t1);
+        self.system.structure.apply(self.base, self.t1, self.t2);
+        ops::add_scaled(
+            self.x.as_mut_slice(),
+            self.base.as_slice(),
+            V::Real::one(),
+            self.t2.as_slice(),
+        );
+    }
+}
+
+impl<V, Ms, H, C> NonlinearProblem<V::Real> for Hidden<'_, V, Ms, H, C>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    fn dim(&self) -> usize {
+        self.system.constraint.dim()
+    }
+
+    fn residual(&mut self, nu: &[V::Real], out: &mut [V::Real]) -> Result<(), StepError> {
+        self.place(nu);
+        self.system.hidden_constraint(self.x, self.t1, self.t2, out);
+        Ok(())
+    }
+}
+
+fn newton_error(stage: &'static str, e: NewtonError) -> StepError {
+    match e {
+        NewtonError::Residual(e) => *e,
+        source => StepError::Newton { stage, source },
+    }
+}
+
+impl<V, Ms, H, C, W> Flow<V> for ConstrainedDiscreteGradient<V, Ms, H, C, W>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+    W: Vector<Real = V::Real>,
+{
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        let n = self.start.len();
+        if x.len() != n {
+            return Err(StepError::StateLength {
+                flow: "constrained discrete gradient",
+                expected: n,
+                got: x.len(),
+            });
+        }
+        if !super::check_step(h, x)? {
+            return Ok(());
+        }
+        self.start.copy_from(x);
+        self.system.constraint.residual(&self.start, &mut self.g0);
+        // Predictor: δ = M(x)(h ∇H(x) + G(x)ᵀ ℓ), ℓ = h λ_prev.
+        {
+            let (zd, zl) = self.z.as_mut_slice().split_at_mut(n);
+            for (l, &lp) in zl.iter_mut().zip(&self.lambda) {
+                *l = h * lp;
+            }
+            let sys = &self.system;
+            sys.hamiltonian.gradient(&self.start, &mut self.grad);
+            for g in self.grad.as_mut_slice() {
+                *g = *g * h;
+            }
+            sys.constraint.jacobian_transpose_apply_add(
+                &self.start,
+                zl,
+                V::Real::one(),
+                &mut self.grad,
+            );
+            sys.structure.apply(&self.start, &self.grad, &mut self.f);
+            zd.copy_from_slice(self.f.as_slice());
+        }
+        let solved = {
+            let mut problem = problem!(self, h);
+            self.newton.solve(&mut problem, self.z.as_mut_slice())
+        };
+        let report = match solved {
+            Ok(report) => report,
+            Err(e) => {
+                self.newton.invalidate_jacobian();
+                return Err(newton_error("constrained discrete gradient", e));
+            }
+        };
+        self.stats.newton_solves += 1;
+        self.stats.newton_iterations += report.iterations as u64;
+        self.stats.residual_evaluations += report.residual_evaluations as u64;
+        self.stats.factorizations += report.factorizations as u64;
+        let delta = &self.z.as_slice()[..n];
+        if let Some(component) = ops::first_non_finite(self.z.as_slice()) {
+            self.newton.invalidate_jacobian();
+            return Err(StepError::NonFinite {
+                component: component.min(n - 1),
+            });
+        }
+        // x' = x + δ, compensated (only for the state this flow returned last).
+        self.after_step.copy_from(&self.start);
+        if self.start.as_slice() != self.last.as_slice() {
+            ops::fill_zero(self.comp.as_mut_slice());
+        }
+        self.comp_next.copy_from(&self.comp);
+        for ((xi, &d), c) in self
+            .after_step
+            .as_mut_slice()
+            .iter_mut()
+            .zip(delta)
+            .zip(self.comp_next.as_mut_slice())
+        {
+            let y = d + *c;
+            let t = *xi + y;
+            *c = (*xi - t) + y;
+            *xi = t;
+        }
+        // Hidden-constraint projection x'' = x' + M(x') G(x')ᵀ ν, φ(x'') = 0.
+        self.last.copy_from(&self.after_step);
+        if let Some(hidden) = self.hidden.as_mut() {
+            ops::fill_zero(&mut self.nu);
+            let mut problem = Hidden {
+                base: &self.after_step,
+                x: &mut self.xe,
+                t1: &mut self.tmp,
+                t2: &mut self.t2,
+                system: &self.system,
+            };
+            let report = match hidden.solve(&mut problem, &mut self.nu) {
+                Ok(r) => r,
+                Err(e) => {
+                    hidden.invalidate_jacobian();
+                    return Err(newton_error("hidden-constraint projection", e));
+                }
+            };
+            problem.place(&self.nu);
+            self.stats.newton_solves += 1;
+            self.stats.newton_iterations += report.iterations as u64;
+            self.stats.residual_evaluations += report.residual_evaluations as u64;
+            self.stats.factorizations += report.factorizations as u64;
+            self.last.copy_from(&self.xe);
+        }
+        if let Some(component) = ops::first_non_finite(self.last.as_slice()) {
+            self.newton.invalidate_jacobian();
+            return Err(StepError::NonFinite { component });
+        }
+        core::mem::swap(&mut self.comp, &mut self.comp_next);
+        for (l, &e) in self.lambda.iter_mut().zip(&self.z.as_slice()[n..]) {
+            *l = e / h;
+        }
+        self.last_h = h;
+        self.have_step = true;
+        x.copy_from(&self.last);
+        Ok(())
+    }
+    fn order(&self) -> u32 {
+        2
+    }
+    fn is_symmetric(&self) -> bool {
+        self.hidden.is_none()
+    }
+    fn stats(&self) -> FlowStats {
+        self.stats
+    }
+    fn dissipates(&self) -> bool {
+        self.system.structure.is_dissipative()
+    }
+}
