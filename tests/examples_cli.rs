@@ -103,6 +103,43 @@ fn rigid_body_prints_the_json_contract_last() {
     assert!(c <= 1e-14, "{c:e}");
 }
 
+/// The damped pendulum: the discrete gradient never increases H across step sizes; the
+/// projection scheme keeps the residuals at round-off; a triple jump is refused (exit 1).
+#[test]
+fn damped_pendulum_prints_the_json_contract_last() {
+    for dt in ["0.001", "0.1", "1"] {
+        let (code, out, err) = run(
+            "damped_pendulum",
+            &["--scheme", "discrete-gradient", "--dt", dt, "--t-end", "5"],
+        );
+        assert_eq!(code, 0, "{err}");
+        let last = out.lines().last().unwrap();
+        for key in [
+            "t",
+            "x",
+            "energy",
+            "max_abs_g",
+            "max_abs_phi",
+            "ns_per_step",
+        ] {
+            field(last, key);
+        }
+        assert_eq!(field(last, "energy_increase_steps"), "0", "dt {dt}: {last}");
+    }
+    let (code, out, _) = run("damped_pendulum", &["--t-end", "5"]);
+    assert_eq!(code, 0);
+    let last = out.lines().last().unwrap();
+    for key in ["max_abs_g", "max_abs_phi"] {
+        let v: f64 = field(last, key).parse().unwrap();
+        assert!(v <= 1e-13, "{key} = {v:e}");
+    }
+    let (code, _, err) = run("damped_pendulum", &["--scheme", "triple-jump"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("backward sub-step"), "{err}");
+    let (code, _, err) = run("damped_pendulum", &["--damping", "-1"]);
+    assert_eq!(code, 2, "{err}");
+}
+
 #[test]
 fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
     for args in [
@@ -112,7 +149,12 @@ fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
         &["--scheme", "rk4"],
         &["--t-end"],
     ] {
-        for name in ["paper_example", "spherical_pendulum", "rigid_body"] {
+        for name in [
+            "paper_example",
+            "spherical_pendulum",
+            "rigid_body",
+            "damped_pendulum",
+        ] {
             let (code, out, err) = run(name, args);
             assert_eq!(code, 2, "{name} {args:?}: exit {code}, stdout {out}");
             assert!(err.contains("error:"), "{name} {args:?}: {err}");
