@@ -58,6 +58,66 @@ fn projection_scheme_is_order_2() {
     check_order(None, 2.0, &[0.4, 0.2, 0.1, 0.05, 0.025], 20.0);
 }
 
+/// The paper's §2 scheme: projection half-steps around the implicit-midpoint flow of
+/// `H_N1 = H + μ g`. Order 2, residuals at round-off every step.
+#[test]
+fn modified_hamiltonian_scheme_is_order_2() {
+    use lieflow::flow::ImplicitMidpoint;
+    use lieflow::nonlinear::NewtonOptions;
+    let hs = [0.4, 0.2, 0.1, 0.05, 0.025];
+    let t_end = 20.0;
+    let r = paper::reference(t_end, -0.15, 1e-3);
+    let errs: Vec<f64> = hs
+        .iter()
+        .map(|&h| {
+            let mut x: V4 = paper::initial_state();
+            let inner: ImplicitMidpoint<V4, _, _> = ImplicitMidpoint::try_new(
+                paper::Structure,
+                paper::modified_hamiltonian::<V4>(),
+                &x,
+                NewtonOptions::default(),
+            )
+            .unwrap();
+            let mut f = inner
+                .projected(paper::system(), &x, ProjectionOptions::default())
+                .unwrap();
+            let sys = paper::system();
+            let (mut t1, mut t2) = (V4::zeros(), V4::zeros());
+            for _ in 0..(t_end / h).round() as usize {
+                f.step(h, &mut x).unwrap();
+                let (mut g, mut phi) = ([0.0], [0.0]);
+                sys.constraint.residual(&x, &mut g);
+                sys.hidden_constraint(&x, &mut t1, &mut t2, &mut phi);
+                assert!(g[0].abs() <= 4.0 * f64::EPSILON && phi[0].abs() <= 4.0 * f64::EPSILON);
+            }
+            (0..4).map(|i| (x[i] - r[i]).abs()).fold(0.0, f64::max)
+        })
+        .collect();
+    let p = fitted_order(&hs, &errs, 1e-12);
+    eprintln!("modified: errors = {errs:?}, fitted order {p:.3}");
+    assert!((p - 2.0).abs() <= 0.1, "fitted order {p}");
+}
+
+/// The closed-form μ of the paper model agrees with the finite-difference brackets.
+#[test]
+fn closed_form_modified_multiplier_matches_the_brackets() {
+    let sys = paper::system();
+    let brackets = lieflow::system::Brackets::new(&sys);
+    for th in [0.0f64, 0.7, 2.0] {
+        let (s, c) = th.sin_cos();
+        let x = V4::new(c, s, -0.3 * s, 0.3 * c);
+        let fd = brackets.modified_multiplier(&x, Case::Degenerate).unwrap();
+        let mut mu = [0.0];
+        paper::modified_multiplier(&x, &mut mu);
+        assert!(
+            (fd[0] - mu[0]).abs() <= 1e-7 * mu[0].abs(),
+            "{} vs {}",
+            fd[0],
+            mu[0]
+        );
+    }
+}
+
 #[test]
 fn triple_jump_is_order_4() {
     check_order(Some(&TRIPLE_JUMP), 4.0, &[0.8, 0.4, 0.2, 0.1], 40.0);

@@ -62,6 +62,14 @@ fn paper_example_prints_the_json_contract_last() {
     assert_eq!(field(last, "scheme"), "\"triple-jump\"");
     let g: f64 = field(last, "max_abs_g").parse().unwrap();
     assert!(g <= 1e-14);
+    // The §2 scheme (modified Hamiltonian) is selectable and keeps the residuals at round-off.
+    let (code, out, err) = run("paper_example", &["--t-end", "5", "--scheme", "modified"]);
+    assert_eq!(code, 0, "{err}");
+    let last = out.lines().last().unwrap();
+    for key in ["max_abs_g", "max_abs_phi"] {
+        let v: f64 = field(last, key).parse().unwrap();
+        assert!(v <= 1e-15, "{key} = {v:e}");
+    }
 }
 
 #[test]

@@ -15,7 +15,9 @@
 
 use crate::flow::{FnFlow, from_fn};
 use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::{
+    Hamiltonian, HolonomicConstraint, ModifiedHamiltonian, StructureMatrix, System,
+};
 use crate::vector::Vector;
 
 /// The paper's constant structure matrix (applied without storing it).
@@ -91,6 +93,28 @@ use num_traits::{One, Zero};
 /// The paper's system: `M`, `H`, `g`.
 pub fn system() -> System<Structure, Energy, Circle> {
     System::new(Structure, Energy, Circle)
+}
+
+/// The multiplier of the modified Hamiltonian `H_N1 = H + μ g` (degenerate case,
+/// `μ = −⟨φ,g⟩⁻¹⟨φ,H⟩`) in closed form: `⟨φ,g⟩ = −(x₁² + 2x₂²)`, `⟨φ,H⟩ = x₃² + x₄²`, so
+/// `μ = (x₃² + x₄²)/(x₁² + 2x₂²)`.
+pub fn modified_multiplier<V: Vector>(x: &V, out: &mut [V::Real]) {
+    let x = x.as_slice();
+    out[0] = (x[2] * x[2] + x[3] * x[3]) / (x[0] * x[0] + V::Real::lit(2.0) * x[1] * x[1]);
+}
+
+/// `H_N1 = H + μ g` for the paper's model, `μ` from [`modified_multiplier`].
+pub type Modified<V> =
+    ModifiedHamiltonian<Energy, Circle, fn(&V, &mut [<V as Vector>::Real]), <V as Vector>::Real>;
+
+/// The modified Hamiltonian `H_N1 = H + μ g` of the paper's §2 scheme (see
+/// [`ModifiedHamiltonian`](crate::system::ModifiedHamiltonian)).
+pub fn modified_hamiltonian<V: Vector>() -> Modified<V> {
+    ModifiedHamiltonian::new(
+        Energy,
+        Circle,
+        modified_multiplier::<V> as fn(&V, &mut [V::Real]),
+    )
 }
 
 /// The exact flow `exp(h D_H)`: the drift `x₁ += h x₃, x₂ += h x₄`.

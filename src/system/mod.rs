@@ -10,11 +10,13 @@
 mod bracket;
 mod constraint;
 mod hamiltonian;
+mod modified;
 mod structure;
 
 pub use bracket::{Brackets, Case, bracket};
 pub use constraint::HolonomicConstraint;
 pub use hamiltonian::Hamiltonian;
+pub use modified::ModifiedHamiltonian;
 pub use structure::{
     Canonical, Constant, JMinusR, LiePoissonSo3, MomentumDamping, StructureMatrix,
 };
