@@ -31,6 +31,8 @@ fn field<'a>(json: &'a str, key: &str) -> &'a str {
     let rest = &json[start..];
     let end = if rest.starts_with('[') {
         rest.find(']').unwrap() + 1
+    } else if let Some(quoted) = rest.strip_prefix('"') {
+        quoted.find('"').unwrap() + 2
     } else {
         rest.find([',', '}']).unwrap()
     };
@@ -148,6 +150,25 @@ fn damped_pendulum_prints_the_json_contract_last() {
     assert_eq!(code, 2, "{err}");
 }
 
+/// Stiff damping c = 1e6 at h = 0.1: the exact-damping splitting, the implicit flows and the
+/// exact flow decay monotonically; the triple jump is refused; explicit damping blows up.
+#[test]
+fn stiff_chain_sorts_the_schemes() {
+    let (code, out, err) = run("stiff_chain", &[]);
+    assert_eq!(code, 0, "{err}");
+    let last = out.lines().last().unwrap();
+    assert_eq!(
+        field(last, "monotone"),
+        "\"strang-exact-damping,discrete-gradient,implicit-midpoint,exact\""
+    );
+    assert_eq!(field(last, "refused"), "\"triple-jump\"");
+    assert_eq!(field(last, "unstable"), "\"explicit-damping\"");
+    let (code, out, _) = run("stiff_chain", &["--scheme", "discrete-gradient"]);
+    assert_eq!(code, 0);
+    let last = out.lines().last().unwrap();
+    assert_eq!(field(last, "energy_increase_steps"), "0");
+}
+
 #[test]
 fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
     for args in [
@@ -162,6 +183,7 @@ fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
             "spherical_pendulum",
             "rigid_body",
             "damped_pendulum",
+            "stiff_chain",
         ] {
             let (code, out, err) = run(name, args);
             assert_eq!(code, 2, "{name} {args:?}: exit {code}, stdout {out}");

@@ -17,8 +17,14 @@ pub struct FnFlow<F> {
 impl<F> FnFlow<F> {
     /// Marks the flow as dissipative (for instance the exact damping flow `p ← e^{−ch} p`), so
     /// that compositions with backward sub-steps refuse it. See [`Flow::dissipates`].
-    pub fn dissipative(mut self) -> Self {
-        self.dissipative = true;
+    pub fn dissipative(self) -> Self {
+        self.dissipative_if(true)
+    }
+
+    /// Marks the flow as dissipative when `dissipates` holds (e.g. `c > 0` for a damping flow
+    /// `p ← e^{−ch} p`, which is the identity at `c = 0`).
+    pub fn dissipative_if(mut self, dissipates: bool) -> Self {
+        self.dissipative = dissipates;
         self
     }
 }

@@ -5,7 +5,9 @@ pub mod damped_pendulum;
 pub mod paper;
 pub mod rigid_body;
 pub mod spherical_pendulum;
+pub mod spring_chain;
 
 pub use damped_pendulum::DampedPendulum;
 pub use rigid_body::RigidBody;
 pub use spherical_pendulum::SphericalPendulum;
+pub use spring_chain::SpringChain;
