@@ -147,6 +147,8 @@ pub struct IncrementFlow<V: Vector, Ms, H, R, L = <V as Vector>::Solver> {
     grad: V,
     f: V,
     tmp: V,
+    /// Workspace for closed-form Jacobian columns.
+    jac: [V; 2],
     /// Compensation of the last `x + δ` (Kahan), valid while `x` is the state last returned.
     comp: V,
     last: V,
@@ -193,6 +195,7 @@ where
             grad: x0.zeros_like(),
             f: x0.zeros_like(),
             tmp: x0.zeros_like(),
+            jac: [x0.zeros_like(), x0.zeros_like()],
             comp: x0.zeros_like(),
             last: x0.zeros_like(),
             stats: FlowStats::default(),
@@ -210,6 +213,7 @@ struct Increment<'a, V: Vector, Ms, H, R> {
     grad: &'a mut V,
     f: &'a mut V,
     tmp: &'a mut V,
+    jac: &'a mut [V; 2],
     structure: &'a Ms,
     hamiltonian: &'a H,
 }
@@ -287,6 +291,39 @@ where
         self.noise
     }
 
+    /// `∂F/∂δ_j = e_j − (h/2) (DM(x̄)[e_j] ∇H(x̄) + M(x̄) ∇²H(x̄) e_j)` from the model's
+    /// derivatives (the midpoint rule's Jacobian; for the discrete gradient it is exact when
+    /// `H` is quadratic and `O(|δ|)` off otherwise, which Newton absorbs).
+    fn jacobian_column(&mut self, z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
+        let half = V::Real::lit(0.5);
+        ops::add_scaled(self.xm.as_mut_slice(), self.x.as_slice(), half, z);
+        ops::fill_zero(self.tmp.as_mut_slice());
+        self.tmp.as_mut_slice()[j] = V::Real::one();
+        let [hv, col] = &mut *self.jac;
+        if !self.hamiltonian.hessian_apply(self.xm, self.tmp, hv) {
+            return false;
+        }
+        self.structure.apply(self.xm, hv, col);
+        if j == 0 {
+            self.hamiltonian.gradient(self.xm, self.grad);
+        }
+        if !self
+            .structure
+            .derivative_apply_add(self.xm, self.tmp, self.grad, V::Real::one(), col)
+        {
+            return false;
+        }
+        let c = self.h * half;
+        for (i, (o, &v)) in out.iter_mut().zip(col.as_slice()).enumerate() {
+            *o = if i == j {
+                V::Real::one()
+            } else {
+                V::Real::zero()
+            } - c * v;
+        }
+        true
+    }
+
     fn residual(&mut self, z: &[V::Real], out: &mut [V::Real]) -> Result<(), StepError> {
         self.increment_field(z);
         for ((o, &zi), &fi) in out.iter_mut().zip(z).zip(self.f.as_slice()) {
@@ -324,6 +361,7 @@ where
             grad: &mut self.grad,
             f: &mut self.f,
             tmp: &mut self.tmp,
+            jac: &mut self.jac,
             structure: &self.structure,
             hamiltonian: &self.hamiltonian,
         };

@@ -122,4 +122,11 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for DampedPendulum<T> {
         out.as_mut_slice()
             .copy_from_slice(&[T::zero(), T::one(), s[2], s[3]]);
     }
+    #[inline]
+    fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
+        let v = v.as_slice();
+        out.as_mut_slice()
+            .copy_from_slice(&[T::zero(), T::zero(), v[2], v[3]]);
+        true
+    }
 }

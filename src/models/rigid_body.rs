@@ -67,4 +67,12 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for RigidBody<T> {
             o[i] = y[i] / self.inertia[i];
         }
     }
+    #[inline]
+    fn hessian_apply(&self, _y: &V, v: &V, out: &mut V) -> bool {
+        let (v, o) = (v.as_slice(), out.as_mut_slice());
+        for i in 0..3 {
+            o[i] = v[i] / self.inertia[i];
+        }
+        true
+    }
 }

@@ -142,19 +142,36 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for SpringChain<T> {
         T::lit(0.5) * e
     }
     fn gradient(&self, x: &V, out: &mut V) {
-        let n = self.masses;
-        let k = self.stiffness;
-        let (q, p) = x.as_slice().split_at(n);
-        let o = out.as_mut_slice();
-        for i in 0..n {
-            let left = if i == 0 { q[0] } else { q[i] - q[i - 1] };
-            let right = if i + 1 < n {
-                q[i + 1] - q[i]
-            } else {
-                T::zero()
-            };
-            o[i] = k * (left - right);
-            o[n + i] = p[i];
-        }
+        spring_gradient(
+            self.masses,
+            self.stiffness,
+            x.as_slice(),
+            out.as_mut_slice(),
+        );
+    }
+    /// `H` is quadratic: `∇²H v = ∇H(v)`.
+    fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
+        spring_gradient(
+            self.masses,
+            self.stiffness,
+            v.as_slice(),
+            out.as_mut_slice(),
+        );
+        true
+    }
+}
+
+/// `o = ∇H(x)` for the chain: `(K q, p)`.
+fn spring_gradient<T: Real>(n: usize, k: T, x: &[T], o: &mut [T]) {
+    let (q, p) = x.split_at(n);
+    for i in 0..n {
+        let left = if i == 0 { q[0] } else { q[i] - q[i - 1] };
+        let right = if i + 1 < n {
+            q[i + 1] - q[i]
+        } else {
+            T::zero()
+        };
+        o[i] = k * (left - right);
+        o[n + i] = p[i];
     }
 }

@@ -36,6 +36,14 @@ pub trait NonlinearProblem<T: Real> {
     fn noisy_rows(&self) -> usize {
         self.dim()
     }
+    /// Writes column `j` of the Jacobian `∂F/∂z` at `z` into `out` and returns `true`, when the
+    /// problem has it in closed form (from model-provided derivatives). The default returns
+    /// `false`, and the solver falls back to forward differences (`dim()` residual evaluations,
+    /// about `√ε` relative accuracy). A problem must answer all columns alike.
+    fn jacobian_column(&mut self, z: &[T], j: usize, out: &mut [T]) -> bool {
+        let _ = (z, j, out);
+        false
+    }
 }
 
 /// A solver for [`NonlinearProblem`]s that owns its workspace.

@@ -18,7 +18,9 @@ pub enum JacobianUpdate {
     /// than [`NewtonOptions::max_contraction`] (or diverges): simplified Newton with the
     /// Jacobian of an earlier step, the standard choice for implicit integrators (Hairer &
     /// Wanner, *Solving ODEs II*, §IV.8). In a time-stepping loop the Jacobian changes by
-    /// `O(h)` per step, so most solves need no Jacobian at all.
+    /// `O(h)` per step, so most solves need no Jacobian at all. A Jacobian the problem provides
+    /// in closed form ([`NonlinearProblem::jacobian_column`]) costs no residual evaluations and
+    /// is rebuilt at the start of every solve instead.
     #[default]
     Reuse,
 }
@@ -127,6 +129,9 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     jacobian_scale: V::Real,
     /// The Jacobian when `k = 1` (kept here instead of in the linear solver).
     j11: V::Real,
+    /// The last Jacobian came in closed form from the problem: rebuilding it costs no residual
+    /// evaluations, so [`JacobianUpdate::Reuse`] rebuilds it at the start of every solve.
+    analytic: bool,
 }
 
 impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
@@ -143,6 +148,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             have_jacobian: false,
             jacobian_scale: V::Real::one(),
             j11: V::Real::zero(),
+            analytic: false,
         })
     }
 
@@ -212,7 +218,18 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         let floor = if inv.is_finite() { inv } else { one };
         let zmax = ops::norm_inf(z).max(floor);
         let f = &self.f.as_slice()[..k];
-        for j in 0..k {
+        // A closed-form Jacobian when the problem has one, column by column.
+        let analytic = if k == 1 {
+            let mut c = [V::Real::zero()];
+            let ok = problem.jacobian_column(z, 0, &mut c);
+            self.j11 = c[0];
+            ok
+        } else {
+            problem.jacobian_column(z, 0, self.lin.column_mut(0))
+                && (1..k).all(|j| problem.jacobian_column(z, j, self.lin.column_mut(j)))
+        };
+        self.analytic = analytic;
+        for j in (0..k).filter(|_| !analytic) {
             let zp = &mut self.zp.as_mut_slice()[..k];
             zp.copy_from_slice(z);
             let delta = self.options.fd_step * z[j].abs().max(zmax);
@@ -308,7 +325,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                 || match opts.jacobian {
                     JacobianUpdate::EveryIteration => true,
                     JacobianUpdate::OncePerSolve => it == 0,
-                    JacobianUpdate::Reuse => false,
+                    JacobianUpdate::Reuse => it == 0 && self.analytic,
                 };
             if fresh {
                 self.have_jacobian = false;

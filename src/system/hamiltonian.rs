@@ -14,4 +14,12 @@ pub trait Hamiltonian<V: Vector> {
     fn energy_difference(&self, x: &V, y: &V) -> V::Real {
         self.energy(y) - self.energy(x)
     }
+    /// `out = ∇²H(x) v` and `true`, if the model provides its Hessian. Implicit flows then build
+    /// their Newton matrices in closed form (exact, and no extra residual evaluations). The
+    /// default returns `false`: the flows fall back to finite differences of their residual,
+    /// which is slower (`n` evaluations per Jacobian) and accurate only to about `√ε`.
+    fn hessian_apply(&self, x: &V, v: &V, out: &mut V) -> bool {
+        let _ = (x, v, out);
+        false
+    }
 }

@@ -23,6 +23,15 @@ pub trait StructureMatrix<V: Vector> {
         false
     }
 
+    /// `out += α (DM(x)[u]) w`, the derivative of `M` at `x` in the direction `u` applied to `w`,
+    /// and `true`, if the model provides it. The default provides it only for a constant `M`
+    /// (where it is zero); otherwise it returns `false` and implicit flows fall back to finite
+    /// differences (see [`Hamiltonian::hessian_apply`](crate::system::Hamiltonian::hessian_apply)).
+    fn derivative_apply_add(&self, x: &V, u: &V, w: &V, alpha: V::Real, out: &mut V) -> bool {
+        let _ = (x, u, w, alpha, out);
+        self.is_constant()
+    }
+
     /// `true` if `M` has a dissipative symmetric part (`R ≠ 0` in `M = J − R`). Flows built on
     /// it then report [`Flow::dissipates`](crate::Flow::dissipates).
     fn is_dissipative(&self) -> bool {
@@ -133,6 +142,10 @@ impl<V: Vector, J: StructureMatrix<V>, R: StructureMatrix<V>> StructureMatrix<V>
     fn is_constant(&self) -> bool {
         self.j.is_constant() && self.r.is_constant()
     }
+    fn derivative_apply_add(&self, x: &V, u: &V, w: &V, alpha: V::Real, out: &mut V) -> bool {
+        self.j.derivative_apply_add(x, u, w, alpha, out)
+            && self.r.derivative_apply_add(x, u, w, -alpha, out)
+    }
     fn is_dissipative(&self) -> bool {
         true
     }
@@ -183,5 +196,10 @@ impl<V: Vector> StructureMatrix<V> for LiePoissonSo3 {
         o[0] = o[0] + alpha * (y[1] * v[2] - y[2] * v[1]);
         o[1] = o[1] + alpha * (y[2] * v[0] - y[0] * v[2]);
         o[2] = o[2] + alpha * (y[0] * v[1] - y[1] * v[0]);
+    }
+    /// `M(y)` is linear in `y`: `DM(y)[u] w = u × w`.
+    fn derivative_apply_add(&self, _x: &V, u: &V, w: &V, alpha: V::Real, out: &mut V) -> bool {
+        self.apply_add(u, w, alpha, out);
+        true
     }
 }
