@@ -77,13 +77,13 @@ pub struct ReadmeDoctests;
 pub mod prelude {
     pub use crate::error::{IntegrateError, SetupError, StepError};
     pub use crate::flow::{
-        Coupling, Flow, FlowExt, ProjectionOptions, Scheme, coefficients, from_fn,
-        from_fn_with_order,
+        ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt, ImplicitMidpoint,
+        LinearFlow, ProjectionOptions, Scheme, coefficients, from_fn, from_fn_with_order,
     };
     pub use crate::integrate::{InvariantError, MaxResidual, Observer, Trajectory, integrate};
     pub use crate::system::{
-        Canonical, Case, Constant, Hamiltonian, HolonomicConstraint, JMinusR, StructureMatrix,
-        System,
+        Canonical, Case, Constant, Hamiltonian, HolonomicConstraint, JMinusR, ModifiedHamiltonian,
+        MomentumDamping, StructureMatrix, System,
     };
     pub use crate::{Real, Vector};
 }

@@ -138,3 +138,44 @@ fn heap_storage_steps_allocate_nothing_after_construction() {
         .unwrap();
     assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
 }
+
+/// The flows added for dissipation: the exact linear flow (cached exponentials), the projection
+/// around it, the constrained discrete gradient (heap Newton workspace), and the paper's §2
+/// scheme (projection around the implicit midpoint of the modified Hamiltonian).
+#[test]
+fn dissipative_and_general_flows_allocate_nothing_per_step() {
+    use faer::Col;
+    use lieflow::flow::{ConstrainedDiscreteGradient, ImplicitMidpoint};
+    use lieflow::models::DampedPendulum;
+    use lieflow::nonlinear::NewtonOptions;
+    type V = SVector<f64, 4>;
+    let model = DampedPendulum::try_new(0.1).unwrap();
+    let x0: V = model.state(1.2, 0.0);
+    let mut x = x0;
+    let mut f = model.free_flow().unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    let mut x = x0;
+    let mut f = model
+        .free_flow()
+        .unwrap()
+        .projected(model.system(), &x0, ProjectionOptions::default())
+        .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    let mut x = x0;
+    let mut f: ConstrainedDiscreteGradient<V, _, _, _, Col<f64>> =
+        ConstrainedDiscreteGradient::try_new(model.system(), &x0, ProjectionOptions::default())
+            .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    let mut x: V = paper::initial_state();
+    let inner: ImplicitMidpoint<V, _, _> = ImplicitMidpoint::try_new(
+        paper::Structure,
+        paper::modified_hamiltonian::<V>(),
+        &x,
+        NewtonOptions::default(),
+    )
+    .unwrap();
+    let mut f = inner
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+}
