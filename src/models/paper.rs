@@ -108,7 +108,7 @@ pub type Modified<V> =
     ModifiedHamiltonian<Energy, Circle, fn(&V, &mut [<V as Vector>::Real]), <V as Vector>::Real>;
 
 /// The modified Hamiltonian `H_N1 = H + μ g` of the paper's §2 scheme (see
-/// [`ModifiedHamiltonian`](crate::system::ModifiedHamiltonian)).
+/// [`ModifiedHamiltonian`]).
 pub fn modified_hamiltonian<V: Vector>() -> Modified<V> {
     ModifiedHamiltonian::new(
         Energy,
