@@ -184,3 +184,42 @@ fn discrete_gradient_is_symmetric_and_reports_dissipation() {
         Err(StepError::BackwardDissipation { .. })
     ));
 }
+
+/// Without dissipation the symmetric discrete gradient composes to order 4 by the triple jump.
+#[test]
+fn discrete_gradient_triple_jump_is_order_4_without_dissipation() {
+    let t_end = 5.0;
+    let f = |x: &V| V::new(x[1], -x[0].sin());
+    let n = 200_000;
+    let dt = t_end / n as f64;
+    let mut r = x0();
+    for _ in 0..n {
+        let k1 = f(&r);
+        let k2 = f(&(r + k1 * (0.5 * dt)));
+        let k3 = f(&(r + k2 * (0.5 * dt)));
+        let k4 = f(&(r + k3 * dt));
+        r += (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dt / 6.0);
+    }
+    let hs = [0.2, 0.1, 0.05, 0.025];
+    let errs: Vec<f64> = hs
+        .iter()
+        .map(|&h| {
+            let mut x = x0();
+            let mut tj = DiscreteGradient::<V, _, _>::try_new(
+                Canonical,
+                Pendulum,
+                &x,
+                NewtonOptions::default(),
+            )
+            .unwrap()
+            .triple_jump();
+            for _ in 0..(t_end / h).round() as usize {
+                tj.step(h, &mut x).unwrap();
+            }
+            (x - r).amax()
+        })
+        .collect();
+    let p = fitted_order(&hs, &errs, 1e-12);
+    eprintln!("discrete gradient triple jump errors {errs:?}, order {p:.3}");
+    assert!((p - 4.0).abs() <= 0.3, "order {p}");
+}
