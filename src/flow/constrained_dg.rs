@@ -1,11 +1,12 @@
 //! The discrete-gradient method with holonomic constraints (Gonzalez 1999).
 
 use super::implicit::{GonzalezRule, GradientRule, noise_image};
+use super::projection::check_initial_state;
 use super::{Flow, FlowStats, ProjectionOptions};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver};
 use crate::real::Real;
-use crate::system::{Brackets, Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::{Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System};
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
 
@@ -121,31 +122,10 @@ where
         x0: &V,
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
-        if let Some(component) = ops::first_non_finite(x0.as_slice()) {
-            return Err(SetupError::NonFiniteState { component });
-        }
-        let n = x0.len();
-        let m = system.constraint.dim();
-        if m > n {
-            return Err(SetupError::Dimension {
-                what: format!("{m} constraints on a state of dimension {n}"),
-            });
-        }
-        let case = match options.case {
-            Some(c) => c,
-            None => Brackets::new(&system).case(x0, options.degeneracy_tol, options.rcond)?,
-        };
-        let mut g0 = vec![V::Real::zero(); m];
-        if let Some(tol) = options.manifold_tol {
-            system.constraint.residual(x0, &mut g0);
-            let g = ops::norm_inf(&g0);
-            if g.is_nan() || g > tol {
-                return Err(SetupError::OffManifold {
-                    what: "g",
-                    residual: g.to_f64_lossy(),
-                });
-            }
-        }
+        // φ(x0) need not vanish: the first hidden-constraint projection restores it.
+        let case = check_initial_state(&system, x0, &options, false)?;
+        let (n, m) = (x0.len(), system.constraint.dim());
+        let g0 = vec![V::Real::zero(); m];
         let hidden = match case {
             Case::Degenerate => Some(Newton::new(m, options.newton)?),
             Case::NonDegenerate => None,
@@ -407,6 +387,8 @@ where
         if !super::check_step(h, x)? {
             return Ok(());
         }
+        // The stored step is overwritten below; report no balance unless this step succeeds.
+        self.have_step = false;
         self.start.copy_from(x);
         self.system.constraint.residual(&self.start, &mut self.g0);
         // Predictor: δ = M(x)(h ∇H(x) + G(x)ᵀ ℓ), ℓ = h λ_prev.

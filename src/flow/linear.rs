@@ -136,18 +136,6 @@ impl<T: Real> LinearFlow<T> {
         self.n
     }
 
-    /// `e^{hA}` (row-major `n²`) and `h φ₁(hA) b` (`n`), computed or taken from the cache.
-    pub fn propagator(&mut self, h: T) -> Result<(Vec<T>, Vec<T>), StepError> {
-        let slot = self.slot(h)?;
-        let n1 = self.n + 1;
-        let e = &self.cache[slot].exp;
-        let a = (0..self.n)
-            .flat_map(|i| e[i * n1..i * n1 + self.n].iter().copied())
-            .collect();
-        let w = (0..self.n).map(|i| e[i * n1 + self.n]).collect();
-        Ok((a, w))
-    }
-
     /// The cache slot holding `e^{h·generator}`, computing it if needed.
     fn slot(&mut self, h: T) -> Result<usize, StepError> {
         self.clock += 1;

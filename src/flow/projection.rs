@@ -194,47 +194,14 @@ where
         x0: &V,
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
-        if let Some(component) = ops::first_non_finite(x0.as_slice()) {
-            return Err(SetupError::NonFiniteState { component });
-        }
-        let n = x0.len();
-        let m = system.constraint.dim();
-        if m > n {
-            return Err(SetupError::Dimension {
-                what: format!("{m} constraints on a state of dimension {n}"),
-            });
-        }
-        let brackets = Brackets::new(&system);
-        let case = match options.case {
-            Some(c) => c,
-            None => brackets.case(x0, options.degeneracy_tol, options.rcond)?,
-        };
+        let case = check_initial_state(&system, x0, &options, true)?;
+        let (n, m) = (x0.len(), system.constraint.dim());
         if case == Case::Degenerate && 2 * m > n {
             return Err(SetupError::Dimension {
                 what: format!(
                     "{m} constraints and {m} hidden constraints on a state of dimension {n}: need 2m <= n"
                 ),
             });
-        }
-        if let Some(tol) = options.manifold_tol {
-            let mut gv = vec![V::Real::zero(); m];
-            system.constraint.residual(x0, &mut gv);
-            let g = ops::norm_inf(&gv);
-            if g.is_nan() || g > tol {
-                return Err(SetupError::OffManifold {
-                    what: "g",
-                    residual: g.to_f64_lossy(),
-                });
-            }
-            if case == Case::Degenerate {
-                let phi = ops::norm_inf(&brackets.g_h(x0));
-                if phi.is_nan() || phi > tol {
-                    return Err(SetupError::OffManifold {
-                        what: "phi",
-                        residual: phi.to_f64_lossy(),
-                    });
-                }
-            }
         }
         let scheme = match case {
             Case::NonDegenerate => Scheme::Symmetric,
@@ -691,4 +658,57 @@ where
         }
         Ok(())
     }
+}
+
+/// The checks every constrained flow makes at construction: `x0` finite, `m ≤ n`, the case
+/// (from `options.case` or the brackets at `x0`), and `‖g(x0)‖∞ ≤ options.manifold_tol` — with
+/// `check_phi`, also `‖φ(x0)‖∞` in the degenerate case. Returns the case.
+pub(crate) fn check_initial_state<V, Ms, H, C>(
+    system: &System<Ms, H, C>,
+    x0: &V,
+    options: &ProjectionOptions<V::Real>,
+    check_phi: bool,
+) -> Result<Case, SetupError>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    if let Some(component) = ops::first_non_finite(x0.as_slice()) {
+        return Err(SetupError::NonFiniteState { component });
+    }
+    let n = x0.len();
+    let m = system.constraint.dim();
+    if m > n {
+        return Err(SetupError::Dimension {
+            what: format!("{m} constraints on a state of dimension {n}"),
+        });
+    }
+    let brackets = Brackets::new(system);
+    let case = match options.case {
+        Some(c) => c,
+        None => brackets.case(x0, options.degeneracy_tol, options.rcond)?,
+    };
+    if let Some(tol) = options.manifold_tol {
+        let mut gv = vec![V::Real::zero(); m];
+        system.constraint.residual(x0, &mut gv);
+        let g = ops::norm_inf(&gv);
+        if g.is_nan() || g > tol {
+            return Err(SetupError::OffManifold {
+                what: "g",
+                residual: g.to_f64_lossy(),
+            });
+        }
+        if check_phi && case == Case::Degenerate {
+            let phi = ops::norm_inf(&brackets.g_h(x0));
+            if phi.is_nan() || phi > tol {
+                return Err(SetupError::OffManifold {
+                    what: "phi",
+                    residual: phi.to_f64_lossy(),
+                });
+            }
+        }
+    }
+    Ok(case)
 }
