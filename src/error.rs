@@ -16,7 +16,9 @@ pub enum LinearSolveError {
         "singular matrix: pivot {pivot} has magnitude {magnitude:e} ({ratio:e} of the largest pivot)"
     )]
     Singular {
-        /// Index of the offending pivot (0-based, after row pivoting).
+        /// The column (unknown) of the original matrix whose elimination found no pivot
+        /// (0-based; row pivoting does not change it, and the sparse solver maps its column
+        /// ordering back).
         pivot: usize,
         /// Its magnitude.
         magnitude: f64,
@@ -38,6 +40,43 @@ pub enum LinearSolveError {
         requested: usize,
         /// Largest dimension the solver supports.
         capacity: usize,
+    },
+    /// An entry lies outside the `dim × dim` matrix.
+    #[error("matrix entry ({row}, {col}) is outside a {dim} x {dim} matrix")]
+    OutOfBounds {
+        /// Row of the entry.
+        row: usize,
+        /// Column of the entry.
+        col: usize,
+        /// The dimension.
+        dim: usize,
+    },
+    /// A sparse assembly did not repeat the recorded pattern: entry number `entry` was expected
+    /// at `expected` (`None`: past the end of the pattern) but came at `got` (`None`: the
+    /// assembly stopped early). The pattern is recorded once, by the first assembly.
+    #[error(
+        "sparse assembly changed its pattern at entry {entry}: expected {expected:?}, got {got:?}"
+    )]
+    PatternChanged {
+        /// Position in the assembly sequence.
+        entry: usize,
+        /// The recorded position.
+        expected: Option<(usize, usize)>,
+        /// The position added.
+        got: Option<(usize, usize)>,
+    },
+    /// The sparsity pattern itself is singular: no choice of values makes the matrix invertible
+    /// (a column or row without entries, or more constraints than a set of unknowns can carry).
+    #[error("structurally singular sparse matrix (column {column} has no available pivot)")]
+    StructurallySingular {
+        /// The column (of the original matrix) without a pivot.
+        column: usize,
+    },
+    /// The backend ran out of memory or index range.
+    #[error("sparse backend failed: {what}")]
+    Backend {
+        /// What failed.
+        what: &'static str,
     },
 }
 

@@ -5,7 +5,7 @@
 //! model arithmetic in the same order; only the LU kernels of the multiplier systems differ
 //! (nalgebra-storage LU on the stack, faer's on the heap), so trajectories agree to round-off.
 
-use crate::linalg::{DenseLu, LinearSolver, StackLu};
+use crate::linalg::{AutoLu, LinearSolver, StackLu};
 use crate::real::Real;
 use core::fmt::Debug;
 
@@ -13,7 +13,8 @@ use core::fmt::Debug;
 ///
 /// Implemented for `nalgebra::SVector<T, N>` (stack, fixed size, for small models) and
 /// `faer::Col<T>` (heap, any size). Each storage names the dense linear solver used for its
-/// multiplier systems: [`StackLu`] on the stack, [`DenseLu`] (faer, workspace reused) on the heap.
+/// multiplier systems: [`StackLu`] on the stack, [`AutoLu`](crate::linalg::AutoLu) on the heap
+/// (stack, dense or sparse LU by size and sparsity).
 pub trait Vector: Clone + Debug + Send + Sync + 'static {
     /// The scalar type.
     type Real: Real;
@@ -77,10 +78,10 @@ where
 
 impl<T> Vector for faer::Col<T>
 where
-    T: Real + faer::traits::RealField,
+    T: Real + faer::traits::RealField + nalgebra::Scalar,
 {
     type Real = T;
-    type Solver = DenseLu<T>;
+    type Solver = AutoLu<T>;
 
     fn zeros(len: usize) -> Self {
         faer::Col::from_fn(len, |_| T::zero())

@@ -1,4 +1,4 @@
-use super::{LinearSolver, check_finite, check_pivots};
+use super::{LinearSolver, Sink, SolverKind, check_finite, check_pivots};
 use crate::error::LinearSolveError;
 use crate::real::Real;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -18,6 +18,8 @@ pub struct DenseLu<T: Real + faer::traits::RealField> {
     perm_inv: Vec<usize>,
     mem: MemBuffer,
     factored: bool,
+    /// The first entry added outside the matrix since the last `clear` (reported by `factor`).
+    out_of_bounds: Option<(usize, usize)>,
 }
 
 impl<T: Real + faer::traits::RealField> LinearSolver<T> for DenseLu<T> {
@@ -31,6 +33,7 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for DenseLu<T> {
             lu: Mat::zeros(k, k),
             perm: vec![0; k],
             perm_inv: vec![0; k],
+            out_of_bounds: None,
             mem: MemBuffer::new(req),
             factored: false,
         })
@@ -41,13 +44,26 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for DenseLu<T> {
     }
 
     #[inline]
-    fn column_mut(&mut self, j: usize) -> &mut [T] {
-        self.a.col_as_slice_mut(j)
+    fn column_mut(&mut self, j: usize) -> Option<&mut [T]> {
+        Some(self.a.col_as_slice_mut(j))
+    }
+
+    fn clear(&mut self) {
+        self.factored = false;
+        self.out_of_bounds = None;
+        self.a.fill(T::zero());
+    }
+
+    fn kind(&self) -> SolverKind {
+        SolverKind::Dense
     }
 
     fn factor(&mut self) -> Result<(), LinearSolveError> {
         let k = self.dim();
         self.factored = false;
+        if let Some((row, col)) = self.out_of_bounds {
+            return Err(LinearSolveError::OutOfBounds { row, col, dim: k });
+        }
         if let Some((row, col)) = check_finite(k, |idx| self.a[(idx % k, idx / k)]) {
             return Err(LinearSolveError::NonFinite { row, col });
         }
@@ -80,6 +96,21 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for DenseLu<T> {
         let stack = MemStack::new(&mut self.mem);
         solve::solve_in_place(self.lu.as_ref(), self.lu.as_ref(), perm, b, Par::Seq, stack);
         Ok(())
+    }
+}
+
+impl<T: Real + faer::traits::RealField> Sink<T> for DenseLu<T> {
+    /// Adds to entry `(row, col)`. A position outside the matrix is not stored; the next
+    /// `factor` reports it as [`LinearSolveError::OutOfBounds`].
+    #[inline]
+    fn add(&mut self, row: usize, col: usize, value: T) {
+        let k = self.a.nrows();
+        if row < k && col < k {
+            let a = &mut self.a[(row, col)];
+            *a += value;
+        } else if self.out_of_bounds.is_none() {
+            self.out_of_bounds = Some((row, col));
+        }
     }
 }
 

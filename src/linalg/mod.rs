@@ -6,27 +6,93 @@
 //!
 //! - [`StackLu`]: nalgebra LU on a fixed `N × N` stack matrix, for small systems (`k ≤ N`).
 //! - [`DenseLu`]: faer's low-level partial-pivoting LU with a reused workspace, for larger dense systems.
+//! - [`SparseLu`]: faer's simplicial sparse LU; symbolic analysis once per pattern, numeric
+//!   refactorization without allocation, for large systems with a sparse Jacobian.
+//! - [`AutoLu`]: picks one of the above by size and sparsity ([`SolverChoice`]), overridable.
 //!
-//! A sparse backend plugs in behind the same trait.
+//! Every solver is also a [`Sink`]: a matrix is assembled by [`LinearSolver::clear`] and
+//! [`Sink::add`] calls, the same code for dense and sparse storage. A dense solver also exposes
+//! its columns ([`LinearSolver::column_mut`]) for column-wise fills and rank-one updates.
 
+mod any_lu;
 mod dense_lu;
+mod sparse_lu;
 mod stack_lu;
 
+pub use any_lu::{AutoLu, SolverChoice, SolverKind};
 pub use dense_lu::DenseLu;
+pub use sparse_lu::SparseLu;
 pub use stack_lu::StackLu;
 
 use crate::error::LinearSolveError;
 use crate::real::Real;
 
+/// Receives the entries of a matrix one at a time: the single assembly interface through which
+/// a model's or a solver's code fills dense and sparse storage alike.
+///
+/// Entries at the same position are summed. A sparse receiver records the sequence of positions
+/// of its first assembly as its pattern; later assemblies must add the same positions in the
+/// same order (values may change, including to zero).
+pub trait Sink<T> {
+    /// Adds `value` at `(row, col)`.
+    fn add(&mut self, row: usize, col: usize, value: T);
+}
+
+/// A [`Sink`] that records positions only (values ignored): how a sparsity pattern is learned
+/// from the same code that later fills the values.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct PatternRecorder {
+    /// The positions in the order they were added (duplicates kept).
+    pub entries: Vec<(usize, usize)>,
+}
+
+impl<T> Sink<T> for PatternRecorder {
+    fn add(&mut self, row: usize, col: usize, _value: T) {
+        self.entries.push((row, col));
+    }
+}
+
+/// What a solver is told about the matrix before it is assembled, so that
+/// [`AutoLu`] can choose its backend (other solvers ignore it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Structure {
+    /// Nothing known: every entry may be non-zero.
+    Dense,
+    /// At most `nnz` entries will be added per assembly.
+    Sparse {
+        /// The number of structurally non-zero entries.
+        nnz: usize,
+    },
+}
+
 /// A reusable solver for `k × k` linear systems `A z = b`.
-pub trait LinearSolver<T: Real>: Sized + Send {
+///
+/// Assembly: [`clear`](Self::clear), then [`Sink::add`] for every entry (or, for dense storage,
+/// writes through [`column_mut`](Self::column_mut)), then [`factor`](Self::factor).
+pub trait LinearSolver<T: Real>: Sized + Send + Sink<T> {
     /// Creates a solver for `k × k` systems (allocates what it needs, once).
     fn with_dim(k: usize) -> Result<Self, LinearSolveError>;
+    /// Creates a solver for `k × k` systems whose structure is known; `choice` overrides the
+    /// backend of solvers that have several ([`AutoLu`]). Solvers with one backend ignore both
+    /// hints (the type is the choice). Default: [`with_dim`](Self::with_dim).
+    fn with_structure(
+        k: usize,
+        structure: Structure,
+        choice: SolverChoice,
+    ) -> Result<Self, LinearSolveError> {
+        let _ = (structure, choice);
+        Self::with_dim(k)
+    }
     /// The dimension `k`.
     fn dim(&self) -> usize;
-    /// Column `j` of the stored matrix (`k` entries). The matrix persists across
+    /// Column `j` of the stored matrix (`k` entries) for dense storage; `None` for sparse
+    /// storage (assemble through [`Sink::add`] instead). The matrix persists across
     /// [`factor`](Self::factor) calls, so it can be rewritten whole or updated in place.
-    fn column_mut(&mut self, j: usize) -> &mut [T];
+    fn column_mut(&mut self, j: usize) -> Option<&mut [T]>;
+    /// Starts an assembly: every stored entry becomes zero.
+    fn clear(&mut self);
+    /// The backend in use.
+    fn kind(&self) -> SolverKind;
     /// Factors the matrix written through [`column_mut`](Self::column_mut).
     ///
     /// Fails with [`LinearSolveError::Singular`] when a pivot is below `k · ε` times the

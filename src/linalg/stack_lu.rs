@@ -1,4 +1,4 @@
-use super::{LinearSolver, check_pivots};
+use super::{LinearSolver, Sink, SolverKind, check_pivots};
 use crate::error::LinearSolveError;
 use crate::real::Real;
 use nalgebra::SMatrix;
@@ -17,6 +17,8 @@ pub struct StackLu<T: Real + nalgebra::Scalar, const N: usize> {
     lu: SMatrix<T, N, N>,
     piv: [usize; N],
     factored: bool,
+    /// The first entry added outside the matrix since the last `clear` (reported by `factor`).
+    out_of_bounds: Option<(usize, usize)>,
 }
 
 impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, N> {
@@ -32,6 +34,7 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
             a: SMatrix::from_element(T::zero()),
             lu: SMatrix::from_element(T::zero()),
             piv: [0; N],
+            out_of_bounds: None,
             factored: false,
         })
     }
@@ -42,18 +45,30 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
     }
 
     #[inline]
-    fn column_mut(&mut self, j: usize) -> &mut [T] {
-        assert!(
-            j < self.k,
-            "column {j} out of range for dimension {}",
-            self.k
-        );
-        &mut self.a.as_mut_slice()[j * N..j * N + self.k]
+    fn column_mut(&mut self, j: usize) -> Option<&mut [T]> {
+        if j < self.k {
+            Some(&mut self.a.as_mut_slice()[j * N..j * N + self.k])
+        } else {
+            None
+        }
+    }
+
+    fn clear(&mut self) {
+        self.factored = false;
+        self.out_of_bounds = None;
+        self.a.fill(T::zero());
+    }
+
+    fn kind(&self) -> SolverKind {
+        SolverKind::Stack
     }
 
     fn factor(&mut self) -> Result<(), LinearSolveError> {
         let k = self.k;
         self.factored = false;
+        if let Some((row, col)) = self.out_of_bounds {
+            return Err(LinearSolveError::OutOfBounds { row, col, dim: k });
+        }
         // Copy the k × k block only, checking finiteness on the way.
         for j in 0..k {
             for i in 0..k {
@@ -127,5 +142,20 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
             b[i] = s / a[(i, i)];
         }
         Ok(())
+    }
+}
+
+impl<T: Real + nalgebra::Scalar, const N: usize> Sink<T> for StackLu<T, N> {
+    /// Adds to entry `(row, col)`. A position outside the `k × k` block is not stored; the
+    /// next `factor` reports it as [`LinearSolveError::OutOfBounds`].
+    #[inline]
+    fn add(&mut self, row: usize, col: usize, value: T) {
+        let k = self.k;
+        if row < k && col < k {
+            let a = &mut self.a[(row, col)];
+            *a = *a + value;
+        } else if self.out_of_bounds.is_none() {
+            self.out_of_bounds = Some((row, col));
+        }
     }
 }

@@ -1,6 +1,6 @@
 use super::{NonlinearProblem, NonlinearSolver};
 use crate::error::{LinearSolveError, NewtonError};
-use crate::linalg::LinearSolver;
+use crate::linalg::{LinearSolver, SolverChoice, Structure};
 use crate::real::Real;
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
@@ -49,8 +49,23 @@ pub struct NewtonOptions<T> {
     pub max_contraction: T,
     /// Between rebuilds, improve the kept Jacobian with Broyden's secant update after every
     /// iteration (superlinear instead of linear convergence, no extra residual evaluations).
-    /// Default `true`; ignored with [`JacobianUpdate::EveryIteration`].
+    /// Default `true`; ignored with [`JacobianUpdate::EveryIteration`] and with sparse storage
+    /// (a rank-one update fills the matrix).
     pub broyden: bool,
+    /// Also converged when the last update satisfies `|Δz_i| ≤ atol + rtol |z_i|` for every `i`
+    /// (Newton's error after an update is about the square of the update, so this is a
+    /// per-component accuracy of `z`). Default `0` (off unless `atol` or `rtol` is positive).
+    pub atol: T,
+    /// See [`atol`](Self::atol). Default `0`.
+    pub rtol: T,
+    /// Damping: when an update with a fresh Jacobian increases `‖F‖∞` (and `‖F‖∞` is above its
+    /// round-off floor), the update is halved up to this many times until the residual
+    /// decreases (a backtracking line search; Deuflhard 2004, §3.1). `0` takes full steps.
+    /// Default 8.
+    pub max_halvings: usize,
+    /// The backend of the linear solver when it has several ([`crate::linalg::AutoLu`]).
+    /// Default [`SolverChoice::Auto`].
+    pub solver: SolverChoice,
 }
 
 impl<T: Real> Default for NewtonOptions<T> {
@@ -63,6 +78,10 @@ impl<T: Real> Default for NewtonOptions<T> {
             jacobian: JacobianUpdate::default(),
             max_contraction: T::lit(0.1),
             broyden: true,
+            atol: T::zero(),
+            rtol: T::zero(),
+            max_halvings: 8,
+            solver: SolverChoice::Auto,
         }
     }
 }
@@ -93,6 +112,22 @@ impl<T: Real> NewtonOptions<T> {
         self.jacobian = j;
         self
     }
+    /// Sets the scaled update tolerance `|Δz_i| ≤ atol + rtol |z_i|`.
+    pub fn with_update_tol(mut self, atol: T, rtol: T) -> Self {
+        self.atol = atol;
+        self.rtol = rtol;
+        self
+    }
+    /// Sets the number of step halvings of the line search (`0`: full steps).
+    pub fn with_max_halvings(mut self, n: usize) -> Self {
+        self.max_halvings = n;
+        self
+    }
+    /// Sets the linear solver backend.
+    pub fn with_solver(mut self, solver: SolverChoice) -> Self {
+        self.solver = solver;
+        self
+    }
 }
 
 /// What one Newton solve did.
@@ -104,15 +139,24 @@ pub struct SolveReport<T> {
     pub residual_evaluations: usize,
     /// Jacobian factorizations.
     pub factorizations: usize,
+    /// Step halvings of the line search.
+    pub halvings: usize,
     /// `‖F(z)‖∞` at the returned `z`.
     pub residual: T,
 }
 
-/// Newton's method with a forward-difference Jacobian, for small dense systems.
+/// Newton's method with a closed-form, forward-difference or colored-difference Jacobian.
 ///
-/// Each Jacobian costs `k` extra residual evaluations (`k` = number of unknowns); the linear
-/// solver `L` is reused, and the workspace (vectors of storage `V`) is allocated once, in
-/// [`Newton::new`]: a solve allocates nothing. Reference: Deuflhard, *Newton Methods for
+/// - Closed form when the problem has it ([`NonlinearProblem::jacobian_column`]).
+/// - With a sparsity pattern ([`Newton::with_pattern`]): the columns are grouped so that no two
+///   columns of a group share a row, and each group costs one residual evaluation (Curtis,
+///   Powell & Reid, IMA J. Appl. Math. 13, 1974) — 3 for a tridiagonal Jacobian, whatever `k`.
+///   The values go to the linear solver through its [`Sink`](crate::linalg::Sink), in the same
+///   order every time, so a sparse solver keeps its symbolic analysis.
+/// - Otherwise forward differences, `k` residual evaluations.
+///
+/// The linear solver `L` is reused, and the workspace (vectors of storage `V`) is allocated
+/// once, at construction: a solve allocates nothing. Reference: Deuflhard, *Newton Methods for
 /// Nonlinear Problems*, Springer 2004, ch. 2.
 #[derive(Debug)]
 pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
@@ -132,14 +176,126 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     /// The last Jacobian came in closed form from the problem: rebuilding it costs no residual
     /// evaluations, so [`JacobianUpdate::Reuse`] rebuilds it at the start of every solve.
     analytic: bool,
+    /// Column groups for a sparse Jacobian.
+    groups: Option<ColumnGroups>,
+}
+
+/// A sparsity pattern's columns grouped so that no two columns of a group share a row
+/// (greedy distance-2 coloring), with the pattern's entries listed group by group.
+#[derive(Debug, Clone)]
+struct ColumnGroups {
+    /// Columns of group `c`: `cols[col_ptr[c]..col_ptr[c + 1]]`.
+    cols: Vec<usize>,
+    col_ptr: Vec<usize>,
+    /// Entries `(row, col)` of group `c`: `entries[entry_ptr[c]..entry_ptr[c + 1]]`.
+    entries: Vec<(usize, usize)>,
+    entry_ptr: Vec<usize>,
+}
+
+impl ColumnGroups {
+    /// Groups the columns of a `k × k` pattern (duplicates allowed, positions `< k`).
+    fn new(k: usize, pattern: &[(usize, usize)]) -> Self {
+        let mut entries: Vec<(usize, usize)> = pattern.to_vec();
+        entries.sort_unstable_by_key(|&(r, c)| (c, r));
+        entries.dedup();
+        let mut rows_of_col = vec![Vec::new(); k];
+        let mut cols_of_row = vec![Vec::new(); k];
+        for &(r, c) in &entries {
+            rows_of_col[c].push(r);
+            cols_of_row[r].push(c);
+        }
+        let mut color = vec![usize::MAX; k];
+        let mut forbidden: Vec<usize> = Vec::new(); // forbidden[c] == j: color c taken near j
+        let mut ncolors = 0;
+        for j in 0..k {
+            for &r in &rows_of_col[j] {
+                for &c2 in &cols_of_row[r] {
+                    let col = color[c2];
+                    if col != usize::MAX {
+                        forbidden[col] = j;
+                    }
+                }
+            }
+            let c = (0..ncolors)
+                .find(|&c| forbidden[c] != j)
+                .unwrap_or_else(|| {
+                    forbidden.push(usize::MAX);
+                    ncolors += 1;
+                    ncolors - 1
+                });
+            color[j] = c;
+        }
+        let mut col_ptr = vec![0; ncolors + 1];
+        let mut entry_ptr = vec![0; ncolors + 1];
+        for j in 0..k {
+            col_ptr[color[j] + 1] += 1;
+        }
+        for &(_, c) in &entries {
+            entry_ptr[color[c] + 1] += 1;
+        }
+        for c in 0..ncolors {
+            col_ptr[c + 1] += col_ptr[c];
+            entry_ptr[c + 1] += entry_ptr[c];
+        }
+        let mut cols = vec![0; k];
+        let mut fill = col_ptr.clone();
+        for j in 0..k {
+            cols[fill[color[j]]] = j;
+            fill[color[j]] += 1;
+        }
+        let mut grouped = vec![(0, 0); entries.len()];
+        let mut fill = entry_ptr.clone();
+        for &(r, c) in &entries {
+            grouped[fill[color[c]]] = (r, c);
+            fill[color[c]] += 1;
+        }
+        Self {
+            cols,
+            col_ptr,
+            entries: grouped,
+            entry_ptr,
+        }
+    }
+
+    fn groups(&self) -> usize {
+        self.col_ptr.len() - 1
+    }
 }
 
 impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
-    /// Newton for `k` unknowns. Allocates the workspace and the linear solver.
+    /// Newton for `k` unknowns with a Jacobian taken as dense. Allocates the workspace and the
+    /// linear solver.
     pub fn new(k: usize, options: NewtonOptions<V::Real>) -> Result<Self, crate::LinearSolveError> {
+        Self::with_pattern(k, options, None)
+    }
+
+    /// Newton for `k` unknowns whose Jacobian is non-zero only at the positions of `pattern`
+    /// (`(row, col)`, duplicates allowed). The Jacobian is then built by grouped differences
+    /// (see the type docs) and stored in the sparsity the linear solver chooses
+    /// ([`NewtonOptions::solver`]). A pattern that misses a non-zero makes the Jacobian inexact
+    /// and Newton slower, never its answer wrong: convergence is tested on the residual.
+    /// Positions outside `k × k` are an [`OutOfBounds`](crate::LinearSolveError::OutOfBounds)
+    /// error.
+    pub fn with_pattern(
+        k: usize,
+        options: NewtonOptions<V::Real>,
+        pattern: Option<&[(usize, usize)]>,
+    ) -> Result<Self, crate::LinearSolveError> {
+        if let Some(&(row, col)) = pattern.and_then(|p| p.iter().find(|&&(r, c)| r >= k || c >= k))
+        {
+            return Err(crate::LinearSolveError::OutOfBounds { row, col, dim: k });
+        }
+        let groups = pattern.map(|p| ColumnGroups::new(k, p));
+        let structure = match &groups {
+            Some(g) => Structure::Sparse {
+                nnz: g.entries.len(),
+            },
+            None => Structure::Dense,
+        };
         Ok(Self {
             k,
-            lin: L::with_dim(k)?,
+            lin: L::with_structure(k, structure, options.solver)?,
+            groups,
             options,
             f: V::zeros(k),
             fp: V::zeros(k),
@@ -150,6 +306,17 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             j11: V::Real::zero(),
             analytic: false,
         })
+    }
+
+    /// The linear solver (for instance to see which backend [`crate::linalg::AutoLu`] chose).
+    pub fn linear_solver(&self) -> &L {
+        &self.lin
+    }
+
+    /// The number of residual evaluations one Jacobian costs by differences: the number of
+    /// column groups with a pattern, `k` without.
+    pub fn evaluations_per_jacobian(&self) -> usize {
+        self.groups.as_ref().map_or(self.k, ColumnGroups::groups)
     }
 
     /// The options.
@@ -190,7 +357,10 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         let f = &self.f.as_slice()[..k];
         for (j, &dzj) in dz.iter().enumerate() {
             let c = ratio * dzj / denom;
-            for (a, &fi) in self.lin.column_mut(j).iter_mut().zip(f) {
+            let Some(col) = self.lin.column_mut(j) else {
+                return Ok(());
+            };
+            for (a, &fi) in col.iter_mut().zip(f) {
                 *a = *a + fi * c;
             }
         }
@@ -201,10 +371,26 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         Ok(())
     }
 
+    /// Writes column `j` (`col`, `k` entries) into the linear solver: directly into dense
+    /// storage, through the sink otherwise (all `k` entries, so the pattern never changes).
+    fn store_column(lin: &mut L, j: usize, col: &[V::Real]) {
+        match lin.column_mut(j) {
+            Some(c) => c.copy_from_slice(col),
+            None => {
+                for (i, &v) in col.iter().enumerate() {
+                    lin.add(i, j, v);
+                }
+            }
+        }
+    }
+
+    /// The Jacobian at `z` (where `self.f = F(z)`), factored.
+    ///
     /// Forward differences `J e_j ≈ (F(z + δ_j e_j) − F(z)) / δ_j` with
     /// `δ_j = fd_step · max(|z_j|, ‖z‖∞, 1/|s|)`, `s` the problem's Jacobian scale: when `F`
     /// depends on `z` through `s z` (a multiplier times `h` or `h²`), the perturbation of `s z`
-    /// stays at `fd_step` relative, so the difference is accurate for every step size.
+    /// stays at `fd_step` relative, so the difference is accurate for every step size. With
+    /// column groups, all columns of a group are perturbed at once.
     fn jacobian<P: NonlinearProblem<V::Real>>(
         &mut self,
         problem: &mut P,
@@ -217,36 +403,72 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         let inv = one / scale.abs();
         let floor = if inv.is_finite() { inv } else { one };
         let zmax = ops::norm_inf(z).max(floor);
-        let f = &self.f.as_slice()[..k];
-        // A closed-form Jacobian when the problem has one, column by column.
-        let analytic = if k == 1 {
-            let mut c = [V::Real::zero()];
-            let ok = problem.jacobian_column(z, 0, &mut c);
-            self.j11 = c[0];
-            ok
-        } else {
-            problem.jacobian_column(z, 0, self.lin.column_mut(0))
-                && (1..k).all(|j| problem.jacobian_column(z, j, self.lin.column_mut(j)))
+        let fd_step = self.options.fd_step;
+        let delta_of = |zj: V::Real| fd_step * zj.abs().max(zmax);
+        let residual = |p: &mut P, zp: &[V::Real], fp: &mut [V::Real]| {
+            p.residual(zp, fp)
+                .map_err(|e| NewtonError::Residual(Box::new(e)))
         };
+        if let (Some(groups), true) = (self.groups.as_ref(), k > 1) {
+            self.analytic = false;
+            self.lin.clear();
+            for c in 0..groups.groups() {
+                let zp = &mut self.zp.as_mut_slice()[..k];
+                zp.copy_from_slice(z);
+                for &j in &groups.cols[groups.col_ptr[c]..groups.col_ptr[c + 1]] {
+                    zp[j] = z[j] + delta_of(z[j]);
+                }
+                residual(problem, zp, &mut self.fp.as_mut_slice()[..k])?;
+                report.residual_evaluations += 1;
+                let (zp, fp, f) = (self.zp.as_slice(), self.fp.as_slice(), self.f.as_slice());
+                for &(i, j) in &groups.entries[groups.entry_ptr[c]..groups.entry_ptr[c + 1]] {
+                    // The step actually taken, exactly representable.
+                    self.lin.add(i, j, (fp[i] - f[i]) / (zp[j] - z[j]));
+                }
+            }
+            report.factorizations += 1;
+            self.lin.factor()?;
+            return Ok(());
+        }
+        let dense = k == 1 || self.lin.column_mut(0).is_some();
+        if !dense {
+            self.lin.clear();
+        }
+        // A closed-form Jacobian when the problem has one, column by column.
+        let mut analytic = true;
+        for j in 0..k {
+            let col = &mut self.fp.as_mut_slice()[..k];
+            if !problem.jacobian_column(z, j, col) {
+                analytic = false;
+                break;
+            }
+            if k == 1 {
+                self.j11 = col[0];
+            } else {
+                Self::store_column(&mut self.lin, j, col);
+            }
+        }
+        if !analytic && !dense {
+            // Columns already added through the sink must not be added twice.
+            self.lin.clear();
+        }
         self.analytic = analytic;
         for j in (0..k).filter(|_| !analytic) {
             let zp = &mut self.zp.as_mut_slice()[..k];
             zp.copy_from_slice(z);
-            let delta = self.options.fd_step * z[j].abs().max(zmax);
-            zp[j] = z[j] + delta;
+            zp[j] = z[j] + delta_of(z[j]);
             // The step actually taken, exactly representable.
             let delta = zp[j] - z[j];
-            problem
-                .residual(zp, &mut self.fp.as_mut_slice()[..k])
-                .map_err(|e| NewtonError::Residual(Box::new(e)))?;
+            let fp = &mut self.fp.as_mut_slice()[..k];
+            residual(problem, zp, fp)?;
             report.residual_evaluations += 1;
-            if k == 1 {
-                self.j11 = (self.fp.as_slice()[0] - f[0]) / delta;
-                continue;
+            for (c, &b) in fp.iter_mut().zip(&self.f.as_slice()[..k]) {
+                *c = (*c - b) / delta;
             }
-            let col = self.lin.column_mut(j);
-            for ((c, &a), &b) in col.iter_mut().zip(&self.fp.as_slice()[..k]).zip(f) {
-                *c = (a - b) / delta;
+            if k == 1 {
+                self.j11 = fp[0];
+            } else {
+                Self::store_column(&mut self.lin, j, fp);
             }
         }
         report.factorizations += 1;
@@ -349,8 +571,24 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             }
             ops::axpy(z, one, dz);
             report.iterations += 1;
+            let mut r_new = eval(problem, z, &mut self.f, &mut report)?;
+            let noise = V::Real::lit(NOISE_FACTOR) * opts.ftol;
+            // Damping: with a fresh Jacobian the direction is a descent direction of ‖F‖, so a
+            // short enough step decreases the residual; halve until it does.
+            let mut halvings = 0;
+            if fresh && r > noise {
+                let half = V::Real::lit(0.5);
+                while (r_new.is_nan() || r_new >= r) && halvings < opts.max_halvings {
+                    let dz = &mut self.dz.as_mut_slice()[..k];
+                    dz.iter_mut().for_each(|d| *d = *d * half);
+                    ops::axpy(z, -one, dz);
+                    halvings += 1;
+                    report.halvings += 1;
+                    r_new = eval(problem, z, &mut self.f, &mut report)?;
+                }
+            }
+            let dz = &self.dz.as_slice()[..k];
             let step = ops::norm_inf(dz);
-            let r_new = eval(problem, z, &mut self.f, &mut report)?;
             if !r_new.is_finite() && fresh {
                 return Err(NewtonError::NonFinite { iteration: it + 1 });
             }
@@ -359,10 +597,18 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             if r_eff <= opts.ftol {
                 return Ok(report);
             }
+            if (opts.atol > V::Real::zero() || opts.rtol > V::Real::zero())
+                && r_new.is_finite()
+                && dz
+                    .iter()
+                    .zip(z.iter())
+                    .all(|(&d, &zi)| d.abs() <= opts.atol + opts.rtol * zi.abs())
+            {
+                return Ok(report);
+            }
             // Below `noise` the residual is dominated by its own round-off: an update at
             // round-off, or a step with a fresh Jacobian that no longer decreases it, means the
             // root is reached. With a kept Jacobian, slow progress is not evidence of that.
-            let noise = V::Real::lit(NOISE_FACTOR) * opts.ftol;
             if r_eff <= noise
                 && fresh
                 && (step <= opts.xtol * (one + ops::norm_inf(z)) || r_new >= V::Real::lit(0.5) * r)
@@ -379,6 +625,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             if opts.jacobian != JacobianUpdate::EveryIteration && r_new > opts.max_contraction * r {
                 self.have_jacobian = false;
             } else if opts.broyden
+                && halvings == 0
                 && opts.jacobian != JacobianUpdate::EveryIteration
                 && r_new > noise
             {

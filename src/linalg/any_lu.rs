@@ -1,0 +1,131 @@
+use super::{DenseLu, LinearSolver, Sink, SparseLu, StackLu, Structure};
+use crate::error::LinearSolveError;
+use crate::real::Real;
+
+/// Which backend a solver uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverKind {
+    /// [`StackLu`]: fixed-capacity stack storage, no heap at all.
+    Stack,
+    /// [`DenseLu`]: faer's dense partial-pivoting LU.
+    Dense,
+    /// [`SparseLu`]: faer's simplicial sparse LU.
+    Sparse,
+}
+
+/// The user's choice of backend for [`AutoLu`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SolverChoice {
+    /// By size and sparsity (see [`AutoLu`]).
+    #[default]
+    Auto,
+    /// Force a backend.
+    Force(SolverKind),
+}
+
+/// A linear solver that picks its backend by size and sparsity, overridable.
+///
+/// With [`SolverChoice::Auto`]:
+/// - `k ≤ STACK_MAX` (8): [`StackLu`] — for a handful of unknowns the cost is overhead, not flops;
+/// - a sparse structure with `k > SPARSE_MIN_DIM` (64) and at most `k²/10` entries: [`SparseLu`]
+///   — dense LU costs `2k³/3` flops, a banded or tree-like sparse LU `O(nnz)`;
+/// - otherwise [`DenseLu`].
+///
+/// [`SolverChoice::Force`] takes the named backend (a stack solver larger than 8 is a
+/// [`LinearSolveError::TooLarge`]). Created without structure ([`LinearSolver::with_dim`]) it
+/// assumes a dense matrix.
+// One solver per Newton instance, built once: the variants' size difference costs nothing,
+// and boxing the stack variant would put it on the heap.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub enum AutoLu<T: Real + faer::traits::RealField + nalgebra::Scalar> {
+    /// Stack storage.
+    Stack(StackLu<T, STACK_MAX>),
+    /// Dense heap storage.
+    Dense(DenseLu<T>),
+    /// Sparse storage.
+    Sparse(SparseLu<T>),
+}
+
+/// Largest system [`AutoLu`] solves on the stack.
+pub const STACK_MAX: usize = 8;
+/// Smallest system [`AutoLu`] solves with the sparse backend.
+pub const SPARSE_MIN_DIM: usize = 64;
+
+impl<T: Real + faer::traits::RealField + nalgebra::Scalar> AutoLu<T> {
+    /// The backend [`SolverChoice::Auto`] picks for a `k × k` matrix of this structure.
+    pub fn auto_kind(k: usize, structure: Structure) -> SolverKind {
+        match structure {
+            _ if k <= STACK_MAX => SolverKind::Stack,
+            Structure::Sparse { nnz } if k > SPARSE_MIN_DIM && nnz.saturating_mul(10) <= k * k => {
+                SolverKind::Sparse
+            }
+            _ => SolverKind::Dense,
+        }
+    }
+}
+
+macro_rules! each {
+    ($self:expr, $s:ident => $e:expr) => {
+        match $self {
+            AutoLu::Stack($s) => $e,
+            AutoLu::Dense($s) => $e,
+            AutoLu::Sparse($s) => $e,
+        }
+    };
+}
+
+impl<T: Real + faer::traits::RealField + nalgebra::Scalar> Sink<T> for AutoLu<T> {
+    #[inline]
+    fn add(&mut self, row: usize, col: usize, value: T) {
+        each!(self, s => s.add(row, col, value))
+    }
+}
+
+impl<T: Real + faer::traits::RealField + nalgebra::Scalar> LinearSolver<T> for AutoLu<T> {
+    fn with_dim(k: usize) -> Result<Self, LinearSolveError> {
+        Self::with_structure(k, Structure::Dense, SolverChoice::Auto)
+    }
+
+    fn with_structure(
+        k: usize,
+        structure: Structure,
+        choice: SolverChoice,
+    ) -> Result<Self, LinearSolveError> {
+        let kind = match choice {
+            SolverChoice::Auto => Self::auto_kind(k, structure),
+            SolverChoice::Force(kind) => kind,
+        };
+        Ok(match kind {
+            SolverKind::Stack => AutoLu::Stack(StackLu::with_dim(k)?),
+            SolverKind::Dense => AutoLu::Dense(DenseLu::with_dim(k)?),
+            SolverKind::Sparse => AutoLu::Sparse(SparseLu::with_dim(k)?),
+        })
+    }
+
+    fn dim(&self) -> usize {
+        each!(self, s => s.dim())
+    }
+
+    #[inline]
+    fn column_mut(&mut self, j: usize) -> Option<&mut [T]> {
+        each!(self, s => s.column_mut(j))
+    }
+
+    fn clear(&mut self) {
+        each!(self, s => s.clear())
+    }
+
+    fn kind(&self) -> SolverKind {
+        each!(self, s => s.kind())
+    }
+
+    fn factor(&mut self) -> Result<(), LinearSolveError> {
+        each!(self, s => s.factor())
+    }
+
+    #[inline]
+    fn solve_in_place(&mut self, rhs: &mut [T]) -> Result<(), LinearSolveError> {
+        each!(self, s => s.solve_in_place(rhs))
+    }
+}
