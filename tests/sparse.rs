@@ -253,6 +253,7 @@ fn newton_with_grouped_differences_matches_dense_newton() {
     let rd = dense.solve(&mut Tridiagonal { k }, &mut zd).unwrap();
     let rs = sparse.solve(&mut Tridiagonal { k }, &mut zs).unwrap();
     let ra = auto.solve(&mut Tridiagonal { k }, &mut za).unwrap();
+    assert_eq!(ra.iterations, rs.iterations);
     println!("dense {rd:?}\nsparse {rs:?}");
     let diff = zd
         .iter()
