@@ -204,6 +204,18 @@ pub enum SetupError {
         /// Max-norm of ⟨g,g⟩.
         norm: f64,
     },
+    /// The constraint gradients are linearly dependent at the initial state (`G Gᵀ` singular to
+    /// working precision): a constraint listed twice, or a closed loop that constrains more
+    /// than it can (a redundant, over-constrained set). No multiplier is unique there.
+    #[error(
+        "redundant constraints at the initial state: the gradient of constraint {constraint} is a linear combination of the others (pivot ratio {ratio:e}); remove duplicated links or over-constraining loop closures"
+    )]
+    RankDeficient {
+        /// A constraint whose gradient depends on the others.
+        constraint: usize,
+        /// Its pivot relative to the largest pivot of `G Gᵀ`.
+        ratio: f64,
+    },
     /// The initial state violates the constraint manifold by more than the tolerance.
     #[error("initial state is off the constraint manifold: {what} = {residual:e}")]
     OffManifold {

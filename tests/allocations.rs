@@ -179,3 +179,28 @@ fn dissipative_and_general_flows_allocate_nothing_per_step() {
         .unwrap();
     assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
 }
+
+#[test]
+fn sparse_chain_steps_allocate_nothing_after_the_first() {
+    use lieflow::linalg::{LinearSolver, SolverChoice, SolverKind};
+    use lieflow::models::PendulumChain;
+    type V = faer::Col<f64>;
+    let model = PendulumChain::<f64>::uniform(2, 300).unwrap();
+    let mut x: V = model.at_rest(|i| 0.5 + 0.1 * (i as f64 * 0.01).sin());
+    let options = model.projection_options();
+    let options = options.with_newton(
+        options
+            .newton
+            .with_solver(SolverChoice::Force(SolverKind::Sparse)),
+    );
+    let mut f = model
+        .kick::<V>()
+        .strang(model.drift())
+        .projected(model.system(), &x, options)
+        .unwrap();
+    assert_eq!(f.newton().linear_solver().kind(), SolverKind::Sparse);
+    assert_eq!(allocations_per_run(&mut f, &mut x, 1e-4), 0);
+    // Every step refactored the sparse Jacobians (full Newton): the count above covers the
+    // numeric refactorizations, not only the solves.
+    assert!(f.stats().factorizations >= 2000, "{:?}", f.stats());
+}

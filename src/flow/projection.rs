@@ -24,7 +24,7 @@
 
 use super::{Flow, FlowStats};
 use crate::error::{NewtonError, SetupError, StepError};
-use crate::linalg::LinearSolver;
+use crate::linalg::{LinearSolver, SolverChoice, Structure, Triplets};
 use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver, SolveReport};
 use crate::real::Real;
 use crate::system::{Brackets, Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System};
@@ -136,6 +136,10 @@ struct Work<V> {
     /// iterate never becomes the next warm start.
     z_saved: V,
     offset_saved: V,
+    /// Scratch for closed-form Jacobian groups: two states and an indicator of `m` entries.
+    u1: V,
+    u2: V,
+    ec: V,
 }
 
 /// The projected flow of Zhang & Deng (2004, §3) around an inner flow `F` (see the module docs).
@@ -218,9 +222,22 @@ where
             },
         };
         let k = if scheme == Scheme::Coupled { 2 * m } else { m };
-        let newton = Newton::new(k, options.newton)?;
+        // With a sparse G, the multiplier systems couple constraints whose gradients share a
+        // state variable; the coupled system has that pattern in each of its four blocks.
+        let pattern =
+            constraint_gram::<V, Ms, H, C, L>(&system, x0, options.newton.solver)?.map(|p| {
+                if scheme == Scheme::Coupled {
+                    p.iter()
+                        .flat_map(|&(i, j)| [(i, j), (i + m, j), (i, j + m), (i + m, j + m)])
+                        .collect()
+                } else {
+                    p
+                }
+            });
+        let pattern_m = pattern.as_deref().filter(|_| scheme != Scheme::Coupled);
+        let newton = Newton::with_pattern(k, options.newton, pattern.as_deref())?;
         let newton_k1 = match scheme {
-            Scheme::Decoupled => Some(Newton::new(m, options.newton)?),
+            Scheme::Decoupled => Some(Newton::with_pattern(m, options.newton, pattern_m)?),
             _ => None,
         };
         inner.prepare(x0);
@@ -244,6 +261,9 @@ where
             r: V::zeros(m),
             offset: V::zeros(m),
             offset_saved: V::zeros(m),
+            u1: x0.zeros_like(),
+            u2: x0.zeros_like(),
+            ec: V::zeros(m),
         };
         Ok(Self {
             inner,
@@ -273,6 +293,12 @@ where
     /// The inner flow.
     pub fn inner(&self) -> &F {
         &self.inner
+    }
+
+    /// The Newton solver of the first multiplier system (`λ_k`, or all multipliers when
+    /// coupled), for instance to see which linear solver backend it uses.
+    pub fn newton(&self) -> &Newton<V, L> {
+        &self.newton
     }
 
     /// The multipliers `(λ_k, λ_{k+1})` of the last step (`λ_k = λ_{k+1}` for the symmetric
@@ -311,6 +337,9 @@ where
             z,
             a_cached,
             y_valid,
+            u1,
+            u2,
+            ec,
             ..
         } = &mut self.w;
         let mut problem = Stage {
@@ -327,6 +356,9 @@ where
             t2,
             a_cached,
             y_valid,
+            u1,
+            u2,
+            ec,
             fixed_point_max_iterations: self.fixed_point_max_iterations,
             fixed_point_tol: self.fixed_point_tol,
         };
@@ -507,6 +539,9 @@ struct Stage<'a, V: Vector, F, Ms, H, C> {
     t2: &'a mut V,
     a_cached: &'a mut V,
     y_valid: &'a mut bool,
+    u1: &'a mut V,
+    u2: &'a mut V,
+    ec: &'a mut V,
     fixed_point_max_iterations: usize,
     fixed_point_tol: V::Real,
 }
@@ -628,6 +663,62 @@ where
         }
     }
 
+    /// Closed-form Jacobian groups of the decoupled systems, from the model's Hessian
+    /// ([`Hamiltonian::hessian_apply`]); `e` is the indicator of `cols`:
+    /// - `λ_k`: `J e = G(y) DΦ_h (h/2) M Gᵀ e` with `DΦ_h ≈ I + h M ∇²H` —
+    ///   `(h/2) G(y) M Gᵀ e + (h²/2) G(y) M ∇²H M Gᵀ e`, exact when the inner flow's tangent
+    ///   map is `I + h M ∇²H` (a kick–drift–kick with a potential linear in each particle, such
+    ///   as gravity), `O(h²)` relative otherwise;
+    /// - `λ_{k+1}`: `J e = (h/2) G(x') M(x') ∇²H(x') M(y) G(y)ᵀ e`, exact in the decoupled case.
+    fn jacobian_group(&mut self, z: &[V::Real], cols: &[usize], out: &mut [V::Real]) -> bool {
+        let (m, h) = (self.m, self.h);
+        let half = h * V::Real::lit(0.5);
+        let mode = self.mode;
+        // The points the last residual evaluation used (recomputed only if `z` differs).
+        match mode {
+            Mode::LambdaK => {
+                if self.compute_y(z).is_err() {
+                    return false;
+                }
+            }
+            Mode::LambdaK1 => self.end_point_explicit(z),
+            Mode::Coupled | Mode::Symmetric => return false,
+        }
+        let e = &mut self.ec.as_mut_slice()[..m];
+        ops::fill_zero(e);
+        for &j in cols {
+            e[j] = V::Real::one();
+        }
+        let e = &self.ec.as_slice()[..m];
+        let (sys, x) = (self.system, self.x);
+        if mode == Mode::LambdaK {
+            sys.constraint_force(x, e, self.t1, self.t2);
+            if !sys
+                .hamiltonian
+                .hessian_apply(&*self.xhat, &*self.t2, self.u1)
+            {
+                return false;
+            }
+            sys.structure.apply(&*self.xhat, &*self.u1, self.u2);
+            ops::add_scaled(
+                self.u1.as_mut_slice(),
+                self.t2.as_slice(),
+                h,
+                self.u2.as_slice(),
+            );
+            sys.constraint.jacobian_apply(&*self.y, &*self.u1, out);
+        } else {
+            sys.constraint_force(&*self.y, e, self.t1, self.t2);
+            if !sys.hamiltonian.hessian_apply(&*self.xe, &*self.t2, self.u1) {
+                return false;
+            }
+            sys.structure.apply(&*self.xe, &*self.u1, self.u2);
+            sys.constraint.jacobian_apply(&*self.xe, &*self.u2, out);
+        }
+        out.iter_mut().for_each(|v| *v = *v * half);
+        true
+    }
+
     fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
         let m = self.m;
         match self.mode {
@@ -688,6 +779,14 @@ where
     let brackets = Brackets::new(system);
     let case = match options.case {
         Some(c) => c,
+        None if m > MAX_BRACKET_CONSTRAINTS => {
+            return Err(SetupError::Dimension {
+                what: format!(
+                    "{m} constraints: deciding the case from the dense bracket matrices costs O(m^2 n); \
+                     set it with ProjectionOptions::with_case (and with_coupling)"
+                ),
+            });
+        }
         None => brackets.case(x0, options.degeneracy_tol, options.rcond)?,
     };
     if let Some(tol) = options.manifold_tol {
@@ -711,4 +810,88 @@ where
         }
     }
     Ok(case)
+}
+
+/// Above this many constraints the case is not decided from the (dense, `O(m² n)`) bracket
+/// matrices: the options must name it.
+pub const MAX_BRACKET_CONSTRAINTS: usize = 1024;
+
+/// When the constraint provides its sparse Jacobian ([`HolonomicConstraint::jacobian_entries`]):
+/// checks at `x0` that the constraint gradients are independent (`G Gᵀ` non-singular, factored
+/// by the backend `choice` picks) and returns the pattern of `G Gᵀ` — the pairs of constraints
+/// whose gradients share a state variable, which is the sparsity of the multiplier systems when
+/// the inner flow moves each variable along its own gradient components. `None` when `G` is
+/// not provided. Errors: [`SetupError::RankDeficient`] naming a redundant constraint.
+pub(crate) fn constraint_gram<V, Ms, H, C, L>(
+    system: &System<Ms, H, C>,
+    x0: &V,
+    choice: SolverChoice,
+) -> Result<Option<Vec<(usize, usize)>>, SetupError>
+where
+    V: Vector,
+    C: HolonomicConstraint<V>,
+    L: LinearSolver<V::Real>,
+{
+    let (m, n) = (system.constraint.dim(), x0.len());
+    let mut g = Triplets::default();
+    if !system.constraint.jacobian_entries(x0, &mut g) {
+        return Ok(None);
+    }
+    if let Some(&(row, col, _)) = g.entries.iter().find(|&&(r, c, _)| r >= m || c >= n) {
+        return Err(SetupError::Dimension {
+            what: format!(
+                "constraint Jacobian entry ({row}, {col}) outside {m} constraints x {n} state components"
+            ),
+        });
+    }
+    // Rows of G by state variable: (G Gᵀ)_ij = Σ_c G_ic G_jc.
+    let mut by_col: Vec<(usize, usize, V::Real)> =
+        g.entries.iter().map(|&(r, c, v)| (c, r, v)).collect();
+    by_col.sort_unstable_by_key(|&(c, r, _)| (c, r));
+    let mut gram: Vec<(usize, usize, V::Real)> = Vec::new();
+    let mut start = 0;
+    while start < by_col.len() {
+        let c = by_col[start].0;
+        let end = start + by_col[start..].iter().take_while(|e| e.0 == c).count();
+        for &(_, i, a) in &by_col[start..end] {
+            for &(_, j, b) in &by_col[start..end] {
+                gram.push((i, j, a * b));
+            }
+        }
+        start = end;
+    }
+    gram.sort_unstable_by_key(|&(i, j, _)| (j, i));
+    let pattern: Vec<(usize, usize)> = gram.iter().map(|&(i, j, _)| (i, j)).collect();
+    // Every constraint needs a diagonal entry: a constraint with a zero gradient row is
+    // redundant (it constrains nothing to first order).
+    let mut lin = L::with_structure(
+        m,
+        Structure::Sparse {
+            nnz: gram.len() + m,
+        },
+        choice,
+    )?;
+    lin.clear();
+    for &(i, j, v) in &gram {
+        lin.add(i, j, v);
+    }
+    for i in 0..m {
+        lin.add(i, i, V::Real::zero());
+    }
+    match lin.factor() {
+        Ok(()) => Ok(Some(pattern)),
+        Err(crate::LinearSolveError::Singular { pivot, ratio, .. }) => {
+            Err(SetupError::RankDeficient {
+                constraint: pivot,
+                ratio,
+            })
+        }
+        Err(crate::LinearSolveError::StructurallySingular { column }) => {
+            Err(SetupError::RankDeficient {
+                constraint: column,
+                ratio: 0.0,
+            })
+        }
+        Err(e) => Err(e.into()),
+    }
 }

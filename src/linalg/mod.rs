@@ -38,17 +38,17 @@ pub trait Sink<T> {
     fn add(&mut self, row: usize, col: usize, value: T);
 }
 
-/// A [`Sink`] that records positions only (values ignored): how a sparsity pattern is learned
-/// from the same code that later fills the values.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct PatternRecorder {
-    /// The positions in the order they were added (duplicates kept).
-    pub entries: Vec<(usize, usize)>,
+/// A [`Sink`] that keeps the entries as `(row, col, value)` triplets, in the order added:
+/// how a sparsity pattern is learned from the same code that later fills the values.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Triplets<T> {
+    /// The entries in the order they were added (duplicates kept).
+    pub entries: Vec<(usize, usize, T)>,
 }
 
-impl<T> Sink<T> for PatternRecorder {
-    fn add(&mut self, row: usize, col: usize, _value: T) {
-        self.entries.push((row, col));
+impl<T> Sink<T> for Triplets<T> {
+    fn add(&mut self, row: usize, col: usize, value: T) {
+        self.entries.push((row, col, value));
     }
 }
 

@@ -8,12 +8,21 @@
 //! ```
 //!
 //! Degenerate case; hidden constraints `φᵢ = (qᵢ − qᵢ₋₁)·(pᵢ/mᵢ − pᵢ₋₁/mᵢ₋₁)`. The constraint
-//! Jacobian is banded (each `gᵢ` touches two particles). The natural scheme is RATTLE, the
-//! projected kick–drift–kick.
+//! Jacobian is banded (each `gᵢ` touches two particles), and [`ChainLinks`] provides it entry by
+//! entry, so the multiplier systems of a projection are tridiagonal and solved by sparse LU in
+//! `O(N)`. The natural scheme is RATTLE, the projected kick–drift–kick
+//! ([`PendulumChain::projection_options`]).
+//!
+//! Extra rods ([`PendulumChain::with_rod`]) close loops or tie particles together; a rod that
+//! repeats a link, or a loop that over-constrains the chain, makes the constraint gradients
+//! dependent, and building a projection reports [`SetupError::RankDeficient`].
 
 use crate::error::SetupError;
-use crate::flow::{FnFlow, from_fn};
+use crate::flow::{Coupling, FnFlow, ProjectionOptions, from_fn};
+use crate::linalg::Sink;
+use crate::nonlinear::{JacobianUpdate, NewtonOptions};
 use crate::real::Real;
+use crate::system::Case;
 use crate::system::{Canonical, Hamiltonian, HolonomicConstraint, System};
 use crate::vector::Vector;
 
@@ -24,13 +33,18 @@ pub struct PendulumChain<T> {
     masses: Vec<T>,
     lengths: Vec<T>,
     gravity: T,
+    /// Extra rods `(a, b, length)` after the chain's own links (`a = None`: the pin).
+    extra: Vec<(Option<usize>, usize, T)>,
 }
 
-/// The rod constraints `gᵢ = (|qᵢ − qᵢ₋₁|² − lᵢ²)/2` of a [`PendulumChain`].
+/// The rod constraints of a [`PendulumChain`]: `gᵢ = (|q_b − q_a|² − lᵢ²)/2` for rod `i` between
+/// particles `a` and `b` (`q_a = 0` for the pin). Rods `0..N` are the chain's links
+/// (`a = i − 1`, `b = i`); extra rods follow.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChainLinks<T> {
     dim: usize,
-    lengths: Vec<T>,
+    /// `(a, b, length)`, `a = usize::MAX` for the pin.
+    rods: Vec<(usize, usize, T)>,
 }
 
 impl<T: Real> PendulumChain<T> {
@@ -70,7 +84,59 @@ impl<T: Real> PendulumChain<T> {
             masses,
             lengths,
             gravity,
+            extra: Vec::new(),
         })
+    }
+
+    /// Adds a rod of length `length` between particle `a` (`None`: the pin at the origin) and
+    /// particle `b`, as constraint number `links() + (rods added before)`.
+    pub fn with_rod(mut self, a: Option<usize>, b: usize, length: T) -> Result<Self, SetupError> {
+        let n = self.links();
+        if a.is_some_and(|a| a >= n) || b >= n || a == Some(b) {
+            return Err(SetupError::Dimension {
+                what: format!("a rod between {a:?} and {b} in a chain of {n} particles"),
+            });
+        }
+        if !(length > T::zero() && length.is_finite()) {
+            return Err(SetupError::Dimension {
+                what: "rod length must be positive and finite".into(),
+            });
+        }
+        self.extra.push((a, b, length));
+        Ok(self)
+    }
+
+    /// The number of constraints: links plus extra rods.
+    pub fn constraints(&self) -> usize {
+        self.links() + self.extra.len()
+    }
+
+    /// The projection options for RATTLE on this chain: degenerate case, decoupled multiplier
+    /// systems (position constraints, momentum-only constraint forces). Naming them skips the
+    /// `O(m² n)` dense bracket analysis, which is what lets `N` reach `10⁵`. The multiplier
+    /// Jacobians are built by central differences with a large step (`10⁻⁴` relative): the
+    /// residuals are quadratic in the multipliers, so the differences are exact up to rounding,
+    /// and the Newton matrix of a long chain has condition number `~N²`, which forward
+    /// differences (`√ε` relative error) cannot afford beyond `N ≈ 10³`.
+    ///
+    /// The residual tolerance is scaled to the chain: `ftol = ε l_min L` (`L` the total length),
+    /// the rounding level of `g` and `φ` (positions of size `L` differenced over a link of
+    /// length `l`). The default `2ε` is absolute; for short links it would stop Newton while
+    /// the smooth tension mode — whose Newton matrix eigenvalue is `~(l/L)²` times the
+    /// largest — is still far off.
+    pub fn projection_options(&self) -> ProjectionOptions<T> {
+        let l_min = self.lengths.iter().fold(T::infinity(), |a, &b| a.min(b));
+        let total = self.lengths.iter().fold(T::zero(), |a, &b| a + b);
+        let ftol = T::epsilon() * l_min * total.max(l_min);
+        ProjectionOptions::default()
+            .with_case(Case::Degenerate)
+            .with_coupling(Coupling::Decoupled)
+            .with_newton(
+                NewtonOptions::default()
+                    .with_central_differences(T::lit(1e-4))
+                    .with_jacobian(JacobianUpdate::EveryIteration)
+                    .with_ftol(ftol),
+            )
     }
 
     /// `links` unit masses on rods of length `1/links` (total length 1), gravity 1.
@@ -96,7 +162,14 @@ impl<T: Real> PendulumChain<T> {
             self.clone(),
             ChainLinks {
                 dim: self.dim,
-                lengths: self.lengths.clone(),
+                rods: (0..self.links())
+                    .map(|i| (i.wrapping_sub(1), i, self.lengths[i]))
+                    .chain(
+                        self.extra
+                            .iter()
+                            .map(|&(a, b, l)| (a.unwrap_or(usize::MAX), b, l)),
+                    )
+                    .collect(),
             },
         )
     }
@@ -158,6 +231,19 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for PendulumChain<T> {
         }
         e
     }
+    /// `∇²H = diag(0, M⁻¹)` (gravity is linear in `q`).
+    fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
+        let (d, n) = (self.dim, self.links());
+        let vp = &v.as_slice()[d * n..];
+        let (oq, op) = out.as_mut_slice().split_at_mut(d * n);
+        oq.iter_mut().for_each(|o| *o = T::zero());
+        for (i, &m) in self.masses.iter().enumerate() {
+            for k in 0..d {
+                op[i * d + k] = vp[i * d + k] / m;
+            }
+        }
+        true
+    }
     fn gradient(&self, x: &V, out: &mut V) {
         let (d, n) = (self.dim, self.links());
         let p = &x.as_slice()[d * n..];
@@ -173,27 +259,27 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for PendulumChain<T> {
 }
 
 impl<T: Real> ChainLinks<T> {
-    /// `qᵢ − qᵢ₋₁`, component `k`.
+    /// `q_b − q_a` of rod `(a, b)`, component `k` (`q_a = 0` for the pin).
     #[inline]
-    fn diff(&self, q: &[T], i: usize, k: usize) -> T {
+    fn diff(&self, q: &[T], a: usize, b: usize, k: usize) -> T {
         let d = self.dim;
-        if i == 0 {
-            q[k]
+        if a == usize::MAX {
+            q[b * d + k]
         } else {
-            q[i * d + k] - q[(i - 1) * d + k]
+            q[b * d + k] - q[a * d + k]
         }
     }
 }
 
 impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for ChainLinks<T> {
     fn dim(&self) -> usize {
-        self.lengths.len()
+        self.rods.len()
     }
     fn residual(&self, x: &V, out: &mut [T]) {
         let q = x.as_slice();
-        for (i, (o, &l)) in out.iter_mut().zip(&self.lengths).enumerate() {
+        for (o, &(a, b, l)) in out.iter_mut().zip(&self.rods) {
             let r2 = (0..self.dim).fold(T::zero(), |s, k| {
-                let v = self.diff(q, i, k);
+                let v = self.diff(q, a, b, k);
                 s + v * v
             });
             *o = (r2 - l * l) * T::lit(0.5);
@@ -201,9 +287,9 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for ChainLinks<T> {
     }
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [T]) {
         let (q, v) = (x.as_slice(), v.as_slice());
-        for (i, o) in out.iter_mut().enumerate() {
+        for (o, &(a, b, _)) in out.iter_mut().zip(&self.rods) {
             *o = (0..self.dim).fold(T::zero(), |s, k| {
-                s + self.diff(q, i, k) * self.diff(v, i, k)
+                s + self.diff(q, a, b, k) * self.diff(v, a, b, k)
             });
         }
     }
@@ -211,14 +297,29 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for ChainLinks<T> {
         let d = self.dim;
         let q = x.as_slice();
         let o = out.as_mut_slice();
-        for (i, &m) in mu.iter().enumerate() {
+        for (&m, &(a, b, _)) in mu.iter().zip(&self.rods) {
             for k in 0..d {
-                let c = alpha * m * self.diff(q, i, k);
-                o[i * d + k] = o[i * d + k] + c;
-                if i > 0 {
-                    o[(i - 1) * d + k] = o[(i - 1) * d + k] - c;
+                let c = alpha * m * self.diff(q, a, b, k);
+                o[b * d + k] = o[b * d + k] + c;
+                if a != usize::MAX {
+                    o[a * d + k] = o[a * d + k] - c;
                 }
             }
         }
+    }
+    /// `∂gᵢ/∂q_b = q_b − q_a`, `∂gᵢ/∂q_a = −(q_b − q_a)`: `2d` entries per rod (`d` at the pin).
+    fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<T>) -> bool {
+        let d = self.dim;
+        let q = x.as_slice();
+        for (i, &(a, b, _)) in self.rods.iter().enumerate() {
+            for k in 0..d {
+                let v = self.diff(q, a, b, k);
+                if a != usize::MAX {
+                    sink.add(i, a * d + k, -v);
+                }
+                sink.add(i, b * d + k, v);
+            }
+        }
+        true
     }
 }

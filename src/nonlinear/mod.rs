@@ -44,6 +44,15 @@ pub trait NonlinearProblem<T: Real> {
         let _ = (z, j, out);
         false
     }
+    /// Writes `J(z) Σ_{j ∈ cols} e_j` — the sum of the Jacobian's columns `cols` — into `out`
+    /// and returns `true`, when the problem forms Jacobian–vector products in closed form.
+    /// Newton with a sparsity pattern calls it once per group of structurally orthogonal
+    /// columns (no two share a row), so each entry is read off exactly; without it the groups
+    /// are differenced. `z` is the point of the last residual evaluation. Default `false`.
+    fn jacobian_group(&mut self, z: &[T], cols: &[usize], out: &mut [T]) -> bool {
+        let _ = (z, cols, out);
+        false
+    }
 }
 
 /// A solver for [`NonlinearProblem`]s that owns its workspace.

@@ -1,3 +1,4 @@
+use crate::linalg::Sink;
 use crate::vector::Vector;
 
 /// Holonomic constraints `g: Rⁿ → Rᵐ`, `g(x) = 0`, with their Jacobian `G = ∂g/∂x` (m × n)
@@ -11,4 +12,16 @@ pub trait HolonomicConstraint<V: Vector> {
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [V::Real]);
     /// `out += α G(x)ᵀ μ`.
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[V::Real], alpha: V::Real, out: &mut V);
+    /// Writes the structurally non-zero entries of `G(x)` — `(constraint, state index, value)` —
+    /// into `sink` and returns `true`; the same positions in the same order for every `x`.
+    /// The default returns `false`: `G` is then treated as dense.
+    ///
+    /// A model with many constraints should provide it: the projection derives the sparsity of
+    /// its multiplier systems from it (constraints `i`, `j` couple when their gradients share a
+    /// state variable), which makes their Jacobians cost a few residual evaluations and a
+    /// sparse LU, and checks at construction that the constraints are not redundant.
+    fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<V::Real>) -> bool {
+        let _ = (x, sink);
+        false
+    }
 }
