@@ -81,7 +81,7 @@ fn main() {
     let every: usize = args.get("print-every", (steps / 10).max(1)).max(1);
 
     let model = PendulumChain::<f64>::uniform(dim, n).unwrap_or_else(|e| fatal(&e));
-    let x0: V = model.at_rest(|i| 0.5 + 0.1 * (std::f64::consts::PI * i as f64 / n as f64).sin());
+    let x0: V = model.at_rest(|i| 0.1 * (std::f64::consts::PI * i as f64 / n as f64).sin());
     let options = model.projection_options();
     let options = options.with_newton(options.newton.with_solver(choice));
     let setup = Instant::now();

@@ -391,7 +391,8 @@ where
                     z[j] = z[m + j] + h * off[j];
                 }
                 self.solve(Mode::LambdaK, h, "lambda_k from g(x_{k+1}) = 0")?;
-                if h != V::Real::zero() {
+                // Before the first step there is no previous λ_{k+1} to measure the offset from.
+                if h != V::Real::zero() && self.stats.projected_steps > 0 {
                     let (z, off) = (self.w.z.as_slice(), self.w.offset.as_mut_slice());
                     for j in 0..m {
                         off[j] = (z[j] - z[m + j]) / h;

@@ -20,7 +20,7 @@
 use crate::error::SetupError;
 use crate::flow::{Coupling, FnFlow, ProjectionOptions, from_fn};
 use crate::linalg::Sink;
-use crate::nonlinear::{JacobianUpdate, NewtonOptions};
+use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
 use crate::system::Case;
 use crate::system::{Canonical, Hamiltonian, HolonomicConstraint, System};
@@ -119,22 +119,21 @@ impl<T: Real> PendulumChain<T> {
     /// and the Newton matrix of a long chain has condition number `~N²`, which forward
     /// differences (`√ε` relative error) cannot afford beyond `N ≈ 10³`.
     ///
-    /// The residual tolerance is scaled to the chain: `ftol = ε l_min L` (`L` the total length),
-    /// the rounding level of `g` and `φ` (positions of size `L` differenced over a link of
-    /// length `l`). The default `2ε` is absolute; for short links it would stop Newton while
+    /// The residual tolerance is scaled to the chain: `ftol = 16 ε l_min L` (`L` the total
+    /// length), the rounding level of `g` and `φ` (positions of size `L` differenced over a link
+    /// of length `l`, a few operations each). The default `2ε` is absolute; for short links it would stop Newton while
     /// the smooth tension mode — whose Newton matrix eigenvalue is `~(l/L)²` times the
     /// largest — is still far off.
     pub fn projection_options(&self) -> ProjectionOptions<T> {
         let l_min = self.lengths.iter().fold(T::infinity(), |a, &b| a.min(b));
         let total = self.lengths.iter().fold(T::zero(), |a, &b| a + b);
-        let ftol = T::epsilon() * l_min * total.max(l_min);
+        let ftol = T::lit(16.0) * T::epsilon() * l_min * total.max(l_min);
         ProjectionOptions::default()
             .with_case(Case::Degenerate)
             .with_coupling(Coupling::Decoupled)
             .with_newton(
                 NewtonOptions::default()
                     .with_central_differences(T::lit(1e-4))
-                    .with_jacobian(JacobianUpdate::EveryIteration)
                     .with_ftol(ftol),
             )
     }
