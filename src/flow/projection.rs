@@ -132,6 +132,9 @@ struct Work<V> {
     r: V,
     /// `(λ_k − previous λ_{k+1}) / h` of the last decoupled step, for the warm start.
     offset: V,
+    /// `(λ_{k+1} − λ_k) / h` of the last decoupled step, for the warm start of `λ_{k+1}`.
+    offset1: V,
+    offset1_saved: V,
     /// `z` and `offset` at the start of the step, restored if the step fails so that a failed
     /// iterate never becomes the next warm start.
     z_saved: V,
@@ -261,6 +264,8 @@ where
             r: V::zeros(m),
             offset: V::zeros(m),
             offset_saved: V::zeros(m),
+            offset1: V::zeros(m),
+            offset1_saved: V::zeros(m),
             u1: x0.zeros_like(),
             u2: x0.zeros_like(),
             ec: V::zeros(m),
@@ -398,7 +403,23 @@ where
                         off[j] = (z[j] - z[m + j]) / h;
                     }
                 }
+                // λ_{k+1} differs from this step's λ_k by a smoothly varying gap (O(h), or an
+                // oscillation of the multipliers that persists across steps): predict it
+                // from λ_k and the last gap, again per unit step.
+                let warm = h != V::Real::zero() && self.stats.projected_steps > 0;
+                if warm {
+                    let (z, off) = (self.w.z.as_mut_slice(), self.w.offset1.as_slice());
+                    for j in 0..m {
+                        z[m + j] = z[j] + h * off[j];
+                    }
+                }
                 self.solve(Mode::LambdaK1, h, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
+                if h != V::Real::zero() {
+                    let (z, off) = (self.w.z.as_slice(), self.w.offset1.as_mut_slice());
+                    for j in 0..m {
+                        off[j] = (z[m + j] - z[j]) / h;
+                    }
+                }
                 // The decoupling assumption: the second half-step did not move g (for position
                 // constraints and a momentum-only direction, g(x_{k+1}) and g(y) are the same
                 // floating-point numbers).
@@ -440,6 +461,7 @@ where
         self.w.start.copy_from(x);
         self.w.z_saved.copy_from(&self.w.z);
         self.w.offset_saved.copy_from(&self.w.offset);
+        self.w.offset1_saved.copy_from(&self.w.offset1);
         let result =
             self.step_impl(h)
                 .and_then(|()| match ops::first_non_finite(self.w.xe.as_slice()) {
@@ -450,6 +472,7 @@ where
             // A failed iterate must not become the next warm start or kept Jacobian.
             self.w.z.copy_from(&self.w.z_saved);
             self.w.offset.copy_from(&self.w.offset_saved);
+            self.w.offset1.copy_from(&self.w.offset1_saved);
             self.newton.invalidate_jacobian();
             if let Some(n) = self.newton_k1.as_mut() {
                 n.invalidate_jacobian();
