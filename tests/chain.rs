@@ -150,3 +150,63 @@ fn redundant_constraints_are_typed_errors_naming_one() {
         .unwrap();
     assert_eq!(flow.newton().linear_solver().kind(), SolverKind::Sparse);
 }
+
+/// The second sparsity pattern: particles each on its own sphere (block-diagonal constraints),
+/// coupled by springs that the multiplier pattern does not see.
+#[test]
+fn particles_on_spheres_stay_on_them_with_springs_outside_the_pattern() {
+    use lieflow::models::SphereParticles;
+    let run = |n: usize, spring: f64, solver: SolverChoice, steps: usize| {
+        let model = SphereParticles::<f64>::row(n, spring).unwrap();
+        let x0: V = model.at_rest(|i| 0.3 + 0.2 * (i as f64 * 0.7).sin(), |i| 0.1 * i as f64);
+        let options = model.projection_options();
+        let options = options.with_newton(options.newton.with_solver(solver));
+        let mut flow = model
+            .kick::<V>()
+            .strang(model.drift())
+            .projected(model.system(), &x0, options)
+            .unwrap();
+        let kind = flow.newton().linear_solver().kind();
+        let sys = model.system();
+        let (mut g, mut phi) = (vec![0.0; n], vec![0.0; n]);
+        let (mut t1, mut t2) = (x0.clone(), x0.clone());
+        let e0 = model.energy(&x0);
+        let mut x = x0.clone();
+        let (mut max_g, mut max_phi, mut max_de) = (0.0f64, 0.0f64, 0.0f64);
+        for _ in 0..steps {
+            flow.step(1e-2, &mut x).unwrap();
+            sys.constraint.residual(&x, &mut g);
+            sys.hidden_constraint(&x, &mut t1, &mut t2, &mut phi);
+            let norm = |v: &[f64]| v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+            max_g = max_g.max(norm(&g));
+            max_phi = max_phi.max(norm(&phi));
+            max_de = max_de.max((model.energy(&x) - e0).abs());
+        }
+        let it = flow.stats().newton_iterations as f64 / steps as f64;
+        (x, kind, max_g, max_phi, max_de / e0.abs(), it)
+    };
+    let (_, kind, g, phi, de, it) = run(2000, 0.0, SolverChoice::Auto, 300);
+    println!(
+        "2000 free particles: {kind:?}, |g| {g:.1e}, |phi| {phi:.1e}, dE/E {de:.1e}, {it:.2} it/step"
+    );
+    assert_eq!(kind, SolverKind::Sparse);
+    // Rounding level: positions up to 4000 differenced with the centers.
+    let tol = 16.0 * f64::EPSILON * 4000.0;
+    assert!(g <= tol && phi <= tol, "{g:e} {phi:e}");
+    assert!(de <= 1e-4, "{de:e}");
+    let (_, _, g, phi, de, it_spring) = run(2000, 5.0, SolverChoice::Auto, 300);
+    println!(
+        "2000 particles with springs: |g| {g:.1e}, |phi| {phi:.1e}, dE/E {de:.1e}, {it_spring:.2} it/step"
+    );
+    assert!(g <= tol && phi <= tol, "{g:e} {phi:e}");
+    assert!(de <= 1e-4, "{de:e}");
+    // Dense and sparse agree on the coupled system too.
+    let (xd, ..) = run(80, 5.0, SolverChoice::Force(SolverKind::Dense), 200);
+    let (xs, ..) = run(80, 5.0, SolverChoice::Force(SolverKind::Sparse), 200);
+    let d = xd
+        .as_slice()
+        .iter()
+        .zip(xs.as_slice())
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(d <= 1e-11, "{d:e}");
+}
