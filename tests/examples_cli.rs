@@ -169,6 +169,54 @@ fn stiff_chain_sorts_the_schemes() {
     assert_eq!(field(last, "energy_increase_steps"), "0");
 }
 
+/// The N-link chain: the JSON contract of issue 3, the backend flag, and bad values.
+#[test]
+fn chain_prints_the_json_contract_last() {
+    let mut energies = Vec::new();
+    for solver in ["sparse", "dense", "auto"] {
+        let (code, out, err) = run(
+            "chain",
+            &["--links", "300", "--steps", "100", "--solver", solver],
+        );
+        assert_eq!(code, 0, "{err}");
+        let last = out.lines().last().unwrap();
+        for key in [
+            "t",
+            "steps",
+            "links",
+            "max_abs_g",
+            "max_abs_phi",
+            "energy_max_err",
+            "newton_iterations",
+            "ns_per_step",
+            "peak_rss_mb",
+        ] {
+            field(last, key);
+        }
+        assert_eq!(field(last, "links"), "300");
+        assert_eq!(field(last, "steps"), "100");
+        let expected = if solver == "dense" { "dense" } else { "sparse" };
+        assert_eq!(field(last, "solver"), format!("\"{expected}\""));
+        let g: f64 = field(last, "max_abs_g").parse().unwrap();
+        let phi: f64 = field(last, "max_abs_phi").parse().unwrap();
+        assert!(g <= 1e-12 && phi <= 1e-12, "{last}");
+        energies.push(field(last, "energy_max_err").to_string());
+    }
+    // Same trajectory whatever the backend (the energy error agrees to its printed digits
+    // except the last few).
+    let e: Vec<f64> = energies.iter().map(|v| v.parse().unwrap()).collect();
+    assert!((e[0] - e[1]).abs() <= 1e-6 * e[0].abs(), "{e:?}");
+    for args in [
+        &["--links", "0"][..],
+        &["--solver", "lu"],
+        &["--dim", "4"],
+        &["--links", "10000", "--solver", "dense"],
+    ] {
+        let (code, _, err) = run("chain", args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+    }
+}
+
 #[test]
 fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
     for args in [
@@ -184,6 +232,7 @@ fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
             "rigid_body",
             "damped_pendulum",
             "stiff_chain",
+            "chain",
         ] {
             let (code, out, err) = run(name, args);
             assert_eq!(code, 2, "{name} {args:?}: exit {code}, stdout {out}");
