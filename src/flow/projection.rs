@@ -118,7 +118,6 @@ impl<T: Real> ProjectionOptions<T> {
 #[derive(Debug, Clone)]
 struct Work<V> {
     start: V,
-    xhat: V,
     y: V,
     xe: V,
     t1: V,
@@ -132,9 +131,12 @@ struct Work<V> {
     r: V,
     /// `(λ_k − previous λ_{k+1}) / h` of the last decoupled step, for the warm start.
     offset: V,
-    /// `(λ_{k+1} − λ_k) / h` of the last decoupled step, for the warm start of `λ_{k+1}`.
-    offset1: V,
-    offset1_saved: V,
+    /// `S = λ_k + λ_{k+1}` of the last decoupled step and its change per unit step, for the
+    /// warm start of `λ_{k+1}` (see `step_impl`).
+    sum: V,
+    sum_trend: V,
+    sum_saved: V,
+    sum_trend_saved: V,
     /// `z` and `offset` at the start of the step, restored if the step fails so that a failed
     /// iterate never becomes the next warm start.
     z_saved: V,
@@ -252,7 +254,6 @@ where
         let zeros = x0.zeros_like();
         let w = Work {
             start: zeros.clone(),
-            xhat: zeros.clone(),
             y: zeros.clone(),
             xe: zeros.clone(),
             t1: zeros.clone(),
@@ -264,8 +265,10 @@ where
             r: V::zeros(m),
             offset: V::zeros(m),
             offset_saved: V::zeros(m),
-            offset1: V::zeros(m),
-            offset1_saved: V::zeros(m),
+            sum: V::zeros(m),
+            sum_trend: V::zeros(m),
+            sum_saved: V::zeros(m),
+            sum_trend_saved: V::zeros(m),
             u1: x0.zeros_like(),
             u2: x0.zeros_like(),
             ec: V::zeros(m),
@@ -334,7 +337,6 @@ where
         };
         let Work {
             start,
-            xhat,
             y,
             xe,
             t1,
@@ -354,7 +356,6 @@ where
             x: start,
             inner: &mut self.inner,
             system: &self.system,
-            xhat,
             y,
             xe,
             t1,
@@ -403,21 +404,37 @@ where
                         off[j] = (z[j] - z[m + j]) / h;
                     }
                 }
-                // λ_{k+1} differs from this step's λ_k by a smoothly varying gap (O(h), or an
-                // oscillation of the multipliers that persists across steps): predict it
-                // from λ_k and the last gap, again per unit step.
-                let warm = h != V::Real::zero() && self.stats.projected_steps > 0;
-                if warm {
-                    let (z, off) = (self.w.z.as_mut_slice(), self.w.offset1.as_slice());
+                // λ_{k+1} is predicted through the sum S = λ_k + λ_{k+1}, which sets the
+                // step's total impulse and so varies smoothly even when λ_k alone does not:
+                // when g cannot resolve part of λ_k at working precision (the smooth tension
+                // mode of a long chain at small h), λ_k is accepted wherever the warm start put
+                // it and λ_{k+1} compensates, so the two alternate from step to step while S
+                // stays smooth. S is extrapolated linearly, per unit step.
+                let steps = self.stats.projected_steps;
+                if h != V::Real::zero() && steps > 0 {
+                    let w = &mut self.w;
+                    let (z, sum, trend) =
+                        (w.z.as_mut_slice(), w.sum.as_slice(), w.sum_trend.as_slice());
                     for j in 0..m {
-                        z[m + j] = z[j] + h * off[j];
+                        z[m + j] = sum[j] + h * trend[j] - z[j];
                     }
                 }
                 self.solve(Mode::LambdaK1, h, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
                 if h != V::Real::zero() {
-                    let (z, off) = (self.w.z.as_slice(), self.w.offset1.as_mut_slice());
+                    let w = &mut self.w;
+                    let (z, sum, trend) = (
+                        w.z.as_slice(),
+                        w.sum.as_mut_slice(),
+                        w.sum_trend.as_mut_slice(),
+                    );
                     for j in 0..m {
-                        off[j] = (z[m + j] - z[j]) / h;
+                        let s_new = z[j] + z[m + j];
+                        trend[j] = if steps > 0 {
+                            (s_new - sum[j]) / h
+                        } else {
+                            V::Real::zero()
+                        };
+                        sum[j] = s_new;
                     }
                 }
                 // The decoupling assumption: the second half-step did not move g (for position
@@ -461,7 +478,8 @@ where
         self.w.start.copy_from(x);
         self.w.z_saved.copy_from(&self.w.z);
         self.w.offset_saved.copy_from(&self.w.offset);
-        self.w.offset1_saved.copy_from(&self.w.offset1);
+        self.w.sum_saved.copy_from(&self.w.sum);
+        self.w.sum_trend_saved.copy_from(&self.w.sum_trend);
         let result =
             self.step_impl(h)
                 .and_then(|()| match ops::first_non_finite(self.w.xe.as_slice()) {
@@ -472,7 +490,8 @@ where
             // A failed iterate must not become the next warm start or kept Jacobian.
             self.w.z.copy_from(&self.w.z_saved);
             self.w.offset.copy_from(&self.w.offset_saved);
-            self.w.offset1.copy_from(&self.w.offset1_saved);
+            self.w.sum.copy_from(&self.w.sum_saved);
+            self.w.sum_trend.copy_from(&self.w.sum_trend_saved);
             self.newton.invalidate_jacobian();
             if let Some(n) = self.newton_k1.as_mut() {
                 n.invalidate_jacobian();
@@ -556,7 +575,6 @@ struct Stage<'a, V: Vector, F, Ms, H, C> {
     x: &'a V,
     inner: &'a mut F,
     system: &'a System<Ms, H, C>,
-    xhat: &'a mut V,
     y: &'a mut V,
     xe: &'a mut V,
     t1: &'a mut V,
@@ -592,13 +610,13 @@ where
         *self.y_valid = false;
         let half = self.h * V::Real::lit(0.5);
         self.system.constraint_force(self.x, a, self.t1, self.t2);
+        // x̂ = x + h/2 M Gᵀ a, written straight into y (the inner flow then steps it in place).
         ops::add_scaled(
-            self.xhat.as_mut_slice(),
+            self.y.as_mut_slice(),
             self.x.as_slice(),
             half,
             self.t2.as_slice(),
         );
-        self.y.copy_from(self.xhat);
         self.inner.step(self.h, self.y)?;
         // An element loop: `copy_from_slice` of a run-time length is a `memcpy` call, which
         // costs more than the copy for a handful of multipliers.
@@ -690,9 +708,10 @@ where
     /// Closed-form Jacobian groups of the decoupled systems, from the model's Hessian
     /// ([`Hamiltonian::hessian_apply`]); `e` is the indicator of `cols`:
     /// - `λ_k`: `J e = G(y) DΦ_h (h/2) M Gᵀ e` with `DΦ_h ≈ I + h M ∇²H` —
-    ///   `(h/2) G(y) M Gᵀ e + (h²/2) G(y) M ∇²H M Gᵀ e`, exact when the inner flow's tangent
-    ///   map is `I + h M ∇²H` (a kick–drift–kick with a potential linear in each particle, such
-    ///   as gravity), `O(h²)` relative otherwise;
+    ///   `(h/2) G(y) M Gᵀ e + (h²/2) G(y) M ∇²H M Gᵀ e` (`M`, `∇²H` at the step's start `x`),
+    ///   exact when the inner flow's tangent map is `I + h M ∇²H` with a constant Hessian (a
+    ///   kick–drift–kick with a potential linear in each particle, such as gravity), `O(h²)`
+    ///   relative otherwise;
     /// - `λ_{k+1}`: `J e = (h/2) G(x') M(x') ∇²H(x') M(y) G(y)ᵀ e`, exact in the decoupled case.
     fn jacobian_group(&mut self, z: &[V::Real], cols: &[usize], out: &mut [V::Real]) -> bool {
         let (m, h) = (self.m, self.h);
@@ -717,13 +736,10 @@ where
         let (sys, x) = (self.system, self.x);
         if mode == Mode::LambdaK {
             sys.constraint_force(x, e, self.t1, self.t2);
-            if !sys
-                .hamiltonian
-                .hessian_apply(&*self.xhat, &*self.t2, self.u1)
-            {
+            if !sys.hamiltonian.hessian_apply(self.x, &*self.t2, self.u1) {
                 return false;
             }
-            sys.structure.apply(&*self.xhat, &*self.u1, self.u2);
+            sys.structure.apply(self.x, &*self.u1, self.u2);
             ops::add_scaled(
                 self.u1.as_mut_slice(),
                 self.t2.as_slice(),
