@@ -104,6 +104,32 @@ fn redundant_constraints_are_typed_errors_naming_one() {
         }
         other => panic!("expected a rank-deficiency error, got {other:?}"),
     }
+    // Without naming the case (the brackets would only see singular matrices), and for the
+    // constrained discrete gradient, the same typed error.
+    let small = PendulumChain::<f64>::uniform(2, 4)
+        .unwrap()
+        .with_rod(Some(0), 1, 0.25)
+        .unwrap();
+    let xs: V = small.at_rest(shape(4));
+    let err = small
+        .kick::<V>()
+        .strang(small.drift())
+        .projected(small.system(), &xs, ProjectionOptions::default())
+        .err();
+    assert!(
+        matches!(err, Some(SetupError::RankDeficient { constraint, .. }) if constraint == 1 || constraint == 4),
+        "{err:?}"
+    );
+    let err = lieflow::flow::ConstrainedDiscreteGradient::<V, _, _, _>::try_new(
+        small.system(),
+        &xs,
+        small.projection_options(),
+    )
+    .err();
+    assert!(
+        matches!(err, Some(SetupError::RankDeficient { .. })),
+        "{err:?}"
+    );
     // An over-constrained closed loop: a flat triangle — particles 0 and 1 on a straight line
     // through the pin, and a rod from the pin to particle 1 closing the loop. Its three
     // gradients are dependent (the triangle is degenerate), whichever backend is used.

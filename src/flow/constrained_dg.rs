@@ -123,7 +123,8 @@ where
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
         // φ(x0) need not vanish: the first hidden-constraint projection restores it.
-        let case = check_initial_state(&system, x0, &options, false)?;
+        let (case, _) =
+            check_initial_state::<V, Ms, H, C, W::Solver>(&system, x0, &options, false)?;
         let (n, m) = (x0.len(), system.constraint.dim());
         let g0 = vec![V::Real::zero(); m];
         let hidden = match case {

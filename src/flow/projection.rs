@@ -203,7 +203,7 @@ where
         x0: &V,
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
-        let case = check_initial_state(&system, x0, &options, true)?;
+        let (case, pattern) = check_initial_state::<V, Ms, H, C, L>(&system, x0, &options, true)?;
         let (n, m) = (x0.len(), system.constraint.dim());
         if case == Case::Degenerate && 2 * m > n {
             return Err(SetupError::Dimension {
@@ -229,16 +229,15 @@ where
         let k = if scheme == Scheme::Coupled { 2 * m } else { m };
         // With a sparse G, the multiplier systems couple constraints whose gradients share a
         // state variable; the coupled system has that pattern in each of its four blocks.
-        let pattern =
-            constraint_gram::<V, Ms, H, C, L>(&system, x0, options.newton.solver)?.map(|p| {
-                if scheme == Scheme::Coupled {
-                    p.iter()
-                        .flat_map(|&(i, j)| [(i, j), (i + m, j), (i, j + m), (i + m, j + m)])
-                        .collect()
-                } else {
-                    p
-                }
-            });
+        let pattern = pattern.map(|p| {
+            if scheme == Scheme::Coupled {
+                p.iter()
+                    .flat_map(|&(i, j)| [(i, j), (i + m, j), (i, j + m), (i + m, j + m)])
+                    .collect()
+            } else {
+                p
+            }
+        });
         let pattern_m = pattern.as_deref().filter(|_| scheme != Scheme::Coupled);
         let newton = Newton::with_pattern(k, options.newton, pattern.as_deref())?;
         let newton_k1 = match scheme {
@@ -791,20 +790,24 @@ where
     }
 }
 
-/// The checks every constrained flow makes at construction: `x0` finite, `m ≤ n`, the case
-/// (from `options.case` or the brackets at `x0`), and `‖g(x0)‖∞ ≤ options.manifold_tol` — with
-/// `check_phi`, also `‖φ(x0)‖∞` in the degenerate case. Returns the case.
-pub(crate) fn check_initial_state<V, Ms, H, C>(
+/// The checks every constrained flow makes at construction: `x0` finite, `m ≤ n`, independent
+/// constraint gradients when the constraint provides its sparse Jacobian ([`constraint_gram`],
+/// with the solver `L`), the case (from `options.case` or the brackets at `x0`), and
+/// `‖g(x0)‖∞ ≤ options.manifold_tol` — with `check_phi`, also `‖φ(x0)‖∞` in the degenerate
+/// case. Returns the case and the multiplier pattern (`None` for a dense `G`).
+#[allow(clippy::type_complexity)]
+pub(crate) fn check_initial_state<V, Ms, H, C, L>(
     system: &System<Ms, H, C>,
     x0: &V,
     options: &ProjectionOptions<V::Real>,
     check_phi: bool,
-) -> Result<Case, SetupError>
+) -> Result<(Case, Option<Vec<(usize, usize)>>), SetupError>
 where
     V: Vector,
     Ms: StructureMatrix<V>,
     H: Hamiltonian<V>,
     C: HolonomicConstraint<V>,
+    L: LinearSolver<V::Real>,
 {
     if let Some(component) = ops::first_non_finite(x0.as_slice()) {
         return Err(SetupError::NonFiniteState { component });
@@ -816,6 +819,8 @@ where
             what: format!("{m} constraints on a state of dimension {n}"),
         });
     }
+    // Redundant constraints first: the bracket matrices would only report them as singular.
+    let pattern = constraint_gram::<V, Ms, H, C, L>(system, x0, options.newton.solver)?;
     let brackets = Brackets::new(system);
     let case = match options.case {
         Some(c) => c,
@@ -849,7 +854,7 @@ where
             }
         }
     }
-    Ok(case)
+    Ok((case, pattern))
 }
 
 /// Above this many constraints the case is not decided from the (dense, `O(m² n)`) bracket
