@@ -65,6 +65,18 @@ pub enum LinearSolveError {
         /// The position added.
         got: Option<(usize, usize)>,
     },
+    /// A Jacobian computed in closed form has a non-zero outside the sparsity pattern it was
+    /// declared with: grouped columns would add it to another entry, so the matrix would be
+    /// wrong, not merely incomplete. Declare a wider pattern (or none).
+    #[error(
+        "the Jacobian has a non-zero in row {row} outside the declared sparsity pattern (the column group of column {column})"
+    )]
+    PatternIncomplete {
+        /// The row of the non-zero.
+        row: usize,
+        /// A column of the group it appeared in.
+        column: usize,
+    },
     /// The sparsity pattern itself is singular: no choice of values makes the matrix invertible
     /// (a column or row without entries, or more constraints than a set of unknowns can carry).
     #[error("structurally singular sparse matrix (column {column} has no available pivot)")]

@@ -80,8 +80,7 @@ fn a_thousand_links_stay_on_their_constraints() {
     println!(
         "N = 1000, 1000 steps: max |g| {max_g:.2e}, max |phi| {max_phi:.2e}, max |H - H0| {max_de:.2e} (H0 = {e0:.3})"
     );
-    assert!(max_g <= 1e-12 && max_phi <= 1e-12);
-    // The round-off level of the chain: positions of size 1 differenced over links of 1e-3.
+    // The bound is 1e-12; the round-off level of the chain: positions of size 1 differenced over links of 1e-3.
     let l = 1.0 / n as f64;
     assert!(max_g <= 64.0 * f64::EPSILON * l && max_phi <= 64.0 * f64::EPSILON * l);
     // RATTLE's energy error is O(h²) and bounded; relative to |H0| it stays far below h.
@@ -182,14 +181,15 @@ fn redundant_constraints_are_typed_errors_naming_one() {
 #[test]
 fn particles_on_spheres_stay_on_them_with_springs_outside_the_pattern() {
     use lieflow::models::SphereParticles;
+    // Drift–kick–drift, so that the springs couple the multipliers (see the model docs).
     let run = |n: usize, spring: f64, solver: SolverChoice, steps: usize| {
         let model = SphereParticles::<f64>::row(n, spring).unwrap();
         let x0: V = model.at_rest(|i| 0.3 + 0.2 * (i as f64 * 0.7).sin(), |i| 0.1 * i as f64);
         let options = model.projection_options();
         let options = options.with_newton(options.newton.with_solver(solver));
         let mut flow = model
-            .kick::<V>()
-            .strang(model.drift())
+            .drift::<V>()
+            .strang(model.kick())
             .projected(model.system(), &x0, options)
             .unwrap();
         let kind = flow.newton().linear_solver().kind();
@@ -216,16 +216,19 @@ fn particles_on_spheres_stay_on_them_with_springs_outside_the_pattern() {
         "2000 free particles: {kind:?}, |g| {g:.1e}, |phi| {phi:.1e}, dE/E {de:.1e}, {it:.2} it/step"
     );
     assert_eq!(kind, SolverKind::Sparse);
-    // Rounding level: positions up to 4000 differenced with the centers.
-    let tol = 16.0 * f64::EPSILON * 4000.0;
+    // Newton stops at ftol = 16 ε r (|c| + r) ≈ 16 ε · 4000 (positions up to 4000 differenced
+    // with the centres); allow that plus the rounding of g itself.
+    let tol = 32.0 * f64::EPSILON * 4000.0;
     assert!(g <= tol && phi <= tol, "{g:e} {phi:e}");
     assert!(de <= 1e-4, "{de:e}");
-    let (_, _, g, phi, de, it_spring) = run(2000, 5.0, SolverChoice::Auto, 300);
+    let (_, _, g, phi, de, it_spring) = run(2000, 50.0, SolverChoice::Auto, 300);
     println!(
         "2000 particles with springs: |g| {g:.1e}, |phi| {phi:.1e}, dE/E {de:.1e}, {it_spring:.2} it/step"
     );
     assert!(g <= tol && phi <= tol, "{g:e} {phi:e}");
     assert!(de <= 1e-4, "{de:e}");
+    // Couplings outside the pattern cost iterations (linear convergence), not accuracy.
+    assert!(it_spring > it, "{it_spring} vs {it}");
     // Dense and sparse agree on the coupled system too.
     let (xd, ..) = run(80, 5.0, SolverChoice::Force(SolverKind::Dense), 200);
     let (xs, ..) = run(80, 5.0, SolverChoice::Force(SolverKind::Sparse), 200);

@@ -206,6 +206,7 @@ fn chain_prints_the_json_contract_last() {
     // except the last few).
     let e: Vec<f64> = energies.iter().map(|v| v.parse().unwrap()).collect();
     assert!((e[0] - e[1]).abs() <= 1e-6 * e[0].abs(), "{e:?}");
+    assert_eq!(e[0], e[2], "auto picks sparse for 300 links");
     for args in [
         &["--links", "0"][..],
         &["--solver", "lu"],

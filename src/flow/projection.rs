@@ -168,6 +168,8 @@ pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
     /// Relative tolerance of the fixed point for the implicit end point.
     fixed_point_tol: V::Real,
     w: Work<V>,
+    /// The last successful step size (for the multiplier warm starts).
+    last_h: V::Real,
     stats: FlowStats,
 }
 
@@ -227,18 +229,12 @@ where
             },
         };
         let k = if scheme == Scheme::Coupled { 2 * m } else { m };
-        // With a sparse G, the multiplier systems couple constraints whose gradients share a
-        // state variable; the coupled system has that pattern in each of its four blocks.
-        let pattern = pattern.map(|p| {
-            if scheme == Scheme::Coupled {
-                p.iter()
-                    .flat_map(|&(i, j)| [(i, j), (i + m, j), (i, j + m), (i + m, j + m)])
-                    .collect()
-            } else {
-                p
-            }
-        });
-        let pattern_m = pattern.as_deref().filter(|_| scheme != Scheme::Coupled);
+        // With a sparse G, the decoupled multiplier systems couple constraints whose gradients
+        // share a state variable (when M ∇²H M does not couple those variables further; a
+        // closed-form Jacobian outside the pattern is reported as PatternIncomplete). The
+        // coupled and symmetric systems carry more couplings (M(x') and x' implicit): dense.
+        let pattern = pattern.filter(|_| scheme == Scheme::Decoupled);
+        let pattern_m = pattern.as_deref();
         let newton = Newton::with_pattern(k, options.newton, pattern.as_deref())?;
         let newton_k1 = match scheme {
             Scheme::Decoupled => Some(Newton::with_pattern(m, options.newton, pattern_m)?),
@@ -283,6 +279,7 @@ where
             guard_tol: options.newton.ftol,
             fixed_point_tol: options.newton.xtol,
             w,
+            last_h: V::Real::zero(),
             stats: FlowStats::default(),
         })
     }
@@ -409,13 +406,16 @@ where
                 // mode of a long chain at small h), λ_k is accepted wherever the warm start put
                 // it and λ_{k+1} compensates, so the two alternate from step to step while S
                 // stays smooth. S is extrapolated linearly, per unit step.
+                // S belongs to the middle of its step: consecutive sums are (h_prev + h)/2
+                // apart, whatever the sizes and signs of the sub-steps of a composition.
                 let steps = self.stats.projected_steps;
+                let spacing = (self.last_h + h) * V::Real::lit(0.5);
                 if h != V::Real::zero() && steps > 0 {
                     let w = &mut self.w;
                     let (z, sum, trend) =
                         (w.z.as_mut_slice(), w.sum.as_slice(), w.sum_trend.as_slice());
                     for j in 0..m {
-                        z[m + j] = sum[j] + h * trend[j] - z[j];
+                        z[m + j] = sum[j] + spacing * trend[j] - z[j];
                     }
                 }
                 self.solve(Mode::LambdaK1, h, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
@@ -428,8 +428,8 @@ where
                     );
                     for j in 0..m {
                         let s_new = z[j] + z[m + j];
-                        trend[j] = if steps > 0 {
-                            (s_new - sum[j]) / h
+                        trend[j] = if steps > 0 && spacing != V::Real::zero() {
+                            (s_new - sum[j]) / spacing
                         } else {
                             V::Real::zero()
                         };
@@ -498,6 +498,7 @@ where
             return Err(e);
         }
         x.copy_from(&self.w.xe);
+        self.last_h = h;
         self.stats.projected_steps += 1;
         Ok(())
     }
@@ -716,7 +717,8 @@ where
         let (m, h) = (self.m, self.h);
         let half = h * V::Real::lit(0.5);
         let mode = self.mode;
-        // The points the last residual evaluation used (recomputed only if `z` differs).
+        // The points the Jacobian is taken at: y for λ_k (cached per λ_k), x' for λ_{k+1}
+        // (recomputed, one pass).
         match mode {
             Mode::LambdaK => {
                 if self.compute_y(z).is_err() {

@@ -45,7 +45,7 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for DenseLu<T> {
 
     #[inline]
     fn column_mut(&mut self, j: usize) -> Option<&mut [T]> {
-        Some(self.a.col_as_slice_mut(j))
+        (j < self.a.ncols()).then(|| self.a.col_as_slice_mut(j))
     }
 
     fn clear(&mut self) {

@@ -86,7 +86,7 @@ pub trait LinearSolver<T: Real>: Sized + Send + Sink<T> {
     /// The dimension `k`.
     fn dim(&self) -> usize;
     /// Column `j` of the stored matrix (`k` entries) for dense storage; `None` for sparse
-    /// storage (assemble through [`Sink::add`] instead). The matrix persists across
+    /// storage (assemble through [`Sink::add`] instead) or `j ≥ k`. The matrix persists across
     /// [`factor`](Self::factor) calls, so it can be rewritten whole or updated in place.
     fn column_mut(&mut self, j: usize) -> Option<&mut [T]>;
     /// Starts an assembly: every stored entry becomes zero.
@@ -102,8 +102,10 @@ pub trait LinearSolver<T: Real>: Sized + Send + Sink<T> {
     fn solve_in_place(&mut self, rhs: &mut [T]) -> Result<(), LinearSolveError>;
 }
 
-/// Checks the pivots `u_ii` of an LU factorization: returns the first one that is tiny
-/// relative to the largest, which signals a singular matrix to working precision.
+/// Checks the pivots `u_ii` of an LU factorization of a finite matrix (every solver checks its
+/// entries first): returns the first pivot, in elimination order, that is tiny relative to the
+/// largest finite pivot — or not finite, which after an exactly zero pivot is what elimination
+/// produces — as [`LinearSolveError::Singular`].
 pub(crate) fn check_pivots<T: Real>(
     k: usize,
     pivot: impl Fn(usize) -> T,
@@ -111,15 +113,14 @@ pub(crate) fn check_pivots<T: Real>(
     let mut max = T::zero();
     for i in 0..k {
         let p = pivot(i).abs();
-        if !p.is_finite() {
-            return Err(LinearSolveError::NonFinite { row: i, col: i });
+        if p.is_finite() {
+            max = max.max(p);
         }
-        max = max.max(p);
     }
     let tol = T::lit(k.max(1) as f64) * T::epsilon() * max;
     for i in 0..k {
         let p = pivot(i).abs();
-        if p <= tol || max == T::zero() {
+        if !p.is_finite() || p <= tol || max == T::zero() {
             return Err(LinearSolveError::Singular {
                 pivot: i,
                 magnitude: p.to_f64_lossy(),

@@ -114,16 +114,15 @@ impl<T: Real> PendulumChain<T> {
     /// The projection options for RATTLE on this chain: degenerate case, decoupled multiplier
     /// systems (position constraints, momentum-only constraint forces). Naming them skips the
     /// `O(m² n)` dense bracket analysis, which is what lets `N` reach `10⁵`. The multiplier
-    /// Jacobians are built by central differences with a large step (`10⁻⁴` relative): the
-    /// residuals are quadratic in the multipliers, so the differences are exact up to rounding,
-    /// and the Newton matrix of a long chain has condition number `~N²`, which forward
-    /// differences (`√ε` relative error) cannot afford beyond `N ≈ 10³`.
+    /// Jacobians come in closed form from the chain's Hessian (the projection's grouped
+    /// Jacobian–vector products): the Newton matrix of a long chain has condition number
+    /// `~N²`, which finite differences (`√ε` relative error) cannot afford beyond `N ≈ 10³`.
     ///
     /// The residual tolerance is scaled to the chain: `ftol = 16 ε l_min L` (`L` the total
     /// length), the rounding level of `g` and `φ` (positions of size `L` differenced over a link
-    /// of length `l`, a few operations each). The default `2ε` is absolute; for short links it would stop Newton while
-    /// the smooth tension mode — whose Newton matrix eigenvalue is `~(l/L)²` times the
-    /// largest — is still far off.
+    /// of length `l`, a few operations each). The default `2ε` is absolute; for short links it
+    /// would stop Newton while the smooth tension mode — whose Newton matrix eigenvalue is
+    /// `~(l/L)²` times the largest — is still far off.
     pub fn projection_options(&self) -> ProjectionOptions<T> {
         let l_min = self.lengths.iter().fold(T::infinity(), |a, &b| a.min(b));
         let total = self.lengths.iter().fold(T::zero(), |a, &b| a + b);
@@ -131,11 +130,7 @@ impl<T: Real> PendulumChain<T> {
         ProjectionOptions::default()
             .with_case(Case::Degenerate)
             .with_coupling(Coupling::Decoupled)
-            .with_newton(
-                NewtonOptions::default()
-                    .with_central_differences(T::lit(1e-4))
-                    .with_ftol(ftol),
-            )
+            .with_newton(NewtonOptions::default().with_ftol(ftol))
     }
 
     /// `links` unit masses on rods of length `1/links` (total length 1), gravity 1.

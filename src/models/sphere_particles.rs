@@ -10,9 +10,12 @@
 //!
 //! Each particle alone is a spherical pendulum. The constraint Jacobian is block diagonal, so
 //! the multiplier systems of a projection are diagonal in their pattern (`G Gᵀ`). With springs
-//! (`k > 0`) the kick couples neighbours, the true multiplier Jacobian picks up `O(h³)` entries
-//! outside that pattern, and Newton converges linearly with a contraction of order
-//! `h² k / m` instead of in one step — to the same answer.
+//! (`k > 0`) and a drift–kick–drift inner flow, the kick in the middle moves each particle by
+//! its neighbours' multipliers: the true multiplier Jacobian picks up `O(h³)` entries outside
+//! that pattern, which the closed-form Jacobian (first order in `h M ∇²H`) leaves out, and
+//! Newton converges linearly with a contraction of order `h² k / m` — to the same answer.
+//! (With kick–drift–kick the Jacobians stay exactly diagonal: the positions after the drift
+//! depend on each particle's own multiplier only.)
 
 use crate::error::SetupError;
 use crate::flow::{Coupling, FnFlow, ProjectionOptions, from_fn};

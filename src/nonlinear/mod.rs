@@ -48,7 +48,8 @@ pub trait NonlinearProblem<T: Real> {
     /// and returns `true`, when the problem forms Jacobian–vector products in closed form.
     /// Newton with a sparsity pattern calls it once per group of structurally orthogonal
     /// columns (no two share a row), so each entry is read off exactly; without it the groups
-    /// are differenced. `z` is the point of the last residual evaluation. Default `false`.
+    /// are differenced. `z` is the current iterate (the residual was last evaluated there
+    /// unless a previous group was differenced). Default `false`.
     fn jacobian_group(&mut self, z: &[T], cols: &[usize], out: &mut [T]) -> bool {
         let _ = (z, cols, out);
         false

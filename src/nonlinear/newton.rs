@@ -192,6 +192,8 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     analytic: bool,
     /// Column groups for a sparse Jacobian.
     groups: Option<ColumnGroups>,
+    /// Per row, the last group whose pattern covers it (scratch for the pattern check).
+    mark: Vec<usize>,
 }
 
 /// A sparsity pattern's columns grouped so that no two columns of a group share a row
@@ -309,6 +311,11 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         Ok(Self {
             k,
             lin: L::with_structure(k, structure, options.solver)?,
+            mark: if groups.is_some() {
+                vec![usize::MAX; k]
+            } else {
+                Vec::new()
+            },
             groups,
             options,
             f: V::zeros(k),
@@ -327,8 +334,9 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         &self.lin
     }
 
-    /// The number of residual evaluations one Jacobian costs by differences: the number of
-    /// column groups with a pattern, `k` without.
+    /// The number of column evaluations one Jacobian costs: the number of column groups with
+    /// a pattern, `k` without. Each is one residual evaluation by forward differences, two by
+    /// central differences, none when the problem answers it in closed form.
     pub fn evaluations_per_jacobian(&self) -> usize {
         self.groups.as_ref().map_or(self.k, ColumnGroups::groups)
     }
@@ -430,9 +438,23 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             for c in 0..groups.groups() {
                 let cols = &groups.cols[groups.col_ptr[c]..groups.col_ptr[c + 1]];
                 if problem.jacobian_group(z, cols, &mut self.fp.as_mut_slice()[..k]) {
-                    let fp = self.fp.as_slice();
-                    for &(i, j) in &groups.entries[groups.entry_ptr[c]..groups.entry_ptr[c + 1]] {
+                    let fp = &self.fp.as_slice()[..k];
+                    let entries = &groups.entries[groups.entry_ptr[c]..groups.entry_ptr[c + 1]];
+                    let mut max = V::Real::zero();
+                    for &(i, j) in entries {
                         self.lin.add(i, j, fp[i]);
+                        self.mark[i] = c;
+                        max = max.max(fp[i].abs());
+                    }
+                    // A closed-form product is exactly zero outside the rows the group covers
+                    // (up to rounding); anything else would be added to a wrong entry.
+                    let tol = V::Real::lit(64.0) * V::Real::epsilon() * max;
+                    if let Some(row) = (0..k).find(|&i| self.mark[i] != c && fp[i].abs() > tol) {
+                        return Err(LinearSolveError::PatternIncomplete {
+                            row,
+                            column: cols.first().copied().unwrap_or(0),
+                        }
+                        .into());
                     }
                     continue;
                 }
@@ -635,8 +657,11 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             if r_eff <= opts.ftol {
                 return Ok(report);
             }
+            // The update test needs a full step that reduced the residual: a damped or
+            // worsening step is small without being accurate.
             if (opts.atol > V::Real::zero() || opts.rtol > V::Real::zero())
-                && r_new.is_finite()
+                && halvings == 0
+                && r_new < r
                 && dz
                     .iter()
                     .zip(z.iter())
