@@ -66,8 +66,10 @@ pub enum LinearSolveError {
         got: Option<(usize, usize)>,
     },
     /// A Jacobian computed in closed form has a non-zero outside the sparsity pattern it was
-    /// declared with: grouped columns would add it to another entry, so the matrix would be
-    /// wrong, not merely incomplete. Declare a wider pattern (or none).
+    /// declared with, in a row its column group does not cover: grouped columns would add it
+    /// to another entry, so the matrix would be wrong, not merely incomplete. (A non-zero in a
+    /// covered row cannot be told apart from the group sum; it shows as slow convergence.)
+    /// Declare a wider pattern (or none).
     #[error(
         "the Jacobian has a non-zero in row {row} outside the declared sparsity pattern (the column group of column {column})"
     )]

@@ -317,3 +317,58 @@ fn scaled_update_tolerance_stops_early() {
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     assert!(err <= 1e-9, "{err:e}");
 }
+
+/// A closed-form Jacobian with an entry outside the declared pattern, in a row its column group
+/// does not cover, is a typed error (grouped columns would add it to another entry). An entry in
+/// a covered row cannot be told apart; Newton then converges slowly or reports NotConverged.
+#[test]
+fn a_closed_form_jacobian_outside_the_pattern_is_a_typed_error() {
+    /// `F_i = 2 z_i + z_{i+2} − 1`: upper "skip-one" coupling.
+    struct Skip;
+    const K: usize = 5;
+    impl NonlinearProblem<f64> for Skip {
+        fn dim(&self) -> usize {
+            K
+        }
+        fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+            for i in 0..K {
+                let r = if i + 2 < K { z[i + 2] } else { 0.0 };
+                f[i] = 2.0 * z[i] + r - 1.0;
+            }
+            Ok(())
+        }
+        fn jacobian_group(&mut self, _z: &[f64], cols: &[usize], out: &mut [f64]) -> bool {
+            out.iter_mut().for_each(|v| *v = 0.0);
+            for &j in cols {
+                out[j] += 2.0;
+                if j >= 2 {
+                    out[j - 2] += 1.0;
+                }
+            }
+            true
+        }
+    }
+    // Declared tridiagonal: column 2's group covers rows 1..=3, but F_0 depends on z_2.
+    let mut n: Newton<Col<f64>, SparseLu<f64>> =
+        Newton::with_pattern(K, NewtonOptions::default(), Some(&tridiagonal_pattern(K))).unwrap();
+    let err = n.solve(&mut Skip, &mut [0.0; K]).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            lieflow::NewtonError::Linear(LinearSolveError::PatternIncomplete { row: 0, .. })
+        ),
+        "{err}"
+    );
+    // With the true pattern it solves in one step.
+    let pattern: Vec<(usize, usize)> = (0..K)
+        .flat_map(|i| [(i, i), (i, (i + 2).min(K - 1))])
+        .collect();
+    let mut n: Newton<Col<f64>, SparseLu<f64>> =
+        Newton::with_pattern(K, NewtonOptions::default(), Some(&pattern)).unwrap();
+    let mut z = [0.0; K];
+    let report = n.solve(&mut Skip, &mut z).unwrap();
+    assert_eq!(report.iterations, 1);
+    let mut f = [0.0; K];
+    Skip.residual(&z, &mut f).unwrap();
+    assert!(f.iter().all(|v| v.abs() <= 1e-15), "{f:?}");
+}
