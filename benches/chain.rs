@@ -4,7 +4,7 @@
 //! for every N, so the Newton work per step is comparable).
 //!
 //! After criterion's measurements, the bench times every configuration again in the same
-//! process (median of 5 runs of 20 steps each), prints the table and the ratio
+//! process (median of 9 runs of about 0.25 s each), prints the table and the ratio
 //! `ns/step(10⁵) / ns/step(10⁴)` (linear cost: about 10), and writes `chain_scaling.csv` and
 //! the log-log plot `chain_scaling.svg` into `$LIEFLOW_FIGURES` when that is set:
 //!
@@ -64,26 +64,33 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-/// Median ns/step over 5 runs of 20 steps.
+/// Median ns/step over 9 runs of about 0.25 s each (at least 5 steps per run): long enough
+/// runs that scheduler noise on a shared machine averages out within a run, and a median over
+/// runs against the outliers.
 fn time_config(kind: SolverKind, n: usize) -> (f64, f64) {
     let (mut flow, mut x) = setup(n, kind);
+    // Steps per run from one timed step.
+    let start = Instant::now();
+    flow.step(H, &mut x).unwrap();
+    let one = start.elapsed().as_secs_f64();
+    let per_run = ((0.25 / one) as usize).clamp(5, 2000);
     let before = flow.stats().newton_iterations;
-    let mut runs: Vec<f64> = (0..5)
+    let mut runs: Vec<f64> = (0..9)
         .map(|_| {
             let start = Instant::now();
-            for _ in 0..20 {
+            for _ in 0..per_run {
                 flow.step(H, &mut x).unwrap();
             }
-            start.elapsed().as_nanos() as f64 / 20.0
+            start.elapsed().as_nanos() as f64 / per_run as f64
         })
         .collect();
     runs.sort_by(f64::total_cmp);
-    let iterations = (flow.stats().newton_iterations - before) as f64 / 100.0;
-    (runs[2], iterations)
+    let iterations = (flow.stats().newton_iterations - before) as f64 / (9 * per_run) as f64;
+    (runs[4], iterations)
 }
 
 fn scaling_summary() {
-    println!("\nchain scaling (h = {H}, median of 5 x 20 steps, same process):");
+    println!("\nchain scaling (h = {H}, median of 9 runs of ~0.25 s, same process):");
     println!(
         "{:<8} {:>8} {:>14} {:>16}",
         "backend", "N", "ns/step", "Newton it./step"
