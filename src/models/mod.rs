@@ -15,3 +15,38 @@ pub use rigid_body::RigidBody;
 pub use sphere_particles::SphereParticles;
 pub use spherical_pendulum::SphericalPendulum;
 pub use spring_chain::SpringChain;
+
+use crate::error::SetupError;
+use crate::real::Real;
+
+/// Checks model parameters: every entry of each `positive` list positive and finite (the error
+/// names it, `"mass 3"`, or just `"rod length"` for a single value), and every `non_negative`
+/// value finite and `≥ 0`.
+pub(crate) fn check_parameters<T: Real>(
+    positive: &[(&str, &[T])],
+    non_negative: &[(&str, T)],
+) -> Result<(), SetupError> {
+    for (what, values) in positive {
+        if let Some(i) = values
+            .iter()
+            .position(|v| !(*v > T::zero() && v.is_finite()))
+        {
+            let name = if values.len() > 1 {
+                format!("{what} {i}")
+            } else {
+                what.to_string()
+            };
+            return Err(SetupError::Dimension {
+                what: format!("{name} must be positive and finite"),
+            });
+        }
+    }
+    for (what, v) in non_negative {
+        if !(*v >= T::zero() && v.is_finite()) {
+            return Err(SetupError::Dimension {
+                what: format!("{what} must be finite and non-negative"),
+            });
+        }
+    }
+    Ok(())
+}

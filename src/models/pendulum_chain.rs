@@ -69,16 +69,10 @@ impl<T: Real> PendulumChain<T> {
                 lengths.len()
             ));
         }
-        let positive = |v: &T| *v > T::zero() && v.is_finite();
-        if let Some(i) = masses.iter().position(|m| !positive(m)) {
-            return bad(format!("mass {i} must be positive and finite"));
-        }
-        if let Some(i) = lengths.iter().position(|l| !positive(l)) {
-            return bad(format!("length {i} must be positive and finite"));
-        }
-        if !(gravity >= T::zero() && gravity.is_finite()) {
-            return bad("gravity must be finite and non-negative".into());
-        }
+        super::check_parameters(
+            &[("mass", &masses), ("length", &lengths)],
+            &[("gravity", gravity)],
+        )?;
         Ok(Self {
             dim,
             masses,
@@ -97,11 +91,7 @@ impl<T: Real> PendulumChain<T> {
                 what: format!("a rod between {a:?} and {b} in a chain of {n} particles"),
             });
         }
-        if !(length > T::zero() && length.is_finite()) {
-            return Err(SetupError::Dimension {
-                what: "rod length must be positive and finite".into(),
-            });
-        }
+        super::check_parameters(&[("rod length", &[length])], &[])?;
         self.extra.push((a, b, length));
         Ok(self)
     }

@@ -62,23 +62,15 @@ impl<T: Real> SphereParticles<T> {
                 radii.len()
             ));
         }
-        let positive = |v: &T| *v > T::zero() && v.is_finite();
-        if let Some(i) = masses.iter().position(|m| !positive(m)) {
-            return bad(format!("mass {i} must be positive and finite"));
-        }
-        if let Some(i) = radii.iter().position(|r| !positive(r)) {
-            return bad(format!("radius {i} must be positive and finite"));
-        }
+        super::check_parameters(
+            &[("mass", &masses), ("radius", &radii)],
+            &[("gravity", gravity), ("spring stiffness", spring)],
+        )?;
         if let Some(i) = centers
             .iter()
             .position(|c| c.iter().any(|v| !v.is_finite()))
         {
             return bad(format!("center {i} must be finite"));
-        }
-        for (name, v) in [("gravity", gravity), ("spring stiffness", spring)] {
-            if !(v >= T::zero() && v.is_finite()) {
-                return bad(format!("{name} must be finite and non-negative"));
-            }
         }
         Ok(Self {
             masses,
