@@ -235,6 +235,7 @@ where
         // coupled and symmetric systems carry more couplings (M(x') and x' implicit): dense.
         let pattern = pattern.filter(|_| scheme == Scheme::Decoupled);
         let pattern_m = pattern.as_deref();
+        let grouped = pattern.is_some();
         let newton = Newton::with_pattern(k, options.newton, pattern.as_deref())?;
         let newton_k1 = match scheme {
             Scheme::Decoupled => Some(Newton::with_pattern(m, options.newton, pattern_m)?),
@@ -264,9 +265,10 @@ where
             sum_trend: V::zeros(m),
             sum_saved: V::zeros(m),
             sum_trend_saved: V::zeros(m),
-            u1: x0.zeros_like(),
-            u2: x0.zeros_like(),
-            ec: V::zeros(m),
+            // Only grouped (sparse) Jacobians use these: no memory for them otherwise.
+            u1: V::zeros(if grouped { n } else { 0 }),
+            u2: V::zeros(if grouped { n } else { 0 }),
+            ec: V::zeros(if grouped { m } else { 0 }),
         };
         Ok(Self {
             inner,
@@ -715,6 +717,9 @@ where
     /// - `λ_{k+1}`: `J e = (h/2) G(x') M(x') ∇²H(x') M(y) G(y)ᵀ e`, exact in the decoupled case.
     fn jacobian_group(&mut self, z: &[V::Real], cols: &[usize], out: &mut [V::Real]) -> bool {
         let (m, h) = (self.m, self.h);
+        if self.u1.len() < self.x.len() || self.ec.len() < m {
+            return false; // no scratch: the flow was built without a pattern
+        }
         let half = h * V::Real::lit(0.5);
         let mode = self.mode;
         // The points the Jacobian is taken at: y for λ_k (cached per λ_k), x' for λ_{k+1}
