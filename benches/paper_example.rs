@@ -7,7 +7,7 @@
 //! ```
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use lieflow::flow::coefficients::TRIPLE_JUMP;
+use lieflow::flow::coefficients::{CompositionTable, KAHAN_LI8, TRIPLE_JUMP};
 use lieflow::models::paper;
 use lieflow::prelude::*;
 use nalgebra::SVector;
@@ -51,9 +51,9 @@ impl HandWritten {
         *x = V::new(y1, y2, y3 - 0.5 * h * y1 * mu, y4 - h * y2 * mu);
     }
 
-    fn triple_jump(&mut self, h: f64, x: &mut V) {
-        for i in 0..3 {
-            self.step(TRIPLE_JUMP.gamma(i) * h, x);
+    fn composed(&mut self, table: &CompositionTable, h: f64, x: &mut V) {
+        for i in 0..table.stages {
+            self.step(table.gamma(i) * h, x);
         }
     }
 }
@@ -101,7 +101,16 @@ fn bench(c: &mut Criterion) {
         "paper_triple_jump_step",
         &x0,
         |h, x| generic.step(h, x).unwrap(),
-        |h, x| hand.triple_jump(h, x),
+        |h, x| hand.composed(&TRIPLE_JUMP, h, x),
+    );
+    let mut generic = projected().composed(&KAHAN_LI8);
+    let mut hand = HandWritten { lambda: 0.0 };
+    pair(
+        c,
+        "paper_kahan_li8_step",
+        &x0,
+        |h, x| generic.step(h, x).unwrap(),
+        |h, x| hand.composed(&KAHAN_LI8, h, x),
     );
 }
 

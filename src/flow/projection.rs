@@ -25,7 +25,9 @@
 use super::{Flow, FlowStats};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::linalg::{LinearSolver, SolverChoice, Structure, Triplets};
-use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver, SolveReport};
+use crate::nonlinear::{
+    Newton, NewtonOptions, NonlinearProblem, NonlinearSolver, SMALL_MAX, SmallNewton, SolveReport,
+};
 use crate::real::Real;
 use crate::system::{Brackets, Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System};
 use crate::vector::{Vector, ops};
@@ -162,6 +164,8 @@ pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
     newton: Newton<V, L>,
     /// Newton for `λ_{k+1}` (decoupled only): a separate solver keeps its own Jacobian.
     newton_k1: Option<Newton<V, L>>,
+    /// The small decoupled path (see [`SmallPath`]), when it applies.
+    small: Option<SmallPath<V>>,
     fixed_point_max_iterations: usize,
     /// Bound on `|g(x_{k+1}) − g(y)|` in the decoupled variant (exactly 0 when it applies).
     guard_tol: V::Real,
@@ -241,6 +245,11 @@ where
             Scheme::Decoupled => Some(Newton::with_pattern(m, options.newton, pattern_m)?),
             _ => None,
         };
+        let small = if grouped || scheme != Scheme::Decoupled {
+            None
+        } else {
+            SmallPath::try_new(&system, x0, options.newton)
+        };
         inner.prepare(x0);
         let k_z = if scheme == Scheme::Symmetric {
             m
@@ -277,6 +286,7 @@ where
             m,
             newton,
             newton_k1,
+            small,
             fixed_point_max_iterations: options.fixed_point_max_iterations,
             guard_tol: options.newton.ftol,
             fixed_point_tol: options.newton.xtol,
@@ -381,85 +391,185 @@ where
         }
     }
 
-    /// One step from `w.start`; the result is left in `w.xe`.
-    fn step_impl(&mut self, h: V::Real) -> Result<(), StepError> {
-        let m = self.m;
-        self.w.y_valid = false;
-        match self.scheme {
-            Scheme::Decoupled => {
-                // Warm start: λ_k and the previous λ_{k+1} both approximate the force at t_k but
-                // differ by O(h); predict λ_k as the previous λ_{k+1} plus the last offset,
-                // kept per unit step so that it follows sub-steps of other sizes and signs.
-                let (z, off) = (self.w.z.as_mut_slice(), self.w.offset.as_slice());
-                for j in 0..m {
-                    z[j] = z[m + j] + h * off[j];
+    /// Solves one decoupled multiplier system on the small path (`K = m` multipliers). As
+    /// with [`Self::solve`], `y` (for `λ_k`) or `x_{k+1}` (for `λ_{k+1}`) in the workspace
+    /// belong to the solution.
+    #[inline(always)]
+    fn solve_small<const K: usize>(&mut self, second: bool, h: V::Real) -> Result<(), StepError> {
+        let Some(small) = self.small.as_mut() else {
+            unreachable!("solve_small without a small path");
+        };
+        let w = &mut self.w;
+        let half = h * V::Real::lit(0.5);
+        let d: &mut [V; K] = fixed_mut(&mut small.d);
+        // The directions of this half-step, fixed for the whole solve.
+        let base = if second { &w.y } else { &w.start };
+        let mut unit = [V::Real::zero(); K];
+        for (j, dj) in d.iter_mut().enumerate() {
+            unit[j] = V::Real::one();
+            self.system.constraint_force(base, &unit, &mut w.t1, dj);
+            unit[j] = V::Real::zero();
+        }
+        let d: &[V; K] = d;
+        let (result, stage) = if second {
+            let mut problem = SecondHalf {
+                h,
+                half,
+                y: &w.y,
+                system: &self.system,
+                e: d,
+                xe: &mut w.xe,
+                t1: &mut w.t1,
+                t2: &mut w.t2,
+            };
+            let z: &mut [V::Real; K] = fixed_mut(&mut w.z.as_mut_slice()[K..]);
+            (
+                small.newton_k1.solve_fixed(&mut problem, z),
+                "lambda_{k+1} from phi(x_{k+1}) = 0",
+            )
+        } else {
+            // w_j = (h/2)(d_j + h M(x) ∇²H(x) d_j), so that G(y) w_j is column j of ∂g/∂λ_k.
+            let cols: &mut [V; K] = fixed_mut(&mut small.w);
+            let mut exact = true;
+            for (dj, wj) in d.iter().zip(cols.iter_mut()) {
+                if !self
+                    .system
+                    .hamiltonian
+                    .hessian_apply(&w.start, dj, &mut w.t1)
+                {
+                    exact = false;
+                    break;
                 }
-                self.solve(Mode::LambdaK, h, "lambda_k from g(x_{k+1}) = 0")?;
-                // Before the first step there is no previous λ_{k+1} to measure the offset from.
-                if h != V::Real::zero() && self.stats.projected_steps > 0 {
-                    let (z, off) = (self.w.z.as_slice(), self.w.offset.as_mut_slice());
-                    for j in 0..m {
-                        off[j] = (z[j] - z[m + j]) / h;
-                    }
-                }
-                // λ_{k+1} is predicted through the sum S = λ_k + λ_{k+1}, which sets the
-                // step's total impulse and so varies smoothly even when λ_k alone does not:
-                // when g cannot resolve part of λ_k at working precision (the smooth tension
-                // mode of a long chain at small h), λ_k is accepted wherever the warm start put
-                // it and λ_{k+1} compensates, so the two alternate from step to step while S
-                // stays smooth. S is extrapolated linearly, per unit step.
-                // S belongs to the middle of its step: consecutive sums are (h_prev + h)/2
-                // apart, whatever the sizes and signs of the sub-steps of a composition.
-                let steps = self.stats.projected_steps;
-                let spacing = (self.last_h + h) * V::Real::lit(0.5);
-                if h != V::Real::zero() && steps > 0 {
-                    let w = &mut self.w;
-                    let (z, sum, trend) =
-                        (w.z.as_mut_slice(), w.sum.as_slice(), w.sum_trend.as_slice());
-                    for j in 0..m {
-                        z[m + j] = sum[j] + spacing * trend[j] - z[j];
-                    }
-                }
-                self.solve(Mode::LambdaK1, h, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
-                if h != V::Real::zero() {
-                    let w = &mut self.w;
-                    let (z, sum, trend) = (
-                        w.z.as_slice(),
-                        w.sum.as_mut_slice(),
-                        w.sum_trend.as_mut_slice(),
-                    );
-                    for j in 0..m {
-                        let s_new = z[j] + z[m + j];
-                        trend[j] = if steps > 0 && spacing != V::Real::zero() {
-                            (s_new - sum[j]) / spacing
-                        } else {
-                            V::Real::zero()
-                        };
-                        sum[j] = s_new;
-                    }
-                }
-                // The decoupling assumption: the second half-step did not move g (for position
-                // constraints and a momentum-only direction, g(x_{k+1}) and g(y) are the same
-                // floating-point numbers).
-                let w = &mut self.w;
-                let (gx, gy) = (&mut w.r.as_mut_slice()[..m], &mut w.t1.as_mut_slice()[..m]);
-                self.system.constraint.residual(&w.xe, gx);
-                self.system.constraint.residual(&w.y, gy);
-                let change = ops::dist_inf(gx, gy);
-                if change.is_nan() || change > self.guard_tol {
-                    return Err(StepError::CouplingViolated {
-                        residual: change.to_f64_lossy(),
-                    });
+                self.system.structure.apply(&w.start, &w.t1, &mut w.t2);
+                let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), w.t2.as_slice());
+                for ((o, &dv), &tv) in wj.iter_mut().zip(dj).zip(t2) {
+                    *o = half * (dv + h * tv);
                 }
             }
+            let mut problem = FirstHalf {
+                h,
+                half,
+                x: &w.start,
+                inner: &mut self.inner,
+                constraint: &self.system.constraint,
+                d,
+                w: exact.then_some(&*cols),
+                y: &mut w.y,
+            };
+            let z: &mut [V::Real; K] = fixed_mut(w.z.as_mut_slice());
+            (
+                small.newton_k.solve_fixed(&mut problem, z),
+                "lambda_k from g(x_{k+1}) = 0",
+            )
+        };
+        match result {
+            Ok(report) => {
+                self.record(&report);
+                Ok(())
+            }
+            Err(NewtonError::Residual(e)) => Err(*e),
+            Err(source) => Err(StepError::Newton { stage, source }),
+        }
+    }
+
+    /// The decoupled step (RATTLE-like): `λ_k` from `g(x_{k+1}) = 0`, then `λ_{k+1}` from
+    /// `φ(x_{k+1}) = 0`. `K = m` on the small path (every loop over the multipliers unrolls),
+    /// `K = 0` on the general one.
+    #[inline(always)]
+    fn step_decoupled<const K: usize>(&mut self, h: V::Real) -> Result<(), StepError> {
+        let m = if K == 0 { self.m } else { K };
+        // Warm start: λ_k and the previous λ_{k+1} both approximate the force at t_k but
+        // differ by O(h); predict λ_k as the previous λ_{k+1} plus the last offset,
+        // kept per unit step so that it follows sub-steps of other sizes and signs.
+        let (z, off) = (self.w.z.as_mut_slice(), self.w.offset.as_slice());
+        for j in 0..m {
+            z[j] = z[m + j] + h * off[j];
+        }
+        if K == 0 {
+            self.solve(Mode::LambdaK, h, "lambda_k from g(x_{k+1}) = 0")?;
+        } else {
+            self.solve_small::<K>(false, h)?;
+        }
+        // Before the first step there is no previous λ_{k+1} to measure the offset from.
+        if h != V::Real::zero() && self.stats.projected_steps > 0 {
+            let (z, off) = (self.w.z.as_slice(), self.w.offset.as_mut_slice());
+            for j in 0..m {
+                off[j] = (z[j] - z[m + j]) / h;
+            }
+        }
+        // λ_{k+1} is predicted through the sum S = λ_k + λ_{k+1}, which sets the
+        // step's total impulse and so varies smoothly even when λ_k alone does not:
+        // when g cannot resolve part of λ_k at working precision (the smooth tension
+        // mode of a long chain at small h), λ_k is accepted wherever the warm start put
+        // it and λ_{k+1} compensates, so the two alternate from step to step while S
+        // stays smooth. S is extrapolated linearly, per unit step.
+        // S belongs to the middle of its step: consecutive sums are (h_prev + h)/2
+        // apart, whatever the sizes and signs of the sub-steps of a composition.
+        let steps = self.stats.projected_steps;
+        let spacing = (self.last_h + h) * V::Real::lit(0.5);
+        if h != V::Real::zero() && steps > 0 {
+            let w = &mut self.w;
+            let (z, sum, trend) = (w.z.as_mut_slice(), w.sum.as_slice(), w.sum_trend.as_slice());
+            for j in 0..m {
+                z[m + j] = sum[j] + spacing * trend[j] - z[j];
+            }
+        }
+        if K == 0 {
+            self.solve(Mode::LambdaK1, h, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
+        } else {
+            self.solve_small::<K>(true, h)?;
+        }
+        if h != V::Real::zero() {
+            let w = &mut self.w;
+            let (z, sum, trend) = (
+                w.z.as_slice(),
+                w.sum.as_mut_slice(),
+                w.sum_trend.as_mut_slice(),
+            );
+            for j in 0..m {
+                let s_new = z[j] + z[m + j];
+                trend[j] = if steps > 0 && spacing != V::Real::zero() {
+                    (s_new - sum[j]) / spacing
+                } else {
+                    V::Real::zero()
+                };
+                sum[j] = s_new;
+            }
+        }
+        // The decoupling assumption: the second half-step did not move g (for position
+        // constraints and a momentum-only direction, g(x_{k+1}) and g(y) are the same
+        // floating-point numbers).
+        let w = &mut self.w;
+        let (gx, gy) = (&mut w.r.as_mut_slice()[..m], &mut w.t1.as_mut_slice()[..m]);
+        self.system.constraint.residual(&w.xe, gx);
+        self.system.constraint.residual(&w.y, gy);
+        let change = ops::dist_inf(gx, gy);
+        if change.is_nan() || change > self.guard_tol {
+            return Err(StepError::CouplingViolated {
+                residual: change.to_f64_lossy(),
+            });
+        }
+        Ok(())
+    }
+
+    /// One step from `w.start`; the result is left in `w.xe`.
+    fn step_impl(&mut self, h: V::Real) -> Result<(), StepError> {
+        self.w.y_valid = false;
+        match self.scheme {
+            Scheme::Decoupled => match (self.small.is_some(), self.m) {
+                (false, _) => self.step_decoupled::<0>(h),
+                (true, 1) => self.step_decoupled::<1>(h),
+                (true, 2) => self.step_decoupled::<2>(h),
+                (true, 3) => self.step_decoupled::<3>(h),
+                (true, _) => self.step_decoupled::<SMALL_MAX>(h),
+            },
             Scheme::Coupled => self.solve(
                 Mode::Coupled,
                 h,
                 "(lambda_k, lambda_{k+1}) from g = 0, phi = 0",
-            )?,
-            Scheme::Symmetric => self.solve(Mode::Symmetric, h, "lambda from g(x_{k+1}) = 0")?,
+            ),
+            Scheme::Symmetric => self.solve(Mode::Symmetric, h, "lambda from g(x_{k+1}) = 0"),
         }
-        Ok(())
     }
 }
 
@@ -554,6 +664,176 @@ where
     let gscale = V::Real::one() + ops::norm_inf(&g0);
     ops::dist_inf(&g0, &g1) <= tol * gscale
         && ops::dist_inf(d0.as_slice(), d1.as_slice()) <= tol * dn
+}
+
+/// The decoupled scheme for a few constraints (`m ≤` [`SMALL_MAX`], dense `G`) and a
+/// Hamiltonian with a Hessian ([`Hamiltonian::hessian_apply`]): each multiplier system is
+/// solved by full Newton on stack arrays ([`SmallNewton`]) with closed-form Jacobians, and the
+/// half-step directions `M Gᵀ e_j` are formed once per solve, so that a residual evaluation
+/// is an axpy per multiplier plus the model's own arithmetic.
+#[derive(Debug, Clone)]
+struct SmallPath<V: Vector> {
+    newton_k: SmallNewton<V::Real>,
+    newton_k1: SmallNewton<V::Real>,
+    /// `d_j = M Gᵀ e_j` at the half-step's base point (`x_k`, then `y`).
+    d: Vec<V>,
+    /// `w_j = (h/2)(d_j + h M ∇²H d_j)` at `x_k`.
+    w: Vec<V>,
+}
+
+impl<V: Vector> SmallPath<V> {
+    /// `Some` when the model qualifies at `x0`: at most [`SMALL_MAX`] constraints and a
+    /// Hamiltonian that answers [`Hamiltonian::hessian_apply`].
+    fn try_new<Ms, H, C>(
+        system: &System<Ms, H, C>,
+        x0: &V,
+        options: NewtonOptions<V::Real>,
+    ) -> Option<Self>
+    where
+        Ms: StructureMatrix<V>,
+        H: Hamiltonian<V>,
+        C: HolonomicConstraint<V>,
+    {
+        let m = system.constraint.dim();
+        let newton_k = SmallNewton::new(m, options)?;
+        let newton_k1 = SmallNewton::new(m, options)?;
+        let mut out = x0.zeros_like();
+        if !system.hamiltonian.hessian_apply(x0, x0, &mut out) {
+            return None;
+        }
+        Some(Self {
+            newton_k,
+            newton_k1,
+            d: vec![x0.zeros_like(); m],
+            w: vec![x0.zeros_like(); m],
+        })
+    }
+}
+
+/// `&mut v[..K]` as an array; `v` has at least `K` entries (the small path sizes its vectors
+/// to `m` and dispatches on `K = m`).
+#[inline(always)]
+fn fixed_mut<T, const K: usize>(v: &mut [T]) -> &mut [T; K] {
+    match <&mut [T; K]>::try_from(&mut v[..K]) {
+        Ok(a) => a,
+        Err(_) => unreachable!("a slice of length K converts to [T; K]"),
+    }
+}
+
+/// `out = x + (h/2) Σ_j z_j d_j`.
+#[inline(always)]
+fn half_step<V: Vector, const K: usize>(
+    out: &mut V,
+    x: &V,
+    half: V::Real,
+    z: &[V::Real],
+    d: &[V; K],
+) {
+    ops::add_scaled(
+        out.as_mut_slice(),
+        x.as_slice(),
+        half * z[0],
+        d[0].as_slice(),
+    );
+    for j in 1..K {
+        ops::axpy(out.as_mut_slice(), half * z[j], d[j].as_slice());
+    }
+}
+
+/// `λ_k ↦ g(Φ_h(x + (h/2) Σ λ_j d_j))` with the columns `G(y) w_j` (small path).
+struct FirstHalf<'a, V: Vector, F, C, const K: usize> {
+    h: V::Real,
+    half: V::Real,
+    x: &'a V,
+    inner: &'a mut F,
+    constraint: &'a C,
+    d: &'a [V; K],
+    w: Option<&'a [V; K]>,
+    y: &'a mut V,
+}
+
+impl<V, F, C, const K: usize> NonlinearProblem<V::Real> for FirstHalf<'_, V, F, C, K>
+where
+    V: Vector,
+    F: Flow<V>,
+    C: HolonomicConstraint<V>,
+{
+    fn dim(&self) -> usize {
+        K
+    }
+    fn jacobian_scale(&self) -> V::Real {
+        self.h * self.h
+    }
+    #[inline(always)]
+    fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
+        half_step(self.y, self.x, self.half, z, self.d);
+        self.inner.step(self.h, self.y)?;
+        self.constraint.residual(&*self.y, f);
+        Ok(())
+    }
+    /// `∂g(y)/∂λ_j = G(y) DΦ_h (h/2) d_j` with `DΦ_h ≈ I + h M ∇²H` at `x`: exact when the
+    /// inner flow's tangent map is that (a drift, or a kick–drift–kick with a potential linear
+    /// in the constrained coordinates), `O(h²)` relative otherwise.
+    #[inline(always)]
+    fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
+        match self.w {
+            Some(w) => {
+                self.constraint.jacobian_apply(&*self.y, &w[j], out);
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+/// `λ_{k+1} ↦ φ(y + (h/2) Σ λ_j e_j)` with exact columns (small path).
+struct SecondHalf<'a, V: Vector, Ms, H, C, const K: usize> {
+    h: V::Real,
+    half: V::Real,
+    y: &'a V,
+    system: &'a System<Ms, H, C>,
+    e: &'a [V; K],
+    xe: &'a mut V,
+    t1: &'a mut V,
+    t2: &'a mut V,
+}
+
+impl<V, Ms, H, C, const K: usize> NonlinearProblem<V::Real> for SecondHalf<'_, V, Ms, H, C, K>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    fn dim(&self) -> usize {
+        K
+    }
+    fn jacobian_scale(&self) -> V::Real {
+        self.h
+    }
+    #[inline(always)]
+    fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
+        half_step(self.xe, self.y, self.half, z, self.e);
+        self.system
+            .hidden_constraint(&*self.xe, self.t1, self.t2, f);
+        Ok(())
+    }
+    /// `∂φ(x')/∂λ_j = (h/2) G(x') M(x') ∇²H(x') e_j`: exact in the decoupled case, where `G`
+    /// and `M Gᵀ` do not change along the second half-step.
+    #[inline(always)]
+    fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
+        let sys = self.system;
+        if !sys
+            .hamiltonian
+            .hessian_apply(&*self.xe, &self.e[j], self.t1)
+        {
+            return false;
+        }
+        sys.structure.apply(&*self.xe, &*self.t1, self.t2);
+        sys.constraint.jacobian_apply(&*self.xe, &*self.t2, out);
+        out.iter_mut().for_each(|v| *v = *v * self.half);
+        true
+    }
 }
 
 /// Which multiplier system a [`Stage`] residual evaluates.

@@ -63,6 +63,17 @@ impl<V: Vector> Hamiltonian<V> for Energy {
         o[2] = x[2];
         o[3] = x[3];
     }
+    /// `∇²H = diag(0, 0, 1, 1)`.
+    #[inline(always)]
+    fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
+        let v = v.as_slice();
+        let o = out.as_mut_slice();
+        o[0] = V::Real::zero();
+        o[1] = V::Real::zero();
+        o[2] = v[2];
+        o[3] = v[3];
+        true
+    }
 }
 
 impl<V: Vector> HolonomicConstraint<V> for Circle {

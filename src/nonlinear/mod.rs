@@ -4,8 +4,10 @@
 //! their residual runs the inner flow, so Newton's cost is counted in residual evaluations.
 
 mod newton;
+mod small;
 
 pub use newton::{JacobianUpdate, Newton, NewtonOptions, SolveReport};
+pub use small::{SMALL_MAX, SmallNewton};
 
 use crate::error::{NewtonError, StepError};
 use crate::real::Real;

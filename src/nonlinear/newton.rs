@@ -553,7 +553,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
 }
 
 /// Residuals below `NOISE_FACTOR · ftol` are treated as possibly at their round-off floor.
-const NOISE_FACTOR: f64 = 100.0;
+pub(super) const NOISE_FACTOR: f64 = 100.0;
 
 /// The residual as the convergence test sees it: the rows the problem's noise floor applies to
 /// count as zero while within `4 · noise_floor`; the other rows count as they are.
