@@ -17,37 +17,55 @@ type V = SVector<f64, 4>;
 
 /// The §3 scheme written out for this model only: `λ_k` by scalar Newton with the analytic
 /// derivative on `g(y(λ)) = 0`, then `λ_{k+1}` in closed form (the hidden constraint is linear
-/// in it). Converges to the same tolerance as the generic code (`8 ε`).
-#[derive(Clone, Copy)]
+/// in it). Same tolerance and stopping rule as the generic code's defaults (`|g| ≤ 2ε`, or
+/// `|g| ≤ 200ε` with an update at round-off or a residual that stopped halving) and the same
+/// warm start (`λ_k` predicted from the last `λ_{k+1}` plus the last offset per unit step).
+#[derive(Clone, Copy, Default)]
 struct HandWritten {
-    lambda: f64,
+    /// The last `λ_{k+1}`.
+    mu: f64,
+    /// `(λ_k − previous λ_{k+1}) / h` of the last step.
+    offset: f64,
+    steps: u64,
 }
 
 impl HandWritten {
     #[inline]
     fn step(&mut self, h: f64, x: &mut V) {
         let (x1, x2, x3, x4) = (x[0], x[1], x[2], x[3]);
-        let tol = 8.0 * f64::EPSILON;
-        let mut l = self.lambda;
+        let (ftol, xtol) = (2.0 * f64::EPSILON, 16.0 * f64::EPSILON);
+        let mut l = self.mu + h * self.offset;
         let (mut y1, mut y2);
+        let (mut r_prev, mut step) = (f64::INFINITY, f64::INFINITY);
         let mut it = 0;
         loop {
             // x̂ = x + h/2 M Gᵀ λ = (x1, x2, x3 − h/2 x1 λ, x4 − h x2 λ); y = drift(x̂).
             y1 = x1 + h * (x3 - 0.5 * h * x1 * l);
             y2 = x2 + h * (x4 - h * x2 * l);
             let g = 0.5 * (y1 * y1 + y2 * y2 - 1.0);
-            if g.abs() <= tol || it == 25 {
+            let r = g.abs();
+            if r <= ftol
+                || (r <= 100.0 * ftol && (step <= xtol * (1.0 + l.abs()) || r >= 0.5 * r_prev))
+                || it == 25
+            {
                 break;
             }
             let dg = -h * h * (0.5 * y1 * x1 + y2 * x2);
-            l -= g / dg;
+            let dl = -g / dg;
+            l += dl;
+            step = dl.abs();
+            r_prev = r;
             it += 1;
+        }
+        if self.steps > 0 {
+            self.offset = (l - self.mu) / h;
         }
         let y3 = x3 - 0.5 * h * x1 * l;
         let y4 = x4 - h * x2 * l;
         // φ(y + h/2 M Gᵀ μ) = y1 y3 + y2 y4 − μ h/2 (y1² + 2 y2²) = 0.
         let mu = (y1 * y3 + y2 * y4) / (0.5 * h * (y1 * y1 + 2.0 * y2 * y2));
-        self.lambda = mu;
+        self.mu = mu;
+        self.steps += 1;
         *x = V::new(y1, y2, y3 - 0.5 * h * y1 * mu, y4 - h * y2 * mu);
     }
 
@@ -63,7 +81,7 @@ fn check_same_algorithm() {
     let mut generic = paper::drift()
         .projected(paper::system(), &x0, ProjectionOptions::default())
         .unwrap();
-    let mut hand = HandWritten { lambda: 0.0 };
+    let mut hand = HandWritten::default();
     let (mut a, mut b) = (x0, x0);
     for _ in 0..1000 {
         generic.step(0.1, &mut a).unwrap();
@@ -86,7 +104,7 @@ fn bench(c: &mut Criterion) {
             .unwrap()
     };
     let mut generic = projected();
-    let mut hand = HandWritten { lambda: 0.0 };
+    let mut hand = HandWritten::default();
     pair(
         c,
         "paper_projection_step",
@@ -95,7 +113,7 @@ fn bench(c: &mut Criterion) {
         |h, x| hand.step(h, x),
     );
     let mut generic = projected().triple_jump();
-    let mut hand = HandWritten { lambda: 0.0 };
+    let mut hand = HandWritten::default();
     pair(
         c,
         "paper_triple_jump_step",
@@ -104,7 +122,7 @@ fn bench(c: &mut Criterion) {
         |h, x| hand.composed(&TRIPLE_JUMP, h, x),
     );
     let mut generic = projected().composed(&KAHAN_LI8);
-    let mut hand = HandWritten { lambda: 0.0 };
+    let mut hand = HandWritten::default();
     pair(
         c,
         "paper_kahan_li8_step",

@@ -306,6 +306,15 @@ where
         &self.system
     }
 
+    /// `true` when the flow runs the small decoupled path: the decoupled scheme with a dense
+    /// `G` of at most [`SMALL_MAX`] constraints and a Hamiltonian with a Hessian — full Newton
+    /// on stack arrays with closed-form Jacobians ([`SmallNewton`]), and one linear solve for
+    /// `λ_{k+1}` when `H` is quadratic and `M` constant. Otherwise the multiplier systems go
+    /// to [`Newton`] with kept, Broyden-updated or grouped Jacobians.
+    pub fn uses_small_path(&self) -> bool {
+        self.small.is_some()
+    }
+
     /// The inner flow.
     pub fn inner(&self) -> &F {
         &self.inner
@@ -423,10 +432,15 @@ where
                 t2: &mut w.t2,
             };
             let z: &mut [V::Real; K] = fixed_mut(&mut w.z.as_mut_slice()[K..]);
-            (
-                small.newton_k1.solve_fixed(&mut problem, z),
-                "lambda_{k+1} from phi(x_{k+1}) = 0",
-            )
+            let result = if small.affine_k1 {
+                // One linear solve; x_{k+1} at the solution is formed here, not by Newton.
+                let r = small.newton_k1.solve_affine_fixed(&mut problem, z);
+                half_step(problem.xe, problem.y, half, &*z, d);
+                r
+            } else {
+                small.newton_k1.solve_fixed(&mut problem, z)
+            };
+            (result, "lambda_{k+1} from phi(x_{k+1}) = 0")
         } else {
             // w_j = (h/2)(d_j + h M(x) ∇²H(x) d_j), so that G(y) w_j is column j of ∂g/∂λ_k.
             let cols: &mut [V; K] = fixed_mut(&mut small.w);
@@ -455,6 +469,7 @@ where
                 d,
                 w: exact.then_some(&*cols),
                 y: &mut w.y,
+                g: fixed_mut(&mut small.g_y),
             };
             let z: &mut [V::Real; K] = fixed_mut(w.z.as_mut_slice());
             (
@@ -542,8 +557,14 @@ where
         let w = &mut self.w;
         let (gx, gy) = (&mut w.r.as_mut_slice()[..m], &mut w.t1.as_mut_slice()[..m]);
         self.system.constraint.residual(&w.xe, gx);
-        self.system.constraint.residual(&w.y, gy);
-        let change = ops::dist_inf(gx, gy);
+        let change = match self.small.as_ref() {
+            // g(y) is the λ_k system's last residual.
+            Some(small) if K > 0 => ops::dist_inf(gx, &small.g_y[..m]),
+            _ => {
+                self.system.constraint.residual(&w.y, gy);
+                ops::dist_inf(gx, gy)
+            }
+        };
         if change.is_nan() || change > self.guard_tol {
             return Err(StepError::CouplingViolated {
                 residual: change.to_f64_lossy(),
@@ -679,6 +700,11 @@ struct SmallPath<V: Vector> {
     d: Vec<V>,
     /// `w_j = (h/2)(d_j + h M ∇²H d_j)` at `x_k`.
     w: Vec<V>,
+    /// `g(y)` at the solution of the `λ_k` system (for the decoupling guard).
+    g_y: [V::Real; SMALL_MAX],
+    /// `φ(y + (h/2) Σ λ_j e_j)` is affine in `λ_{k+1}`: quadratic `H`, constant `M`, and `G`
+    /// unchanged along the second half-step (probed at `x0`). Solved by one linear solve.
+    affine_k1: bool,
 }
 
 impl<V: Vector> SmallPath<V> {
@@ -701,13 +727,54 @@ impl<V: Vector> SmallPath<V> {
         if !system.hamiltonian.hessian_apply(x0, x0, &mut out) {
             return None;
         }
+        let affine_k1 = system.hamiltonian.is_quadratic()
+            && system.structure.is_constant()
+            && jacobian_constant_along_half_step(system, x0);
         Some(Self {
             newton_k,
             newton_k1,
             d: vec![x0.zeros_like(); m],
             w: vec![x0.zeros_like(); m],
+            g_y: [V::Real::zero(); SMALL_MAX],
+            affine_k1,
         })
     }
+}
+
+/// Probes at `x0` whether `G` is unchanged along a second half-step `x0 + s M Gᵀ μ` (for
+/// position constraints and a momentum-only direction it is, exactly): `G v` for a fixed `v`
+/// at both points.
+fn jacobian_constant_along_half_step<V, Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> bool
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    C: HolonomicConstraint<V>,
+{
+    let (m, n) = (system.constraint.dim(), x0.len());
+    let mu: Vec<V::Real> = (0..m)
+        .map(|j| V::Real::one() + V::Real::lit(j as f64 / (m as f64 + 1.0)))
+        .collect();
+    let (mut tmp, mut d, mut xp, mut v) = (
+        x0.zeros_like(),
+        x0.zeros_like(),
+        x0.zeros_like(),
+        x0.zeros_like(),
+    );
+    system.constraint_force(x0, &mu, &mut tmp, &mut d);
+    let dn = ops::norm_inf(d.as_slice());
+    if dn == V::Real::zero() {
+        return true;
+    }
+    let s = V::Real::lit(1e-3) * (V::Real::one() + ops::norm_inf(x0.as_slice())) / dn;
+    ops::add_scaled(xp.as_mut_slice(), x0.as_slice(), s, d.as_slice());
+    for (i, vi) in v.as_mut_slice().iter_mut().enumerate() {
+        *vi = V::Real::one() + V::Real::lit(i as f64 / (n as f64 + 1.0));
+    }
+    let (mut a, mut b) = (vec![V::Real::zero(); m], vec![V::Real::zero(); m]);
+    system.constraint.jacobian_apply(x0, &v, &mut a);
+    system.constraint.jacobian_apply(&xp, &v, &mut b);
+    let scale = V::Real::one() + ops::norm_inf(&a);
+    ops::dist_inf(&a, &b) <= V::Real::lit(64.0) * V::Real::epsilon() * scale
 }
 
 /// `&mut v[..K]` as an array; `v` has at least `K` entries (the small path sizes its vectors
@@ -750,6 +817,8 @@ struct FirstHalf<'a, V: Vector, F, C, const K: usize> {
     d: &'a [V; K],
     w: Option<&'a [V; K]>,
     y: &'a mut V,
+    /// `g(y)` of the last evaluation.
+    g: &'a mut [V::Real; K],
 }
 
 impl<V, F, C, const K: usize> NonlinearProblem<V::Real> for FirstHalf<'_, V, F, C, K>
@@ -769,6 +838,9 @@ where
         half_step(self.y, self.x, self.half, z, self.d);
         self.inner.step(self.h, self.y)?;
         self.constraint.residual(&*self.y, f);
+        for (g, &v) in self.g.iter_mut().zip(&*f) {
+            *g = v;
+        }
         Ok(())
     }
     /// `∂g(y)/∂λ_j = G(y) DΦ_h (h/2) d_j` with `DΦ_h ≈ I + h M ∇²H` at `x`: exact when the

@@ -122,6 +122,9 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for DampedPendulum<T> {
         out.as_mut_slice()
             .copy_from_slice(&[T::zero(), T::one(), s[2], s[3]]);
     }
+    fn is_quadratic(&self) -> bool {
+        true
+    }
     #[inline]
     fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
         let v = v.as_slice();

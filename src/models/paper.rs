@@ -63,6 +63,9 @@ impl<V: Vector> Hamiltonian<V> for Energy {
         o[2] = x[2];
         o[3] = x[3];
     }
+    fn is_quadratic(&self) -> bool {
+        true
+    }
     /// `∇²H = diag(0, 0, 1, 1)`.
     #[inline(always)]
     fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {

@@ -215,6 +215,9 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for PendulumChain<T> {
         }
         e
     }
+    fn is_quadratic(&self) -> bool {
+        true
+    }
     /// `∇²H = diag(0, M⁻¹)` (gravity is linear in `q`).
     fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
         let (d, n) = (self.dim, self.links());

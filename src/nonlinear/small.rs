@@ -251,6 +251,51 @@ impl<T: Real> SmallNewton<T> {
     }
 }
 
+impl<T: Real> SmallNewton<T> {
+    /// Solves an *affine* problem `F(z) = F(z₀) + J (z − z₀)` with one evaluation and one
+    /// linear solve: `z = z₀ − J⁻¹ F(z₀)` is the root up to rounding, so no evaluation at the
+    /// returned `z` follows (unlike [`solve_fixed`](Self::solve_fixed)) — the caller updates
+    /// whatever state the problem keeps. Returns `Ok` at once when `‖F(z₀)‖∞ ≤ ftol`. A problem
+    /// that declines a closed-form column, or that is not affine after all, is the caller's
+    /// responsibility: this falls back to [`solve_fixed`](Self::solve_fixed) only for the
+    /// former. `report.residual` is `‖F(z₀)‖∞`.
+    #[inline(always)]
+    pub fn solve_affine_fixed<const K: usize, P: NonlinearProblem<T>>(
+        &self,
+        problem: &mut P,
+        z: &mut [T; K],
+    ) -> Result<SolveReport<T>, NewtonError> {
+        let mut report = SolveReport::default();
+        let mut f = [T::zero(); K];
+        let r = evaluate(problem, z, &mut f, &mut report)?;
+        report.residual = r;
+        if !r.is_finite() {
+            return Err(NewtonError::NonFinite { iteration: 0 });
+        }
+        if r <= self.options.ftol {
+            return Ok(report);
+        }
+        let mut jac = [[T::zero(); K]; K];
+        let mut col = [T::zero(); K];
+        for j in 0..K {
+            if !problem.jacobian_column(z, j, &mut col) {
+                return self.solve_fixed(problem, z);
+            }
+            for (row, &c) in jac.iter_mut().zip(&col) {
+                row[j] = c;
+            }
+        }
+        report.factorizations = 1;
+        let mut dz = f.map(|fi| -fi);
+        solve_dense(&mut jac, &mut dz)?;
+        for (zi, &d) in z.iter_mut().zip(&dz) {
+            *zi = *zi + d;
+        }
+        report.iterations = 1;
+        Ok(report)
+    }
+}
+
 /// `&mut z[..K]` as an array (`z` has at least `K` entries: the caller sliced it to `dim`).
 fn fixed<T, const K: usize>(z: &mut [T]) -> &mut [T; K] {
     match <&mut [T; K]>::try_from(&mut z[..K]) {

@@ -22,4 +22,12 @@ pub trait Hamiltonian<V: Vector> {
         let _ = (x, v, out);
         false
     }
+    /// `true` when `H` is quadratic (a quadratic form plus an affine part), so that `∇²H` is
+    /// the same at every state and [`hessian_apply`](Self::hessian_apply) answers. Then, with a
+    /// constant structure matrix and position constraints, the hidden constraint
+    /// `φ(y + (h/2) M Gᵀ λ)` is affine in `λ`, and a projection solves for `λ_{k+1}` with one
+    /// linear solve instead of Newton iterations. Default `false` (always safe).
+    fn is_quadratic(&self) -> bool {
+        false
+    }
 }

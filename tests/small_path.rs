@@ -1,0 +1,225 @@
+//! The small decoupled path (full Newton on stack arrays with closed-form Jacobians, one linear
+//! solve for an affine `λ_{k+1}` system) against the general path (kept, Broyden-updated
+//! difference Jacobians), and `SmallNewton` on problems with known roots.
+
+use lieflow::error::{LinearSolveError, NewtonError, StepError};
+use lieflow::models::paper;
+use lieflow::nonlinear::{NewtonOptions, NonlinearProblem, NonlinearSolver, SmallNewton};
+use lieflow::prelude::*;
+use nalgebra::SVector;
+
+type V = SVector<f64, 4>;
+
+/// The paper's Hamiltonian without its Hessian: the projection takes the general path.
+struct NoHessian;
+
+impl Hamiltonian<V> for NoHessian {
+    fn energy(&self, x: &V) -> f64 {
+        Hamiltonian::<V>::energy(&paper::Energy, x)
+    }
+    fn gradient(&self, x: &V, out: &mut V) {
+        Hamiltonian::<V>::gradient(&paper::Energy, x, out)
+    }
+}
+
+/// The paper's Hamiltonian with its Hessian but not declared quadratic: the small path with
+/// Newton iterations for `λ_{k+1}` instead of one linear solve.
+struct NotDeclaredQuadratic;
+
+impl Hamiltonian<V> for NotDeclaredQuadratic {
+    fn energy(&self, x: &V) -> f64 {
+        Hamiltonian::<V>::energy(&paper::Energy, x)
+    }
+    fn gradient(&self, x: &V, out: &mut V) {
+        Hamiltonian::<V>::gradient(&paper::Energy, x, out)
+    }
+    fn hessian_apply(&self, x: &V, v: &V, out: &mut V) -> bool {
+        Hamiltonian::<V>::hessian_apply(&paper::Energy, x, v, out)
+    }
+}
+
+fn run<H: Hamiltonian<V>>(hamiltonian: H, scheme: Option<&'static str>) -> (V, f64, f64, bool) {
+    let x0: V = paper::initial_state();
+    let system = System::new(paper::Structure, hamiltonian, paper::Circle);
+    let projected = paper::drift()
+        .projected(system, &x0, ProjectionOptions::default())
+        .unwrap();
+    let small = projected.uses_small_path();
+    let mut flow: Box<dyn Flow<V>> = match scheme {
+        None => Box::new(projected),
+        Some(name) => {
+            Box::new(projected.composed(lieflow::flow::coefficients::table_by_name(name).unwrap()))
+        }
+    };
+    let (mut x, mut max_g, mut max_phi) = (x0, 0.0f64, 0.0f64);
+    for _ in 0..1000 {
+        flow.step(0.1, &mut x).unwrap();
+        max_g = max_g.max((0.5 * (x[0] * x[0] + x[1] * x[1] - 1.0)).abs());
+        max_phi = max_phi.max((x[0] * x[2] + x[1] * x[3]).abs());
+    }
+    (x, max_g, max_phi, small)
+}
+
+/// All three paths solve the same equations to round-off, so they agree to round-off
+/// accumulated over 1000 steps (the trajectory is not chaotic: the error grows linearly).
+#[test]
+fn small_and_general_paths_agree() {
+    for scheme in [None, Some("triple-jump"), Some("kahan-li8")] {
+        let (general, g0, p0, s0) = run(NoHessian, scheme);
+        let (newton, g1, p1, s1) = run(NotDeclaredQuadratic, scheme);
+        let (affine, g2, p2, s2) = run(paper::Energy, scheme);
+        assert!(!s0 && s1 && s2, "{scheme:?}: paths {s0} {s1} {s2}");
+        for (name, x) in [("newton", newton), ("affine", affine)] {
+            let d = (x - general).amax();
+            assert!(d < 1e-12, "{scheme:?} {name}: differs by {d:e}");
+        }
+        for (g, phi) in [(g0, p0), (g1, p1), (g2, p2)] {
+            // g at round-off: |g| ≤ 100 ftol is Newton's noise floor (ftol = 2ε).
+            assert!(g <= 200.0 * f64::EPSILON, "{scheme:?}: |g| = {g:e}");
+            assert!(phi <= 200.0 * f64::EPSILON, "{scheme:?}: |phi| = {phi:e}");
+        }
+    }
+}
+
+/// The affine `λ_{k+1}` system costs one evaluation and one solve; `λ_k` from a good warm
+/// start about two evaluations.
+#[test]
+fn small_path_evaluation_counts() {
+    let x0: V = paper::initial_state();
+    let mut flow = paper::drift()
+        .projected(paper::system(), &x0, ProjectionOptions::default())
+        .unwrap();
+    let mut x = x0;
+    for _ in 0..1000 {
+        flow.step(0.1, &mut x).unwrap();
+    }
+    let s = flow.stats();
+    let per_step = s.residual_evaluations as f64 / s.projected_steps as f64;
+    // λ_k: ≥ 1 evaluation (2 when one Newton update is needed); λ_{k+1}: exactly 1.
+    assert!(
+        (2.0..=3.5).contains(&per_step),
+        "{per_step} evaluations per step"
+    );
+}
+
+/// `F(z) = (z₁² + z₂² − 4, z₁ − z₂)` with its exact Jacobian: root `(√2, √2)`.
+struct Circle {
+    exact: bool,
+}
+
+impl NonlinearProblem<f64> for Circle {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+        f[0] = z[0] * z[0] + z[1] * z[1] - 4.0;
+        f[1] = z[0] - z[1];
+        Ok(())
+    }
+    fn jacobian_column(&mut self, z: &[f64], j: usize, out: &mut [f64]) -> bool {
+        if !self.exact {
+            // A poor guess: half the true first row. Newton must notice and difference.
+            out[0] = z[j];
+            out[1] = if j == 0 { 1.0 } else { -1.0 };
+            return true;
+        }
+        out[0] = 2.0 * z[j];
+        out[1] = if j == 0 { 1.0 } else { -1.0 };
+        true
+    }
+}
+
+#[test]
+fn small_newton_converges_quadratically_with_exact_columns() {
+    let mut newton = SmallNewton::new(2, NewtonOptions::default()).unwrap();
+    let mut z = [1.0, 2.0];
+    let report = newton.solve(&mut Circle { exact: true }, &mut z).unwrap();
+    let r = 2f64.sqrt();
+    assert!((z[0] - r).abs() <= 2.0 * f64::EPSILON && (z[1] - r).abs() <= 2.0 * f64::EPSILON);
+    // Quadratic convergence from distance ~0.6: 0.6 → 0.1 → 4e-3 → 6e-6 → 1e-11 → round-off.
+    assert!(report.iterations <= 6, "{report:?}");
+    assert_eq!(report.residual_evaluations, report.iterations + 1);
+}
+
+#[test]
+fn small_newton_falls_back_to_differences_for_a_poor_jacobian() {
+    let mut newton = SmallNewton::new(2, NewtonOptions::default()).unwrap();
+    let mut z = [1.0, 2.0];
+    let report = newton.solve(&mut Circle { exact: false }, &mut z).unwrap();
+    let r = 2f64.sqrt();
+    assert!((z[0] - r).abs() <= 4.0 * f64::EPSILON && (z[1] - r).abs() <= 4.0 * f64::EPSILON);
+    // Differences cost extra evaluations: more than one per iteration.
+    assert!(
+        report.residual_evaluations > report.iterations + 1,
+        "{report:?}"
+    );
+}
+
+/// `F(z) = A z − b` with a singular `A`: a typed error naming the pivot, no panic.
+struct Singular;
+
+impl NonlinearProblem<f64> for Singular {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+        f[0] = z[0] + z[1] - 1.0;
+        f[1] = 2.0 * z[0] + 2.0 * z[1] - 3.0;
+        Ok(())
+    }
+    fn jacobian_column(&mut self, _z: &[f64], j: usize, out: &mut [f64]) -> bool {
+        let _ = j;
+        out[0] = 1.0;
+        out[1] = 2.0;
+        true
+    }
+}
+
+#[test]
+fn small_newton_reports_a_singular_jacobian() {
+    let mut newton = SmallNewton::new(2, NewtonOptions::default()).unwrap();
+    let mut z = [0.0, 0.0];
+    let err = newton.solve(&mut Singular, &mut z).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            NewtonError::Linear(LinearSolveError::Singular { pivot: 1, .. })
+        ),
+        "{err:?}"
+    );
+    assert!(SmallNewton::<f64>::new(0, NewtonOptions::default()).is_none());
+    assert!(SmallNewton::<f64>::new(5, NewtonOptions::default()).is_none());
+}
+
+/// An affine system is solved by one linear solve, without an evaluation at the result.
+#[test]
+fn small_newton_solves_an_affine_system_in_one_solve() {
+    struct Affine;
+    impl NonlinearProblem<f64> for Affine {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+            f[0] = 3.0 * z[0] + z[1] - 5.0;
+            f[1] = z[0] - 2.0 * z[1] + 3.0;
+            Ok(())
+        }
+        fn jacobian_column(&mut self, _z: &[f64], j: usize, out: &mut [f64]) -> bool {
+            out.copy_from_slice(if j == 0 { &[3.0, 1.0] } else { &[1.0, -2.0] });
+            true
+        }
+    }
+    let newton = SmallNewton::new(2, NewtonOptions::default()).unwrap();
+    let mut z = [0.0, 0.0];
+    let report = newton.solve_affine_fixed(&mut Affine, &mut z).unwrap();
+    // Root (1, 2); the elimination rounds to within a few ulps.
+    assert!((z[0] - 1.0).abs() <= 4.0 * f64::EPSILON && (z[1] - 2.0).abs() <= 8.0 * f64::EPSILON);
+    assert_eq!(
+        (
+            report.iterations,
+            report.residual_evaluations,
+            report.factorizations
+        ),
+        (1, 1, 1)
+    );
+}
