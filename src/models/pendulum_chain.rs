@@ -129,6 +129,11 @@ impl<T: Real> PendulumChain<T> {
         Self::try_new(dim, vec![T::one(); links], vec![l; links], T::one())
     }
 
+    /// The masses, the link lengths and the gravity constant.
+    pub fn parameters(&self) -> (&[T], &[T], T) {
+        (&self.masses, &self.lengths, self.gravity)
+    }
+
     /// The number of links `N`.
     pub fn links(&self) -> usize {
         self.masses.len()
