@@ -31,6 +31,8 @@ use crate::vector::Vector;
 pub struct PendulumChain<T> {
     dim: usize,
     masses: Vec<T>,
+    /// `1/mᵢ`, so that the hot kernels multiply instead of divide.
+    inv_masses: Vec<T>,
     lengths: Vec<T>,
     gravity: T,
     /// Extra rods `(a, b, length)` after the chain's own links (`a = None`: the pin).
@@ -75,6 +77,7 @@ impl<T: Real> PendulumChain<T> {
         )?;
         Ok(Self {
             dim,
+            inv_masses: masses.iter().map(|&m| T::one() / m).collect(),
             masses,
             lengths,
             gravity,
@@ -181,10 +184,9 @@ impl<T: Real> PendulumChain<T> {
         let inv: Vec<T> = self.masses.iter().map(|&m| T::one() / m).collect();
         from_fn(move |h: T, x: &mut V| {
             let (q, p) = x.as_mut_slice().split_at_mut(d * n);
-            for (i, &w) in inv.iter().enumerate() {
-                for k in 0..d {
-                    q[i * d + k] = q[i * d + k] + h * w * p[i * d + k];
-                }
+            match d {
+                2 => drift_points::<T, 2>(&inv, h, q, p),
+                _ => drift_points::<T, 3>(&inv, h, q, p),
             }
         })
     }
@@ -225,27 +227,61 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for PendulumChain<T> {
     }
     /// `∇²H = diag(0, M⁻¹)` (gravity is linear in `q`).
     fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
-        let (d, n) = (self.dim, self.links());
-        let vp = &v.as_slice()[d * n..];
-        let (oq, op) = out.as_mut_slice().split_at_mut(d * n);
+        let n = self.dim * self.links();
+        let vp = &v.as_slice()[n..];
+        let (oq, op) = out.as_mut_slice().split_at_mut(n);
         oq.iter_mut().for_each(|o| *o = T::zero());
-        for (i, &m) in self.masses.iter().enumerate() {
-            for k in 0..d {
-                op[i * d + k] = vp[i * d + k] / m;
-            }
+        match self.dim {
+            2 => scale_points::<T, 2>(&self.inv_masses, vp, op),
+            _ => scale_points::<T, 3>(&self.inv_masses, vp, op),
         }
         true
     }
     fn gradient(&self, x: &V, out: &mut V) {
-        let (d, n) = (self.dim, self.links());
-        let p = &x.as_slice()[d * n..];
-        let (oq, op) = out.as_mut_slice().split_at_mut(d * n);
-        for (i, &m) in self.masses.iter().enumerate() {
-            for k in 0..d {
-                oq[i * d + k] = T::zero();
-                op[i * d + k] = p[i * d + k] / m;
+        let n = self.dim * self.links();
+        let p = &x.as_slice()[n..];
+        let (oq, op) = out.as_mut_slice().split_at_mut(n);
+        match self.dim {
+            2 => self.gravity_gradient::<2>(oq),
+            _ => self.gravity_gradient::<3>(oq),
+        }
+        match self.dim {
+            2 => scale_points::<T, 2>(&self.inv_masses, p, op),
+            _ => scale_points::<T, 3>(&self.inv_masses, p, op),
+        }
+    }
+}
+
+impl<T: Real> PendulumChain<T> {
+    /// `∂H/∂q`: `mᵢ γ` on the last axis of every particle.
+    #[inline]
+    fn gravity_gradient<const D: usize>(&self, oq: &mut [T]) {
+        for (o, &m) in oq.chunks_exact_mut(D).zip(&self.masses) {
+            for v in o[..D - 1].iter_mut() {
+                *v = T::zero();
             }
-            oq[i * d + d - 1] = m * self.gravity;
+            o[D - 1] = m * self.gravity;
+        }
+    }
+}
+
+/// `qᵢ += h wᵢ pᵢ` for every particle `i`.
+#[inline]
+fn drift_points<T: Real, const D: usize>(w: &[T], h: T, q: &mut [T], p: &[T]) {
+    for ((qi, pi), &wi) in q.chunks_exact_mut(D).zip(p.chunks_exact(D)).zip(w) {
+        let s = h * wi;
+        for k in 0..D {
+            qi[k] = qi[k] + s * pi[k];
+        }
+    }
+}
+
+/// `outᵢ = wᵢ vᵢ` for every `D`-vector `vᵢ` (particle `i`).
+#[inline]
+fn scale_points<T: Real, const D: usize>(w: &[T], v: &[T], out: &mut [T]) {
+    for ((o, vi), &wi) in out.chunks_exact_mut(D).zip(v.chunks_exact(D)).zip(w) {
+        for k in 0..D {
+            o[k] = vi[k] * wi;
         }
     }
 }
@@ -261,6 +297,62 @@ impl<T: Real> ChainLinks<T> {
             q[b * d + k] - q[a * d + k]
         }
     }
+
+    /// `q_b − q_a` of rod `(a, b)` as a `D`-vector (`q_a = 0` for the pin).
+    #[inline(always)]
+    fn rod<const D: usize>(q: &[T], a: usize, b: usize) -> [T; D] {
+        let qb = &q[b * D..b * D + D];
+        let mut r = [T::zero(); D];
+        if a == usize::MAX {
+            r.copy_from_slice(qb);
+        } else {
+            let qa = &q[a * D..a * D + D];
+            for k in 0..D {
+                r[k] = qb[k] - qa[k];
+            }
+        }
+        r
+    }
+
+    #[inline]
+    fn residual_d<const D: usize>(&self, q: &[T], out: &mut [T]) {
+        for (o, &(a, b, l)) in out.iter_mut().zip(&self.rods) {
+            let r = Self::rod::<D>(q, a, b);
+            let r2 = r.iter().fold(T::zero(), |s, &v| s + v * v);
+            *o = (r2 - l * l) * T::lit(0.5);
+        }
+    }
+
+    #[inline]
+    fn jacobian_apply_d<const D: usize>(&self, q: &[T], v: &[T], out: &mut [T]) {
+        for (o, &(a, b, _)) in out.iter_mut().zip(&self.rods) {
+            let r = Self::rod::<D>(q, a, b);
+            let w = Self::rod::<D>(v, a, b);
+            *o = (0..D).fold(T::zero(), |s, k| s + r[k] * w[k]);
+        }
+    }
+
+    #[inline]
+    fn jacobian_transpose_apply_add_d<const D: usize>(
+        &self,
+        q: &[T],
+        mu: &[T],
+        alpha: T,
+        o: &mut [T],
+    ) {
+        for (&m, &(a, b, _)) in mu.iter().zip(&self.rods) {
+            let r = Self::rod::<D>(q, a, b);
+            let c = alpha * m;
+            for k in 0..D {
+                o[b * D + k] = o[b * D + k] + c * r[k];
+            }
+            if a != usize::MAX {
+                for k in 0..D {
+                    o[a * D + k] = o[a * D + k] - c * r[k];
+                }
+            }
+        }
+    }
 }
 
 impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for ChainLinks<T> {
@@ -268,35 +360,22 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for ChainLinks<T> {
         self.rods.len()
     }
     fn residual(&self, x: &V, out: &mut [T]) {
-        let q = x.as_slice();
-        for (o, &(a, b, l)) in out.iter_mut().zip(&self.rods) {
-            let r2 = (0..self.dim).fold(T::zero(), |s, k| {
-                let v = self.diff(q, a, b, k);
-                s + v * v
-            });
-            *o = (r2 - l * l) * T::lit(0.5);
+        match self.dim {
+            2 => self.residual_d::<2>(x.as_slice(), out),
+            _ => self.residual_d::<3>(x.as_slice(), out),
         }
     }
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [T]) {
-        let (q, v) = (x.as_slice(), v.as_slice());
-        for (o, &(a, b, _)) in out.iter_mut().zip(&self.rods) {
-            *o = (0..self.dim).fold(T::zero(), |s, k| {
-                s + self.diff(q, a, b, k) * self.diff(v, a, b, k)
-            });
+        match self.dim {
+            2 => self.jacobian_apply_d::<2>(x.as_slice(), v.as_slice(), out),
+            _ => self.jacobian_apply_d::<3>(x.as_slice(), v.as_slice(), out),
         }
     }
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
-        let d = self.dim;
-        let q = x.as_slice();
-        let o = out.as_mut_slice();
-        for (&m, &(a, b, _)) in mu.iter().zip(&self.rods) {
-            for k in 0..d {
-                let c = alpha * m * self.diff(q, a, b, k);
-                o[b * d + k] = o[b * d + k] + c;
-                if a != usize::MAX {
-                    o[a * d + k] = o[a * d + k] - c;
-                }
-            }
+        let (q, o) = (x.as_slice(), out.as_mut_slice());
+        match self.dim {
+            2 => self.jacobian_transpose_apply_add_d::<2>(q, mu, alpha, o),
+            _ => self.jacobian_transpose_apply_add_d::<3>(q, mu, alpha, o),
         }
     }
     /// `∂gᵢ/∂q_b = q_b − q_a`, `∂gᵢ/∂q_a = −(q_b − q_a)`: `2d` entries per rod (`d` at the pin).

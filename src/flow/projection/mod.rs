@@ -22,6 +22,8 @@
 //! Every variant is symmetric when the inner flow is, and then of order 2 (composition raises it).
 //! The multipliers are warm-started from the previous step.
 
+mod warm;
+
 use super::{Flow, FlowStats};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::linalg::{LinearSolver, SolverChoice, Structure, Triplets};
@@ -33,6 +35,7 @@ use crate::system::{Brackets, Case, Hamiltonian, HolonomicConstraint, StructureM
 use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
+use warm::WarmStart;
 
 /// How the two multiplier systems of the degenerate case are solved.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -118,31 +121,22 @@ impl<T: Real> ProjectionOptions<T> {
 
 /// Workspace: states of length `n`, multipliers in vectors of at least `2m` entries.
 #[derive(Debug, Clone)]
-struct Work<V> {
-    start: V,
+struct Work<V: Vector> {
     y: V,
     xe: V,
     t1: V,
     t2: V,
-    /// `(λ_k, λ_{k+1})`: the unknowns, and the warm start for the next step.
+    /// `(λ_k, λ_{k+1})` being solved for (the last successful ones are in `warm`).
     z: V,
+    /// Warm starts, double-buffered (see [`warm`]).
+    warm: WarmStart<V>,
     /// `λ_k` for which `y` was last computed.
     a_cached: V,
     y_valid: bool,
     /// Scratch for `m` residual entries.
     r: V,
-    /// `(λ_k − previous λ_{k+1}) / h` of the last decoupled step, for the warm start.
-    offset: V,
-    /// `S = λ_k + λ_{k+1}` of the last decoupled step and its change per unit step, for the
-    /// warm start of `λ_{k+1}` (see `step_impl`).
-    sum: V,
-    sum_trend: V,
-    sum_saved: V,
-    sum_trend_saved: V,
-    /// `z` and `offset` at the start of the step, restored if the step fails so that a failed
-    /// iterate never becomes the next warm start.
-    z_saved: V,
-    offset_saved: V,
+    /// `g(y)` of the last `λ_k` residual evaluation (general path), for the decoupling guard.
+    g_y: V,
     /// Scratch for closed-form Jacobian groups: two states and an indicator of `m` entries.
     u1: V,
     u2: V,
@@ -172,8 +166,6 @@ pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
     /// Relative tolerance of the fixed point for the implicit end point.
     fixed_point_tol: V::Real,
     w: Work<V>,
-    /// The last successful step size (for the multiplier warm starts).
-    last_h: V::Real,
     stats: FlowStats,
 }
 
@@ -258,22 +250,16 @@ where
         };
         let zeros = x0.zeros_like();
         let w = Work {
-            start: zeros.clone(),
             y: zeros.clone(),
             xe: zeros.clone(),
             t1: zeros.clone(),
             t2: zeros,
             z: V::zeros(k_z),
-            z_saved: V::zeros(k_z),
+            warm: WarmStart::new(m, k_z),
             a_cached: V::zeros(m),
             y_valid: false,
             r: V::zeros(m),
-            offset: V::zeros(m),
-            offset_saved: V::zeros(m),
-            sum: V::zeros(m),
-            sum_trend: V::zeros(m),
-            sum_saved: V::zeros(m),
-            sum_trend_saved: V::zeros(m),
+            g_y: V::zeros(m),
             // Only grouped (sparse) Jacobians use these: no memory for them otherwise.
             u1: V::zeros(if grouped { n } else { 0 }),
             u2: V::zeros(if grouped { n } else { 0 }),
@@ -291,7 +277,6 @@ where
             guard_tol: options.newton.ftol,
             fixed_point_tol: options.newton.xtol,
             w,
-            last_h: V::Real::zero(),
             stats: FlowStats::default(),
         })
     }
@@ -329,7 +314,7 @@ where
     /// The multipliers `(λ_k, λ_{k+1})` of the last step (`λ_k = λ_{k+1}` for the symmetric
     /// projection).
     pub fn multipliers(&self) -> (&[V::Real], &[V::Real]) {
-        let z = self.w.z.as_slice();
+        let z = self.w.warm.last().as_slice();
         match self.scheme {
             Scheme::Symmetric => (&z[..self.m], &z[..self.m]),
             _ => (&z[..self.m], &z[self.m..2 * self.m]),
@@ -345,7 +330,13 @@ where
 
     /// Solves one multiplier system. Newton evaluates the residual last at the iterate it
     /// returns, so afterwards `y` and `x_{k+1}` in the workspace belong to the solution.
-    fn solve(&mut self, mode: Mode, h: V::Real, stage: &'static str) -> Result<(), StepError> {
+    fn solve(
+        &mut self,
+        mode: Mode,
+        h: V::Real,
+        x: &V,
+        stage: &'static str,
+    ) -> Result<(), StepError> {
         let m = self.m;
         let range = match mode {
             Mode::LambdaK | Mode::Symmetric => 0..m,
@@ -353,8 +344,8 @@ where
             Mode::Coupled => 0..2 * m,
         };
         let Work {
-            start,
             y,
+            g_y,
             xe,
             t1,
             t2,
@@ -370,7 +361,7 @@ where
             mode,
             h,
             m,
-            x: start,
+            x,
             inner: &mut self.inner,
             system: &self.system,
             y,
@@ -382,6 +373,7 @@ where
             u1,
             u2,
             ec,
+            g_y,
             fixed_point_max_iterations: self.fixed_point_max_iterations,
             fixed_point_tol: self.fixed_point_tol,
         };
@@ -404,7 +396,12 @@ where
     /// with [`Self::solve`], `y` (for `λ_k`) or `x_{k+1}` (for `λ_{k+1}`) in the workspace
     /// belong to the solution.
     #[inline(always)]
-    fn solve_small<const K: usize>(&mut self, second: bool, h: V::Real) -> Result<(), StepError> {
+    fn solve_small<const K: usize>(
+        &mut self,
+        second: bool,
+        h: V::Real,
+        x: &V,
+    ) -> Result<(), StepError> {
         let Some(small) = self.small.as_mut() else {
             unreachable!("solve_small without a small path");
         };
@@ -412,7 +409,7 @@ where
         let half = h * V::Real::lit(0.5);
         let d: &mut [V; K] = fixed_mut(&mut small.d);
         // The directions of this half-step, fixed for the whole solve.
-        let base = if second { &w.y } else { &w.start };
+        let base = if second { &w.y } else { x };
         let mut unit = [V::Real::zero(); K];
         for (j, dj) in d.iter_mut().enumerate() {
             unit[j] = V::Real::one();
@@ -446,15 +443,11 @@ where
             let cols: &mut [V; K] = fixed_mut(&mut small.w);
             let mut exact = true;
             for (dj, wj) in d.iter().zip(cols.iter_mut()) {
-                if !self
-                    .system
-                    .hamiltonian
-                    .hessian_apply(&w.start, dj, &mut w.t1)
-                {
+                if !self.system.hamiltonian.hessian_apply(x, dj, &mut w.t1) {
                     exact = false;
                     break;
                 }
-                self.system.structure.apply(&w.start, &w.t1, &mut w.t2);
+                self.system.structure.apply(x, &w.t1, &mut w.t2);
                 let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), w.t2.as_slice());
                 for ((o, &dv), &tv) in wj.iter_mut().zip(dj).zip(t2) {
                     *o = half * (dv + h * tv);
@@ -463,7 +456,7 @@ where
             let mut problem = FirstHalf {
                 h,
                 half,
-                x: &w.start,
+                x,
                 inner: &mut self.inner,
                 constraint: &self.system.constraint,
                 d,
@@ -491,79 +484,32 @@ where
     /// `φ(x_{k+1}) = 0`. `K = m` on the small path (every loop over the multipliers unrolls),
     /// `K = 0` on the general one.
     #[inline(always)]
-    fn step_decoupled<const K: usize>(&mut self, h: V::Real) -> Result<(), StepError> {
+    fn step_decoupled<const K: usize>(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         let m = if K == 0 { self.m } else { K };
-        // Warm start: λ_k and the previous λ_{k+1} both approximate the force at t_k but
-        // differ by O(h); predict λ_k as the previous λ_{k+1} plus the last offset,
-        // kept per unit step so that it follows sub-steps of other sizes and signs.
-        let (z, off) = (self.w.z.as_mut_slice(), self.w.offset.as_slice());
-        for j in 0..m {
-            z[j] = z[m + j] + h * off[j];
-        }
+        self.w.warm.predict_lambda_k(m, h, self.w.z.as_mut_slice());
         if K == 0 {
-            self.solve(Mode::LambdaK, h, "lambda_k from g(x_{k+1}) = 0")?;
+            self.solve(Mode::LambdaK, h, x, "lambda_k from g(x_{k+1}) = 0")?;
         } else {
-            self.solve_small::<K>(false, h)?;
+            self.solve_small::<K>(false, h, x)?;
         }
-        // Before the first step there is no previous λ_{k+1} to measure the offset from.
-        if h != V::Real::zero() && self.stats.projected_steps > 0 {
-            let (z, off) = (self.w.z.as_slice(), self.w.offset.as_mut_slice());
-            for j in 0..m {
-                off[j] = (z[j] - z[m + j]) / h;
-            }
-        }
-        // λ_{k+1} is predicted through the sum S = λ_k + λ_{k+1}, which sets the
-        // step's total impulse and so varies smoothly even when λ_k alone does not:
-        // when g cannot resolve part of λ_k at working precision (the smooth tension
-        // mode of a long chain at small h), λ_k is accepted wherever the warm start put
-        // it and λ_{k+1} compensates, so the two alternate from step to step while S
-        // stays smooth. S is extrapolated linearly, per unit step.
-        // S belongs to the middle of its step: consecutive sums are (h_prev + h)/2
-        // apart, whatever the sizes and signs of the sub-steps of a composition.
-        let steps = self.stats.projected_steps;
-        let spacing = (self.last_h + h) * V::Real::lit(0.5);
-        if h != V::Real::zero() && steps > 0 {
-            let w = &mut self.w;
-            let (z, sum, trend) = (w.z.as_mut_slice(), w.sum.as_slice(), w.sum_trend.as_slice());
-            for j in 0..m {
-                z[m + j] = sum[j] + spacing * trend[j] - z[j];
-            }
-        }
+        self.w.warm.record_lambda_k(m, h, self.w.z.as_slice());
+        self.w.warm.predict_lambda_k1(m, h, self.w.z.as_mut_slice());
         if K == 0 {
-            self.solve(Mode::LambdaK1, h, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
+            self.solve(Mode::LambdaK1, h, x, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
         } else {
-            self.solve_small::<K>(true, h)?;
+            self.solve_small::<K>(true, h, x)?;
         }
-        if h != V::Real::zero() {
-            let w = &mut self.w;
-            let (z, sum, trend) = (
-                w.z.as_slice(),
-                w.sum.as_mut_slice(),
-                w.sum_trend.as_mut_slice(),
-            );
-            for j in 0..m {
-                let s_new = z[j] + z[m + j];
-                trend[j] = if steps > 0 && spacing != V::Real::zero() {
-                    (s_new - sum[j]) / spacing
-                } else {
-                    V::Real::zero()
-                };
-                sum[j] = s_new;
-            }
-        }
+        self.w.warm.record_lambda_k1(m, h, self.w.z.as_slice());
         // The decoupling assumption: the second half-step did not move g (for position
         // constraints and a momentum-only direction, g(x_{k+1}) and g(y) are the same
         // floating-point numbers).
         let w = &mut self.w;
-        let (gx, gy) = (&mut w.r.as_mut_slice()[..m], &mut w.t1.as_mut_slice()[..m]);
+        let gx = &mut w.r.as_mut_slice()[..m];
         self.system.constraint.residual(&w.xe, gx);
+        // g(y) is the λ_k system's last residual.
         let change = match self.small.as_ref() {
-            // g(y) is the λ_k system's last residual.
             Some(small) if K > 0 => ops::dist_inf(gx, &small.g_y[..m]),
-            _ => {
-                self.system.constraint.residual(&w.y, gy);
-                ops::dist_inf(gx, gy)
-            }
+            _ => ops::dist_inf(gx, &w.g_y.as_slice()[..m]),
         };
         if change.is_nan() || change > self.guard_tol {
             return Err(StepError::CouplingViolated {
@@ -574,22 +520,23 @@ where
     }
 
     /// One step from `w.start`; the result is left in `w.xe`.
-    fn step_impl(&mut self, h: V::Real) -> Result<(), StepError> {
+    fn step_impl(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         self.w.y_valid = false;
         match self.scheme {
             Scheme::Decoupled => match (self.small.is_some(), self.m) {
-                (false, _) => self.step_decoupled::<0>(h),
-                (true, 1) => self.step_decoupled::<1>(h),
-                (true, 2) => self.step_decoupled::<2>(h),
-                (true, 3) => self.step_decoupled::<3>(h),
-                (true, _) => self.step_decoupled::<SMALL_MAX>(h),
+                (false, _) => self.step_decoupled::<0>(h, x),
+                (true, 1) => self.step_decoupled::<1>(h, x),
+                (true, 2) => self.step_decoupled::<2>(h, x),
+                (true, 3) => self.step_decoupled::<3>(h, x),
+                (true, _) => self.step_decoupled::<SMALL_MAX>(h, x),
             },
             Scheme::Coupled => self.solve(
                 Mode::Coupled,
                 h,
+                x,
                 "(lambda_k, lambda_{k+1}) from g = 0, phi = 0",
             ),
-            Scheme::Symmetric => self.solve(Mode::Symmetric, h, "lambda from g(x_{k+1}) = 0"),
+            Scheme::Symmetric => self.solve(Mode::Symmetric, h, x, "lambda from g(x_{k+1}) = 0"),
         }
     }
 }
@@ -604,34 +551,39 @@ where
     L: LinearSolver<V::Real>,
 {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        if x.len() != self.w.xe.len() {
+            return Err(StepError::StateLength {
+                flow: "Projected",
+                expected: self.w.xe.len(),
+                got: x.len(),
+            });
+        }
         if !super::check_step(h, x)? {
             return Ok(());
         }
-        self.w.start.copy_from(x);
-        self.w.z_saved.copy_from(&self.w.z);
-        self.w.offset_saved.copy_from(&self.w.offset);
-        self.w.sum_saved.copy_from(&self.w.sum);
-        self.w.sum_trend_saved.copy_from(&self.w.sum_trend);
+        if self.scheme != Scheme::Decoupled {
+            self.w.warm.start_from_last(&mut self.w.z);
+        }
         let result =
-            self.step_impl(h)
+            self.step_impl(h, x)
                 .and_then(|()| match ops::first_non_finite(self.w.xe.as_slice()) {
                     Some(component) => Err(StepError::NonFinite { component }),
                     None => Ok(()),
                 });
         if let Err(e) = result {
-            // A failed iterate must not become the next warm start or kept Jacobian.
-            self.w.z.copy_from(&self.w.z_saved);
-            self.w.offset.copy_from(&self.w.offset_saved);
-            self.w.sum.copy_from(&self.w.sum_saved);
-            self.w.sum_trend.copy_from(&self.w.sum_trend_saved);
+            // A failed iterate must not become the next warm start (nothing was committed) or
+            // kept Jacobian.
             self.newton.invalidate_jacobian();
             if let Some(n) = self.newton_k1.as_mut() {
                 n.invalidate_jacobian();
             }
             return Err(e);
         }
-        x.copy_from(&self.w.xe);
-        self.last_h = h;
+        // The new state is in the workspace: swap it in (O(1) for heap vectors; the old state
+        // left in `xe` is overwritten by the next step).
+        core::mem::swap(x, &mut self.w.xe);
+        let decoupled = self.scheme == Scheme::Decoupled;
+        self.w.warm.commit(&mut self.w.z, h, decoupled);
         self.stats.projected_steps += 1;
         Ok(())
     }
@@ -938,6 +890,7 @@ struct Stage<'a, V: Vector, F, Ms, H, C> {
     u1: &'a mut V,
     u2: &'a mut V,
     ec: &'a mut V,
+    g_y: &'a mut V,
     fixed_point_max_iterations: usize,
     fixed_point_tol: V::Real,
 }
@@ -1123,6 +1076,9 @@ where
             Mode::LambdaK => {
                 self.compute_y(z)?;
                 self.system.constraint.residual(&*self.y, f);
+                for (g, &v) in self.g_y.as_mut_slice().iter_mut().zip(&*f) {
+                    *g = v;
+                }
             }
             Mode::LambdaK1 => {
                 self.end_point_explicit(z);
