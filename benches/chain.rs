@@ -277,7 +277,10 @@ fn check_same_algorithm(n: usize, steps: usize) {
     );
 }
 
-const CONFIGS: [(SolverKind, &str, usize); 5] = [
+const CONFIGS: [(SolverKind, &str, usize); 8] = [
+    (SolverKind::Banded, "banded", 1_000),
+    (SolverKind::Banded, "banded", 10_000),
+    (SolverKind::Banded, "banded", 100_000),
     (SolverKind::Sparse, "sparse", 1_000),
     (SolverKind::Sparse, "sparse", 10_000),
     (SolverKind::Sparse, "sparse", 100_000),
@@ -369,8 +372,10 @@ fn scaling_summary() {
             .map(|r| r.2)
             .unwrap()
     };
-    let ratio = ns("sparse", 100_000) / ns("sparse", 10_000);
-    println!("sparse ns/step ratio N = 1e5 / N = 1e4: {ratio:.2} (linear: 10)");
+    for backend in ["banded", "sparse"] {
+        let ratio = ns(backend, 100_000) / ns(backend, 10_000);
+        println!("{backend} ns/step ratio N = 1e5 / N = 1e4: {ratio:.2} (linear: 10)");
+    }
     println!(
         "dense / sparse at N = 1000: {:.1}",
         ns("dense", 1000) / ns("sparse", 1000)
@@ -379,7 +384,8 @@ fn scaling_summary() {
     for n in [10_000, 100_000] {
         let hand = time_hand(n);
         println!(
-            "hand-written RATTLE (Thomas) N = {n}: {hand:.0} ns/step; generic sparse / hand-written = {:.2}",
+            "hand-written RATTLE (Thomas) N = {n}: {hand:.0} ns/step; generic / hand-written: banded {:.2}, sparse {:.2}",
+            ns("banded", n) / hand,
             ns("sparse", n) / hand
         );
         hand_rows.push(hand);
@@ -418,7 +424,7 @@ fn plot(
         .x_desc("links N")
         .y_desc("ns / step")
         .draw()?;
-    for (name, color) in [("sparse", BLUE), ("dense", RED)] {
+    for (name, color) in [("banded", GREEN), ("sparse", BLUE), ("dense", RED)] {
         let pts: Vec<(f64, f64)> = rows
             .iter()
             .filter(|r| r.0 == name)

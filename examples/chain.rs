@@ -47,7 +47,7 @@ fn main() {
             (
                 "solver",
                 "auto|dense|sparse",
-                "linear solver backend (default auto)",
+                "linear solver backend: auto|dense|sparse|banded (default auto)",
             ),
             (
                 "print-every",
@@ -65,6 +65,7 @@ fn main() {
         "auto" => SolverChoice::Auto,
         "dense" => SolverChoice::Force(SolverKind::Dense),
         "sparse" => SolverChoice::Force(SolverKind::Sparse),
+        "banded" => SolverChoice::Force(SolverKind::Banded),
         other => args.fail(&format!("unknown solver '{other}'")),
     };
     if n == 0 || n > 1_000_000 {
@@ -96,6 +97,7 @@ fn main() {
         SolverKind::Stack => "stack",
         SolverKind::Dense => "dense",
         SolverKind::Sparse => "sparse",
+        SolverKind::Banded => "banded",
     };
     println!(
         "chain: {n} links in {dim}D, h = {dt}, {steps} steps, {backend} LU (set up in {setup_ms:.1} ms)"

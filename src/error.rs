@@ -79,6 +79,10 @@ pub enum LinearSolveError {
         /// A column of the group it appeared in.
         column: usize,
     },
+    /// A solve was asked of a solver with no (successful) factorization since its last
+    /// assembly.
+    #[error("solve before a successful factorization of the current matrix")]
+    NotFactored,
     /// The sparsity pattern itself is singular: no choice of values makes the matrix invertible
     /// (a column or row without entries, or more constraints than a set of unknowns can carry).
     #[error("structurally singular sparse matrix (column {column} has no available pivot)")]

@@ -182,7 +182,16 @@ fn dissipative_and_general_flows_allocate_nothing_per_step() {
 
 #[test]
 fn sparse_chain_steps_allocate_nothing_after_the_first() {
-    use lieflow::linalg::{LinearSolver, SolverChoice, SolverKind};
+    for kind in [
+        lieflow::linalg::SolverKind::Sparse,
+        lieflow::linalg::SolverKind::Banded,
+    ] {
+        chain_steps_allocate_nothing(kind);
+    }
+}
+
+fn chain_steps_allocate_nothing(kind: lieflow::linalg::SolverKind) {
+    use lieflow::linalg::{LinearSolver, SolverChoice};
     use lieflow::models::PendulumChain;
     type V = faer::Col<f64>;
     let model = PendulumChain::<f64>::uniform(2, 300).unwrap();
@@ -193,7 +202,7 @@ fn sparse_chain_steps_allocate_nothing_after_the_first() {
     let options = options.with_newton(
         options
             .newton
-            .with_solver(SolverChoice::Force(SolverKind::Sparse))
+            .with_solver(SolverChoice::Force(kind))
             .with_jacobian(lieflow::nonlinear::JacobianUpdate::EveryIteration),
     );
     let mut f = model
@@ -201,7 +210,7 @@ fn sparse_chain_steps_allocate_nothing_after_the_first() {
         .strang(model.drift())
         .projected(model.system(), &x, options)
         .unwrap();
-    assert_eq!(f.newton().linear_solver().kind(), SolverKind::Sparse);
+    assert_eq!(f.newton().linear_solver().kind(), kind);
     assert_eq!(allocations_per_run(&mut f, &mut x, 1e-4), 0);
     assert!(f.stats().factorizations >= 1000, "{:?}", f.stats());
 }

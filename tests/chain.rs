@@ -213,7 +213,8 @@ fn redundant_constraints_are_typed_errors_naming_one() {
     let (g0, _) = residuals(&model, &x0);
     assert!(g0 <= 1e-15, "{g0:e}");
     assert!(rattle(&model, &x0, SolverChoice::Auto).is_ok());
-    // The backend check: the auto choice for a long chain is sparse.
+    // The backend check: the auto choice for a long chain is the band solver (its multiplier
+    // systems are tridiagonal).
     let model = PendulumChain::<f64>::uniform(3, 500).unwrap();
     let x0: V = model.at_rest(shape(500));
     let flow = model
@@ -221,7 +222,7 @@ fn redundant_constraints_are_typed_errors_naming_one() {
         .strang(model.drift())
         .projected(model.system(), &x0, model.projection_options())
         .unwrap();
-    assert_eq!(flow.newton().linear_solver().kind(), SolverKind::Sparse);
+    assert_eq!(flow.newton().linear_solver().kind(), SolverKind::Banded);
 }
 
 /// The second sparsity pattern: particles each on its own sphere (block-diagonal constraints),
@@ -263,7 +264,8 @@ fn particles_on_spheres_stay_on_them_with_springs_outside_the_pattern() {
     println!(
         "2000 free particles: {kind:?}, |g| {g:.1e}, |phi| {phi:.1e}, dE/E {de:.1e}, {it:.2} it/step"
     );
-    assert_eq!(kind, SolverKind::Sparse);
+    // Block-diagonal constraints: a band of width 0.
+    assert_eq!(kind, SolverKind::Banded);
     // Newton stops at ftol = 16 ε r (|c| + r) ≈ 16 ε · 4000 (positions up to 4000 differenced
     // with the centres); allow that plus the rounding of g itself.
     let tol = 32.0 * f64::EPSILON * 4000.0;

@@ -249,7 +249,8 @@ fn newton_with_grouped_differences_matches_dense_newton() {
     assert_eq!(sparse.evaluations_per_jacobian(), 3);
     let mut auto: Newton<Col<f64>, AutoLu<f64>> =
         Newton::with_pattern(k, options, Some(&pattern)).unwrap();
-    assert_eq!(auto.linear_solver().kind(), SolverKind::Sparse);
+    // A tridiagonal pattern: the band solver.
+    assert_eq!(auto.linear_solver().kind(), SolverKind::Banded);
     let (mut zd, mut zs, mut za) = (vec![0.0; k], vec![0.0; k], vec![0.0; k]);
     let rd = dense.solve(&mut Tridiagonal { k }, &mut zd).unwrap();
     let rs = sparse.solve(&mut Tridiagonal { k }, &mut zs).unwrap();
@@ -261,7 +262,16 @@ fn newton_with_grouped_differences_matches_dense_newton() {
         .zip(&zs)
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     assert!(diff <= 1e-14, "dense and grouped Newton differ by {diff:e}");
-    assert_eq!(zs, za);
+    // Auto picks the band solver for this tridiagonal pattern: the same iterations, the same
+    // root to round-off (a different elimination order).
+    let diff_auto = zs
+        .iter()
+        .zip(&za)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(
+        diff_auto <= 1e-14,
+        "sparse and banded Newton differ by {diff_auto:e}"
+    );
     assert!(rs.residual <= 2.0 * f64::EPSILON * 100.0);
     // The grouped Jacobian costs 3 evaluations instead of k.
     assert!(

@@ -1,4 +1,4 @@
-use super::{DenseLu, LinearSolver, Sink, SparseLu, StackLu, Structure};
+use super::{BandedLu, DenseLu, LinearSolver, Sink, SparseLu, StackLu, Structure};
 use crate::error::LinearSolveError;
 use crate::real::Real;
 
@@ -11,6 +11,8 @@ pub enum SolverKind {
     Dense,
     /// [`SparseLu`]: faer's simplicial sparse LU.
     Sparse,
+    /// [`BandedLu`]: LU with partial pivoting in band storage.
+    Banded,
 }
 
 /// The user's choice of backend for [`AutoLu`].
@@ -27,8 +29,11 @@ pub enum SolverChoice {
 ///
 /// With [`SolverChoice::Auto`]:
 /// - `k ≤ STACK_MAX` (8): [`StackLu`] — for a handful of unknowns the cost is overhead, not flops;
-/// - a sparse structure with `k > SPARSE_MIN_DIM` (64) and at most `k²/10` entries: [`SparseLu`]
-///   — dense LU costs `2k³/3` flops, a banded or tree-like sparse LU `O(nnz)`;
+/// - a banded structure with `k > SPARSE_MIN_DIM` (64) and at most [`BANDED_MAX`] (8)
+///   diagonals on either side: [`BandedLu`] — `O(k)` work with no symbolic phase and no
+///   indirection, the cheapest for chains and other topologies of small bandwidth;
+/// - a sparse (or wider banded) structure with `k > SPARSE_MIN_DIM` and at most `k²/10`
+///   entries: [`SparseLu`] — dense LU costs `2k³/3` flops, a tree-like sparse LU `O(nnz)`;
 /// - otherwise [`DenseLu`].
 ///
 /// [`SolverChoice::Force`] takes the named backend (a stack solver larger than 8 is a
@@ -45,19 +50,30 @@ pub enum AutoLu<T: Real + faer::traits::RealField + nalgebra::Scalar> {
     Dense(DenseLu<T>),
     /// Sparse storage.
     Sparse(SparseLu<T>),
+    /// Band storage.
+    Banded(BandedLu<T>),
 }
 
 /// Largest system [`AutoLu`] solves on the stack.
 pub const STACK_MAX: usize = 8;
-/// Smallest system [`AutoLu`] solves with the sparse backend.
+/// Smallest system [`AutoLu`] solves with the sparse or banded backend.
 pub const SPARSE_MIN_DIM: usize = 64;
+/// Widest band (diagonals below or above the main one) [`AutoLu`] solves with [`BandedLu`].
+pub const BANDED_MAX: usize = 8;
 
 impl<T: Real + faer::traits::RealField + nalgebra::Scalar> AutoLu<T> {
     /// The backend [`SolverChoice::Auto`] picks for a `k × k` matrix of this structure.
     pub fn auto_kind(k: usize, structure: Structure) -> SolverKind {
         match structure {
             _ if k <= STACK_MAX => SolverKind::Stack,
-            Structure::Sparse { nnz } if k > SPARSE_MIN_DIM && nnz.saturating_mul(10) <= k * k => {
+            Structure::Banded { lower, upper, .. }
+                if k > SPARSE_MIN_DIM && lower <= BANDED_MAX && upper <= BANDED_MAX =>
+            {
+                SolverKind::Banded
+            }
+            Structure::Sparse { nnz } | Structure::Banded { nnz, .. }
+                if k > SPARSE_MIN_DIM && nnz.saturating_mul(10) <= k * k =>
+            {
                 SolverKind::Sparse
             }
             _ => SolverKind::Dense,
@@ -71,6 +87,7 @@ macro_rules! each {
             AutoLu::Stack($s) => $e,
             AutoLu::Dense($s) => $e,
             AutoLu::Sparse($s) => $e,
+            AutoLu::Banded($s) => $e,
         }
     };
 }
@@ -100,6 +117,7 @@ impl<T: Real + faer::traits::RealField + nalgebra::Scalar> LinearSolver<T> for A
             SolverKind::Stack => AutoLu::Stack(StackLu::with_dim(k)?),
             SolverKind::Dense => AutoLu::Dense(DenseLu::with_dim(k)?),
             SolverKind::Sparse => AutoLu::Sparse(SparseLu::with_dim(k)?),
+            SolverKind::Banded => AutoLu::Banded(BandedLu::with_structure(k, structure, choice)?),
         })
     }
 

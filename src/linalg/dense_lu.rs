@@ -85,11 +85,7 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for DenseLu<T> {
     fn solve_in_place(&mut self, rhs: &mut [T]) -> Result<(), LinearSolveError> {
         let k = self.dim();
         if !self.factored {
-            return Err(LinearSolveError::Singular {
-                pivot: 0,
-                magnitude: 0.0,
-                ratio: 0.0,
-            });
+            return Err(LinearSolveError::NotFactored);
         }
         let perm = faer::perm::PermRef::new_checked(&self.perm, &self.perm_inv, k);
         let b = MatMut::from_column_major_slice_mut(&mut rhs[..k], k, 1);

@@ -6,6 +6,8 @@
 //!
 //! - [`StackLu`]: nalgebra LU on a fixed `N × N` stack matrix, for small systems (`k ≤ N`).
 //! - [`DenseLu`]: faer's low-level partial-pivoting LU with a reused workspace, for larger dense systems.
+//! - [`BandedLu`]: LU with partial pivoting in band storage, for a narrow band (a chain's
+//!   tridiagonal multiplier systems);
 //! - [`SparseLu`]: faer's simplicial sparse LU; symbolic analysis once per pattern, numeric
 //!   refactorization without allocation, for large systems with a sparse Jacobian.
 //! - [`AutoLu`]: picks one of the above by size and sparsity ([`SolverChoice`]), overridable.
@@ -15,11 +17,13 @@
 //! its columns ([`LinearSolver::column_mut`]) for column-wise fills and rank-one updates.
 
 mod any_lu;
+mod banded_lu;
 mod dense_lu;
 mod sparse_lu;
 mod stack_lu;
 
-pub use any_lu::{AutoLu, SolverChoice, SolverKind};
+pub use any_lu::{AutoLu, BANDED_MAX, SolverChoice, SolverKind};
+pub use banded_lu::BandedLu;
 pub use dense_lu::DenseLu;
 pub use sparse_lu::SparseLu;
 pub use stack_lu::StackLu;
@@ -63,6 +67,33 @@ pub enum Structure {
         /// The number of structurally non-zero entries.
         nnz: usize,
     },
+    /// Sparse with every entry within `lower` diagonals below and `upper` above the main
+    /// diagonal (`nnz` entries in all): [`AutoLu`] picks [`BandedLu`] for a narrow band.
+    Banded {
+        /// Subdiagonals.
+        lower: usize,
+        /// Superdiagonals.
+        upper: usize,
+        /// The number of structurally non-zero entries.
+        nnz: usize,
+    },
+}
+
+impl Structure {
+    /// The structure of a pattern of `(row, col)` positions (duplicates allowed): always
+    /// [`Structure::Banded`], with the pattern's bandwidth and number of distinct entries.
+    pub fn of_pattern(pattern: &[(usize, usize)]) -> Self {
+        let (mut lower, mut upper) = (0, 0);
+        for &(r, c) in pattern {
+            lower = lower.max(r.saturating_sub(c));
+            upper = upper.max(c.saturating_sub(r));
+        }
+        Structure::Banded {
+            lower,
+            upper,
+            nnz: pattern.len(),
+        }
+    }
 }
 
 /// A reusable solver for `k × k` linear systems `A z = b`.

@@ -276,11 +276,7 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for SparseLu<T> {
     fn solve_in_place(&mut self, rhs: &mut [T]) -> Result<(), LinearSolveError> {
         let k = self.k;
         let (true, Some(symbolic)) = (self.factored, &self.symbolic) else {
-            return Err(LinearSolveError::Singular {
-                pivot: 0,
-                magnitude: 0.0,
-                ratio: 0.0,
-            });
+            return Err(LinearSolveError::NotFactored);
         };
         let row_perm = PermRef::new_checked(&self.row_perm, &self.row_perm_inv, k);
         let b = MatMut::from_column_major_slice_mut(&mut rhs[..k], k, 1);

@@ -117,11 +117,7 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
     fn solve_in_place(&mut self, b: &mut [T]) -> Result<(), LinearSolveError> {
         let k = self.k;
         if !self.factored {
-            return Err(LinearSolveError::Singular {
-                pivot: 0,
-                magnitude: 0.0,
-                ratio: 0.0,
-            });
+            return Err(LinearSolveError::NotFactored);
         }
         let a = &self.lu;
         for i in 0..k {

@@ -302,11 +302,16 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             return Err(crate::LinearSolveError::OutOfBounds { row, col, dim: k });
         }
         let groups = pattern.map(|p| ColumnGroups::new(k, p));
-        let structure = match &groups {
-            Some(g) => Structure::Sparse {
-                nnz: g.entries.len(),
+        let structure = match (&groups, pattern) {
+            (Some(g), Some(p)) => match Structure::of_pattern(p) {
+                Structure::Banded { lower, upper, .. } => Structure::Banded {
+                    lower,
+                    upper,
+                    nnz: g.entries.len(),
+                },
+                other => other,
             },
-            None => Structure::Dense,
+            _ => Structure::Dense,
         };
         Ok(Self {
             k,

@@ -1224,13 +1224,15 @@ where
     let pattern: Vec<(usize, usize)> = gram.iter().map(|&(i, j, _)| (i, j)).collect();
     // Every constraint needs a diagonal entry: a constraint with a zero gradient row is
     // redundant (it constrains nothing to first order).
-    let mut lin = L::with_structure(
-        m,
-        Structure::Sparse {
+    let structure = match Structure::of_pattern(&pattern) {
+        Structure::Banded { lower, upper, .. } => Structure::Banded {
+            lower,
+            upper,
             nnz: gram.len() + m,
         },
-        choice,
-    )?;
+        other => other,
+    };
+    let mut lin = L::with_structure(m, structure, choice)?;
     lin.clear();
     for &(i, j, v) in &gram {
         lin.add(i, j, v);
