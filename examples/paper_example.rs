@@ -115,7 +115,7 @@ fn main() {
     )
     .unwrap_or_else(|e| fatal(&e));
 
-    let exact = paper::reference(report.t, -0.15, 1e-3);
+    let exact = paper::exact(report.t, -0.15);
     let err = (0..4).map(|i| (x[i] - exact[i]).abs()).fold(0.0, f64::max);
 
     if let Some(path) = args.opt("csv") {

@@ -245,3 +245,35 @@ fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
     assert_eq!(code, 0);
     assert!(out.contains("--scheme") && out.contains("--plot"));
 }
+
+#[test]
+fn long_horizon_prints_the_json_contract_last() {
+    let (code, out, err) = run(
+        "long_horizon",
+        &["--t-end", "200", "--repeat", "1", "--target", "1e-6"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let last = out.lines().last().unwrap();
+    assert!(last.starts_with('{') && last.ends_with('}'), "{last}");
+    for key in [
+        "t",
+        "x",
+        "steps",
+        "max_abs_g",
+        "ns_per_step",
+        "lieflow_error",
+        "lieflow_ms",
+        "peer_best_error",
+        "peer_best_ms",
+        "peer_max_abs_g",
+    ] {
+        field(last, key);
+    }
+    // Every lieflow run keeps g at round-off; the peer's reduced ODE lets it drift.
+    let g: f64 = field(last, "max_abs_g").parse().unwrap();
+    assert!(g <= 1e-15, "{g:e}");
+    let e: f64 = field(last, "lieflow_error").parse().unwrap();
+    assert!(e <= 1e-6, "{e:e}");
+    let (code, _, err) = run("long_horizon", &["--repeat", "x"]);
+    assert_eq!(code, 2, "{err}");
+}
