@@ -177,12 +177,8 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
             });
         }
         let guard = self.inner.is_fallible();
-        self.backup.run(guard, x, |x| {
-            for i in 0..table.stages {
-                self.inner.step(table.gamma_in::<V::Real>(i) * h, x)?;
-            }
-            Ok(())
-        })
+        self.backup
+            .run(guard, x, |x| self.inner.step_table(h, table, x))
     }
     fn is_fallible(&self) -> bool {
         self.inner.is_fallible()

@@ -92,6 +92,23 @@ pub trait Flow<V: Vector> {
     fn dissipates(&self) -> bool {
         false
     }
+    /// Advances `x` through the stages of a composition: steps of `γ_i h` for the table's
+    /// coefficients in order — the map [`Composition`] applies. The default takes them one
+    /// [`step`](Self::step) at a time. A flow whose consecutive steps can share work overrides
+    /// it with the same map: the projection fuses the `λ_{k+1}` half-step of one stage with the
+    /// `λ_k` half-step of the next (see [`Projected`]). Same contract as `step`: on `Err`, `x`
+    /// is left as it was passed in.
+    fn step_table(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        for i in 0..table.stages {
+            self.step(table.gamma_in::<V::Real>(i) * h, x)?;
+        }
+        Ok(())
+    }
 }
 
 impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for &mut F {
@@ -116,6 +133,14 @@ impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for &mut F {
     fn dissipates(&self) -> bool {
         (**self).dissipates()
     }
+    fn step_table(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        (**self).step_table(h, table, x)
+    }
 }
 
 impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
@@ -139,6 +164,14 @@ impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
     }
     fn dissipates(&self) -> bool {
         (**self).dissipates()
+    }
+    fn step_table(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        (**self).step_table(h, table, x)
     }
 }
 

@@ -24,7 +24,7 @@
 
 mod warm;
 
-use super::{Flow, FlowStats};
+use super::{CompositionTable, Flow, FlowStats};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::linalg::{LinearSolver, SolverChoice, Structure, Triplets};
 use crate::nonlinear::{
@@ -123,6 +123,8 @@ impl<T: Real> ProjectionOptions<T> {
 #[derive(Debug, Clone)]
 struct Work<V: Vector> {
     y: V,
+    /// The previous stage's `y`: the base point of a fused stage (see `step_fused`).
+    prev: V,
     xe: V,
     t1: V,
     t2: V,
@@ -251,6 +253,7 @@ where
         let zeros = x0.zeros_like();
         let w = Work {
             y: zeros.clone(),
+            prev: zeros.clone(),
             xe: zeros.clone(),
             t1: zeros.clone(),
             t2: zeros,
@@ -334,7 +337,7 @@ where
         &mut self,
         mode: Mode,
         h: V::Real,
-        x: &V,
+        base: Base<'_, V>,
         stage: &'static str,
     ) -> Result<(), StepError> {
         let m = self.m;
@@ -355,8 +358,10 @@ where
             u1,
             u2,
             ec,
+            prev,
             ..
         } = &mut self.w;
+        let x = base.resolve(prev);
         let mut problem = Stage {
             mode,
             h,
@@ -400,12 +405,13 @@ where
         &mut self,
         second: bool,
         h: V::Real,
-        x: &V,
+        base: Base<'_, V>,
     ) -> Result<(), StepError> {
         let Some(small) = self.small.as_mut() else {
             unreachable!("solve_small without a small path");
         };
         let w = &mut self.w;
+        let x = base.resolve(&w.prev);
         let half = h * V::Real::lit(0.5);
         let d: &mut [V; K] = fixed_mut(&mut small.d);
         // The directions of this half-step, fixed for the whole solve.
@@ -488,21 +494,36 @@ where
         let m = if K == 0 { self.m } else { K };
         self.w.warm.predict_lambda_k(m, h, self.w.z.as_mut_slice());
         if K == 0 {
-            self.solve(Mode::LambdaK, h, x, "lambda_k from g(x_{k+1}) = 0")?;
+            self.solve(
+                Mode::LambdaK,
+                h,
+                Base::Given(x),
+                "lambda_k from g(x_{k+1}) = 0",
+            )?;
         } else {
-            self.solve_small::<K>(false, h, x)?;
+            self.solve_small::<K>(false, h, Base::Given(x))?;
         }
         self.w.warm.record_lambda_k(m, h, self.w.z.as_slice());
         self.w.warm.predict_lambda_k1(m, h, self.w.z.as_mut_slice());
         if K == 0 {
-            self.solve(Mode::LambdaK1, h, x, "lambda_{k+1} from phi(x_{k+1}) = 0")?;
+            self.solve(
+                Mode::LambdaK1,
+                h,
+                Base::Given(x),
+                "lambda_{k+1} from phi(x_{k+1}) = 0",
+            )?;
         } else {
-            self.solve_small::<K>(true, h, x)?;
+            self.solve_small::<K>(true, h, Base::Given(x))?;
         }
         self.w.warm.record_lambda_k1(m, h, self.w.z.as_slice());
-        // The decoupling assumption: the second half-step did not move g (for position
-        // constraints and a momentum-only direction, g(x_{k+1}) and g(y) are the same
-        // floating-point numbers).
+        self.decoupling_guard::<K>(m)
+    }
+
+    /// The decoupling assumption: the second half-step did not move `g` (for position
+    /// constraints and a momentum-only direction, `g(x_{k+1})` and `g(y)` are the same
+    /// floating-point numbers).
+    #[inline(always)]
+    fn decoupling_guard<const K: usize>(&mut self, m: usize) -> Result<(), StepError> {
         let w = &mut self.w;
         let gx = &mut w.r.as_mut_slice()[..m];
         self.system.constraint.residual(&w.xe, gx);
@@ -519,6 +540,79 @@ where
         Ok(())
     }
 
+    /// A composition's stages as one fused step (decoupled scheme). Stage `i`'s second
+    /// half-step `y_i + (h_i/2) M Gᵀ(y_i) λ_{k+1}` and stage `i+1`'s first half-step act along
+    /// the same direction `M Gᵀ(y_i)` (which the second half-step does not change), so together
+    /// they are one shift `y_i + (h_{i+1}/2) M Gᵀ λ̃` with `λ̃ = λ_k + (h_i/h_{i+1}) λ_{k+1}`, and
+    /// `g(y_{i+1}) = 0` determines `λ̃` alone: the interior `λ_{k+1}` (fixed by `φ = 0` at a
+    /// point the composition never returns) does not change the result. One multiplier solve
+    /// per stage, plus the last stage's `λ_{k+1}` so that the result is on `g = 0`, `φ = 0`:
+    /// the same map as the stage-by-stage composition, up to the Newton tolerance.
+    #[inline(always)]
+    fn step_fused<const K: usize>(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &V,
+    ) -> Result<V::Real, StepError> {
+        let m = if K == 0 { self.m } else { K };
+        let stage = "lambda_k from g(x_{k+1}) = 0";
+        let one = V::Real::one();
+        let mut h_prev = table.gamma_in::<V::Real>(0) * h;
+        self.w
+            .warm
+            .predict_lambda_k(m, h_prev, self.w.z.as_mut_slice());
+        if K == 0 {
+            self.solve(Mode::LambdaK, h_prev, Base::Given(x), stage)?;
+        } else {
+            self.solve_small::<K>(false, h_prev, Base::Given(x))?;
+        }
+        self.w.warm.record_lambda_k(m, h_prev, self.w.z.as_slice());
+        for i in 1..table.stages {
+            let hi = table.gamma_in::<V::Real>(i) * h;
+            // The previous stage's λ̃ split evenly between its own λ_k and λ_{k+1} estimates
+            // the force per unit time; λ̃ of this stage is that force times (1 + h_prev/h_i).
+            let w = &mut self.w;
+            core::mem::swap(&mut w.y, &mut w.prev);
+            w.y_valid = false;
+            let grow = one + h_prev / hi;
+            let (z, force) = (w.z.as_mut_slice(), w.r.as_mut_slice());
+            for (v, f) in z[..m].iter_mut().zip(force.iter_mut()) {
+                *f = *v;
+                *v = *v * grow;
+            }
+            if K == 0 {
+                self.solve(Mode::LambdaK, hi, Base::Prev, stage)?;
+            } else {
+                self.solve_small::<K>(false, hi, Base::Prev)?;
+            }
+            // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate (the
+            // previous one when the stages nearly cancel, h_prev ≈ −h_i).
+            let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
+            if grow.abs() >= V::Real::lit(1e-3) {
+                z[..m].iter_mut().for_each(|v| *v = *v / grow);
+            } else {
+                z[..m].copy_from_slice(&force[..m]);
+            }
+            self.stats.projected_steps += 1;
+            h_prev = hi;
+        }
+        // The last stage's λ_{k+1}, predicted as the force estimate.
+        {
+            let z = self.w.z.as_mut_slice();
+            let (a, b) = z.split_at_mut(m);
+            b[..m].copy_from_slice(a);
+        }
+        let stage1 = "lambda_{k+1} from phi(x_{k+1}) = 0";
+        if K == 0 {
+            self.solve(Mode::LambdaK1, h_prev, Base::Given(x), stage1)?;
+        } else {
+            self.solve_small::<K>(true, h_prev, Base::Given(x))?;
+        }
+        self.decoupling_guard::<K>(m)?;
+        Ok(h_prev)
+    }
+
     /// One step from `w.start`; the result is left in `w.xe`.
     fn step_impl(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         self.w.y_valid = false;
@@ -533,10 +627,15 @@ where
             Scheme::Coupled => self.solve(
                 Mode::Coupled,
                 h,
-                x,
+                Base::Given(x),
                 "(lambda_k, lambda_{k+1}) from g = 0, phi = 0",
             ),
-            Scheme::Symmetric => self.solve(Mode::Symmetric, h, x, "lambda from g(x_{k+1}) = 0"),
+            Scheme::Symmetric => self.solve(
+                Mode::Symmetric,
+                h,
+                Base::Given(x),
+                "lambda from g(x_{k+1}) = 0",
+            ),
         }
     }
 }
@@ -584,6 +683,59 @@ where
         core::mem::swap(x, &mut self.w.xe);
         let decoupled = self.scheme == Scheme::Decoupled;
         self.w.warm.commit(&mut self.w.z, h, decoupled);
+        self.stats.projected_steps += 1;
+        Ok(())
+    }
+    /// The decoupled scheme fuses the stages (see `step_fused`): one multiplier solve per
+    /// stage instead of two. The other schemes take the stages one step at a time.
+    fn step_table(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        if self.scheme != Scheme::Decoupled || table.stages < 2 {
+            for i in 0..table.stages {
+                self.step(table.gamma_in::<V::Real>(i) * h, x)?;
+            }
+            return Ok(());
+        }
+        if x.len() != self.w.xe.len() {
+            return Err(StepError::StateLength {
+                flow: "Projected",
+                expected: self.w.xe.len(),
+                got: x.len(),
+            });
+        }
+        if !super::check_step(h, x)? {
+            return Ok(());
+        }
+        let steps_before = self.stats.projected_steps;
+        self.w.y_valid = false;
+        let result = match (self.small.is_some(), self.m) {
+            (false, _) => self.step_fused::<0>(h, table, x),
+            (true, 1) => self.step_fused::<1>(h, table, x),
+            (true, 2) => self.step_fused::<2>(h, table, x),
+            (true, 3) => self.step_fused::<3>(h, table, x),
+            (true, _) => self.step_fused::<SMALL_MAX>(h, table, x),
+        }
+        .and_then(|h_last| match ops::first_non_finite(self.w.xe.as_slice()) {
+            Some(component) => Err(StepError::NonFinite { component }),
+            None => Ok(h_last),
+        });
+        let h_last = match result {
+            Ok(h_last) => h_last,
+            Err(e) => {
+                self.stats.projected_steps = steps_before;
+                self.newton.invalidate_jacobian();
+                if let Some(n) = self.newton_k1.as_mut() {
+                    n.invalidate_jacobian();
+                }
+                return Err(e);
+            }
+        };
+        core::mem::swap(x, &mut self.w.xe);
+        self.w.warm.commit_fused(&mut self.w.z, h_last);
         self.stats.projected_steps += 1;
         Ok(())
     }
@@ -637,6 +789,24 @@ where
     let gscale = V::Real::one() + ops::norm_inf(&g0);
     ops::dist_inf(&g0, &g1) <= tol * gscale
         && ops::dist_inf(d0.as_slice(), d1.as_slice()) <= tol * dn
+}
+
+/// The base point of a first half-step: the state passed to the step, or the previous
+/// stage's `y` (workspace `prev`) in a fused composition.
+#[derive(Clone, Copy)]
+enum Base<'a, V> {
+    Given(&'a V),
+    Prev,
+}
+
+impl<'a, V> Base<'a, V> {
+    #[inline(always)]
+    fn resolve(self, prev: &'a V) -> &'a V {
+        match self {
+            Base::Given(x) => x,
+            Base::Prev => prev,
+        }
+    }
 }
 
 /// The decoupled scheme for a few constraints (`m ≤` [`SMALL_MAX`], dense `G`) and a

@@ -139,4 +139,17 @@ impl<V: Vector> WarmStart<V> {
         self.last_h = h;
         self.steps += 1;
     }
+
+    /// A fused composition step succeeded (see `Projected::step_fused`): the multipliers and
+    /// the first stage's offset are swapped in; the sum and its trend, which belong to single
+    /// steps, stay as they were.
+    #[inline(always)]
+    pub(super) fn commit_fused(&mut self, z: &mut V, h_last: V::Real) {
+        core::mem::swap(&mut self.last, z);
+        if self.steps > 0 {
+            core::mem::swap(&mut self.offset, &mut self.offset_next);
+        }
+        self.last_h = h_last;
+        self.steps += 1;
+    }
 }
