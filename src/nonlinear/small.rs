@@ -174,17 +174,22 @@ impl<T: Real> SmallNewton<T> {
         if !r.is_finite() {
             return Err(NewtonError::NonFinite { iteration: 0 });
         }
-        // The residual before the last update, and that update's size (∞: none yet).
+        // The residual before the last update, and that update (none yet: r_prev = ∞).
         let mut r_prev = T::infinity();
-        let mut step = T::infinity();
+        let mut dz_last = [T::zero(); K];
         // Closed-form columns until they fail to contract the residual.
         let mut closed_form = true;
+        let half = T::lit(0.5);
         for it in 0..=opts.max_iterations {
-            report.residual = r;
+            // Converged; or at the round-off floor with a stalled residual or an update at
+            // round-off (the norms only on this rare path).
             if r <= opts.ftol
                 || (r <= noise
-                    && (step <= opts.xtol * (one + norm_inf(z)) || r >= T::lit(0.5) * r_prev))
+                    && (r >= half * r_prev
+                        || (r_prev.is_finite()
+                            && norm_inf(&dz_last) <= opts.xtol * (one + norm_inf(z)))))
             {
+                report.residual = r;
                 return Ok(report);
             }
             if it == opts.max_iterations {
@@ -217,33 +222,38 @@ impl<T: Real> SmallNewton<T> {
             }
             report.iterations += 1;
             let mut r_new = evaluate(problem, z, &mut f, &mut report)?;
-            // Backtracking: the Newton direction descends ‖F‖, so a short enough step helps.
-            if r > noise && (r_new.is_nan() || r_new >= r) {
-                let half = T::lit(0.5);
-                let mut halvings = 0;
-                while (r_new.is_nan() || r_new >= r) && halvings < opts.max_halvings {
-                    for (zi, d) in z.iter_mut().zip(dz.iter_mut()) {
-                        *d = *d * half;
-                        *zi = *zi - *d;
+            // The common case contracts by at least half; anything else (slow contraction,
+            // growth, NaN) takes this branch.
+            if !(r_new <= half * r) {
+                // Backtracking: the Newton direction descends ‖F‖, so a short enough step
+                // helps.
+                if r > noise && (r_new.is_nan() || r_new >= r) {
+                    let mut halvings = 0;
+                    while (r_new.is_nan() || r_new >= r) && halvings < opts.max_halvings {
+                        for (zi, d) in z.iter_mut().zip(dz.iter_mut()) {
+                            *d = *d * half;
+                            *zi = *zi - *d;
+                        }
+                        halvings += 1;
+                        report.halvings += 1;
+                        r_new = evaluate(problem, z, &mut f, &mut report)?;
                     }
-                    halvings += 1;
-                    report.halvings += 1;
-                    r_new = evaluate(problem, z, &mut f, &mut report)?;
+                }
+                if !r_new.is_finite() {
+                    return Err(NewtonError::NonFinite { iteration: it + 1 });
+                }
+                // A closed-form Jacobian that only approximates the true one (a model-derived
+                // guess at an inner flow's tangent map, say) shows itself by slow contraction:
+                // finish this solve with differences.
+                if closed_form && !differenced && r_new > noise {
+                    closed_form = false;
                 }
             }
-            if !r_new.is_finite() {
-                return Err(NewtonError::NonFinite { iteration: it + 1 });
-            }
-            // A closed-form Jacobian that only approximates the true one (a model-derived
-            // guess at an inner flow's tangent map, say) shows itself by slow contraction:
-            // finish this solve with differences.
-            if closed_form && !differenced && r_new > noise && r_new > T::lit(0.5) * r {
-                closed_form = false;
-            }
-            step = norm_inf(&dz);
+            dz_last = dz;
             r_prev = r;
             r = r_new;
         }
+        report.residual = r;
         Err(NewtonError::NotConverged {
             iterations: report.iterations,
             residual: r.to_f64_lossy(),

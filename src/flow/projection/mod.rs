@@ -576,6 +576,8 @@ where
             core::mem::swap(&mut w.y, &mut w.prev);
             w.y_valid = false;
             let grow = one + h_prev / hi;
+            // Off the critical path (it depends on the step sizes only).
+            let inv_grow = one / grow;
             let (z, force) = (w.z.as_mut_slice(), w.r.as_mut_slice());
             for (v, f) in z[..m].iter_mut().zip(force.iter_mut()) {
                 *f = *v;
@@ -590,7 +592,7 @@ where
             // previous one when the stages nearly cancel, h_prev ≈ −h_i).
             let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
             if grow.abs() >= V::Real::lit(1e-3) {
-                z[..m].iter_mut().for_each(|v| *v = *v / grow);
+                z[..m].iter_mut().for_each(|v| *v = *v * inv_grow);
             } else {
                 z[..m].copy_from_slice(&force[..m]);
             }
