@@ -224,7 +224,7 @@ impl<T: Real> SmallNewton<T> {
             let mut r_new = evaluate(problem, z, &mut f, &mut report)?;
             // The common case contracts by at least half; anything else (slow contraction,
             // growth, NaN) takes this branch.
-            if !(r_new <= half * r) {
+            if r_new.is_nan() || r_new > half * r {
                 // Backtracking: the Newton direction descends ‖F‖, so a short enough step
                 // helps.
                 if r > noise && (r_new.is_nan() || r_new >= r) {
