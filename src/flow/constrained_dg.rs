@@ -1,12 +1,13 @@
 //! The discrete-gradient method with holonomic constraints (Gonzalez 1999).
 
 use super::implicit::{GonzalezRule, GradientRule, noise_image};
-use super::projection::check_initial_state;
 use super::{Flow, FlowStats, ProjectionOptions};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver};
 use crate::real::Real;
-use crate::system::{Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::{
+    Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System, check_initial_state,
+};
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
 
@@ -123,8 +124,12 @@ where
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
         // φ(x0) need not vanish: the first hidden-constraint projection restores it.
-        let (case, _) =
-            check_initial_state::<V, Ms, H, C, W::Solver>(&system, x0, &options, false)?;
+        let (case, _) = check_initial_state::<V, Ms, H, C, W::Solver>(
+            &system,
+            x0,
+            &options.initial_checks(),
+            false,
+        )?;
         let (n, m) = (x0.len(), system.constraint.dim());
         let g0 = vec![V::Real::zero(); m];
         let hidden = match case {

@@ -162,7 +162,7 @@ pub fn h_tilde<V: Vector>(x: &V) -> V::Real {
 
 /// The exact solution at time `t` from `x(0) = (1, 0, 0, v₀)` in closed form up to a
 /// quadrature, accurate to about `10 ε |θ(t)|` (≈ 1e-12 at `t = 10⁴`), for long horizons where
-/// integrating the angle equation ([`reference`]) would accumulate error.
+/// integrating the angle equation ([`reference()`]) would accumulate error.
 ///
 /// On the circle `x₁ = cos θ, x₂ = sin θ` the invariant `H̃ = v₀²/4` gives
 /// `dt/dθ = sign(v₀) w(θ)`, `w(θ) = √((sin²θ + cos²θ/2) / (2H̃))`. `w` is even, analytic and

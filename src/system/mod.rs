@@ -7,12 +7,15 @@
 //! x' = M(x) (∇H(x) + G(x)ᵀ λ),     g(x) = 0,     G = ∂g/∂x.
 //! ```
 
+mod analysis;
 mod bracket;
 mod constraint;
 mod hamiltonian;
 mod modified;
 mod structure;
 
+pub use analysis::MAX_BRACKET_CONSTRAINTS;
+pub(crate) use analysis::{InitialChecks, check_initial_state, probe_decoupled};
 pub use bracket::{Brackets, Case, bracket};
 pub use constraint::HolonomicConstraint;
 pub use hamiltonian::Hamiltonian;

@@ -1,0 +1,237 @@
+//! The small decoupled path: full Newton on stack arrays ([`SmallNewton`](crate::nonlinear::SmallNewton)) with closed-form
+//! Jacobians for a few constraints, one problem type per multiplier system — [`FirstHalf`]
+//! (`λ_k` from `g = 0`) and [`SecondHalf`] (`λ_{k+1}` from `φ = 0`, also the hidden-constraint
+//! projection of the constrained discrete gradient).
+
+use crate::error::StepError;
+use crate::flow::Flow;
+use crate::nonlinear::{NewtonOptions, NonlinearProblem, SMALL_MAX, SmallNewton};
+use crate::real::Real;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::vector::{Vector, ops};
+use num_traits::Float as _;
+use num_traits::{One, Zero};
+
+/// The decoupled scheme for a few constraints (`m ≤` [`SMALL_MAX`], dense `G`) and a
+/// Hamiltonian with a Hessian ([`Hamiltonian::hessian_apply`]): each multiplier system is
+/// solved by full Newton on stack arrays ([`SmallNewton`](crate::nonlinear::SmallNewton)) with closed-form Jacobians, and the
+/// half-step directions `M Gᵀ e_j` are formed once per solve, so that a residual evaluation
+/// is an axpy per multiplier plus the model's own arithmetic.
+#[derive(Debug, Clone)]
+pub(super) struct SmallPath<V: Vector> {
+    pub(super) newton_k: SmallNewton<V::Real>,
+    pub(super) newton_k1: SmallNewton<V::Real>,
+    /// `d_j = M Gᵀ e_j` at the half-step's base point (`x_k`, then `y`).
+    pub(super) d: Vec<V>,
+    /// `w_j = (h/2)(d_j + h M ∇²H d_j)` at `x_k`.
+    pub(super) w: Vec<V>,
+    /// `g(y)` at the solution of the `λ_k` system (for the decoupling guard).
+    pub(super) g_y: [V::Real; SMALL_MAX],
+    /// `φ(y + (h/2) Σ λ_j e_j)` is affine in `λ_{k+1}`: quadratic `H`, constant `M`, and `G`
+    /// unchanged along the second half-step (probed at `x0`). Solved by one linear solve.
+    pub(super) affine_k1: bool,
+}
+
+impl<V: Vector> SmallPath<V> {
+    /// `Some` when the model qualifies at `x0`: at most [`SMALL_MAX`] constraints and a
+    /// Hamiltonian that answers [`Hamiltonian::hessian_apply`].
+    pub(super) fn try_new<Ms, H, C>(
+        system: &System<Ms, H, C>,
+        x0: &V,
+        options: NewtonOptions<V::Real>,
+    ) -> Option<Self>
+    where
+        Ms: StructureMatrix<V>,
+        H: Hamiltonian<V>,
+        C: HolonomicConstraint<V>,
+    {
+        let m = system.constraint.dim();
+        let newton_k = SmallNewton::new(m, options)?;
+        let newton_k1 = SmallNewton::new(m, options)?;
+        let mut out = x0.zeros_like();
+        if !system.hamiltonian.hessian_apply(x0, x0, &mut out) {
+            return None;
+        }
+        let affine_k1 = system.hamiltonian.is_quadratic()
+            && system.structure.is_constant()
+            && jacobian_constant_along_half_step(system, x0);
+        Some(Self {
+            newton_k,
+            newton_k1,
+            d: vec![x0.zeros_like(); m],
+            w: vec![x0.zeros_like(); m],
+            g_y: [V::Real::zero(); SMALL_MAX],
+            affine_k1,
+        })
+    }
+}
+
+/// Probes at `x0` whether `G` is unchanged along a second half-step `x0 + s M Gᵀ μ` (for
+/// position constraints and a momentum-only direction it is, exactly): `G v` for a fixed `v`
+/// at both points.
+pub(crate) fn jacobian_constant_along_half_step<V, Ms, H, C>(
+    system: &System<Ms, H, C>,
+    x0: &V,
+) -> bool
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    C: HolonomicConstraint<V>,
+{
+    let (m, n) = (system.constraint.dim(), x0.len());
+    let mu: Vec<V::Real> = (0..m)
+        .map(|j| V::Real::one() + V::Real::lit(j as f64 / (m as f64 + 1.0)))
+        .collect();
+    let (mut tmp, mut d, mut xp, mut v) = (
+        x0.zeros_like(),
+        x0.zeros_like(),
+        x0.zeros_like(),
+        x0.zeros_like(),
+    );
+    system.constraint_force(x0, &mu, &mut tmp, &mut d);
+    let dn = ops::norm_inf(d.as_slice());
+    if dn == V::Real::zero() {
+        return true;
+    }
+    let s = V::Real::lit(1e-3) * (V::Real::one() + ops::norm_inf(x0.as_slice())) / dn;
+    ops::add_scaled(xp.as_mut_slice(), x0.as_slice(), s, d.as_slice());
+    for (i, vi) in v.as_mut_slice().iter_mut().enumerate() {
+        *vi = V::Real::one() + V::Real::lit(i as f64 / (n as f64 + 1.0));
+    }
+    let (mut a, mut b) = (vec![V::Real::zero(); m], vec![V::Real::zero(); m]);
+    system.constraint.jacobian_apply(x0, &v, &mut a);
+    system.constraint.jacobian_apply(&xp, &v, &mut b);
+    let scale = V::Real::one() + ops::norm_inf(&a);
+    ops::dist_inf(&a, &b) <= V::Real::lit(64.0) * V::Real::epsilon() * scale
+}
+
+/// `&mut v[..K]` as an array; `v` has at least `K` entries (the small path sizes its vectors
+/// to `m` and dispatches on `K = m`).
+#[inline(always)]
+pub(crate) fn fixed_mut<T, const K: usize>(v: &mut [T]) -> &mut [T; K] {
+    match <&mut [T; K]>::try_from(&mut v[..K]) {
+        Ok(a) => a,
+        Err(_) => unreachable!("a slice of length K converts to [T; K]"),
+    }
+}
+
+/// `out = x + (h/2) Σ_j z_j d_j`.
+#[inline(always)]
+pub(crate) fn half_step<V: Vector, const K: usize>(
+    out: &mut V,
+    x: &V,
+    half: V::Real,
+    z: &[V::Real],
+    d: &[V; K],
+) {
+    ops::add_scaled(
+        out.as_mut_slice(),
+        x.as_slice(),
+        half * z[0],
+        d[0].as_slice(),
+    );
+    for j in 1..K {
+        ops::axpy(out.as_mut_slice(), half * z[j], d[j].as_slice());
+    }
+}
+
+/// `λ_k ↦ g(Φ_h(x + (h/2) Σ λ_j d_j))` with the columns `G(y) w_j` (small path).
+pub(super) struct FirstHalf<'a, V: Vector, F, C, const K: usize> {
+    pub(crate) h: V::Real,
+    pub(crate) half: V::Real,
+    pub(crate) x: &'a V,
+    pub(crate) inner: &'a mut F,
+    pub(crate) constraint: &'a C,
+    pub(super) d: &'a [V; K],
+    pub(super) w: Option<&'a [V; K]>,
+    pub(crate) y: &'a mut V,
+    /// `g(y)` of the last evaluation.
+    pub(crate) g: &'a mut [V::Real; K],
+}
+
+impl<V, F, C, const K: usize> NonlinearProblem<V::Real> for FirstHalf<'_, V, F, C, K>
+where
+    V: Vector,
+    F: Flow<V>,
+    C: HolonomicConstraint<V>,
+{
+    fn dim(&self) -> usize {
+        K
+    }
+    fn jacobian_scale(&self) -> V::Real {
+        self.h * self.h
+    }
+    #[inline(always)]
+    fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
+        half_step(self.y, self.x, self.half, z, self.d);
+        self.inner.step(self.h, self.y)?;
+        self.constraint.residual(&*self.y, f);
+        for (g, &v) in self.g.iter_mut().zip(&*f) {
+            *g = v;
+        }
+        Ok(())
+    }
+    /// `∂g(y)/∂λ_j = G(y) DΦ_h (h/2) d_j` with `DΦ_h ≈ I + h M ∇²H` at `x`: exact when the
+    /// inner flow's tangent map is that (a drift, or a kick–drift–kick with a potential linear
+    /// in the constrained coordinates), `O(h²)` relative otherwise.
+    #[inline(always)]
+    fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
+        match self.w {
+            Some(w) => {
+                self.constraint.jacobian_apply(&*self.y, &w[j], out);
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+/// `λ_{k+1} ↦ φ(y + (h/2) Σ λ_j e_j)` with exact columns (small path).
+pub(crate) struct SecondHalf<'a, V: Vector, Ms, H, C, const K: usize> {
+    pub(crate) h: V::Real,
+    pub(crate) half: V::Real,
+    pub(crate) y: &'a V,
+    pub(crate) system: &'a System<Ms, H, C>,
+    pub(crate) e: &'a [V; K],
+    pub(crate) xe: &'a mut V,
+    pub(crate) t1: &'a mut V,
+    pub(crate) t2: &'a mut V,
+}
+
+impl<V, Ms, H, C, const K: usize> NonlinearProblem<V::Real> for SecondHalf<'_, V, Ms, H, C, K>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    fn dim(&self) -> usize {
+        K
+    }
+    fn jacobian_scale(&self) -> V::Real {
+        self.h
+    }
+    #[inline(always)]
+    fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
+        half_step(self.xe, self.y, self.half, z, self.e);
+        self.system
+            .hidden_constraint(&*self.xe, self.t1, self.t2, f);
+        Ok(())
+    }
+    /// `∂φ(x')/∂λ_j = (h/2) G(x') M(x') ∇²H(x') e_j`: exact in the decoupled case, where `G`
+    /// and `M Gᵀ` do not change along the second half-step.
+    #[inline(always)]
+    fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
+        let sys = self.system;
+        if !sys
+            .hamiltonian
+            .hessian_apply(&*self.xe, &self.e[j], self.t1)
+        {
+            return false;
+        }
+        sys.structure.apply(&*self.xe, &*self.t1, self.t2);
+        sys.constraint.jacobian_apply(&*self.xe, &*self.t2, out);
+        out.iter_mut().for_each(|v| *v = *v * self.half);
+        true
+    }
+}

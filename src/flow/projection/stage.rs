@@ -1,0 +1,257 @@
+//! The general path: one residual type, [`Stage`], for the four multiplier systems ([`Mode`]),
+//! solved by [`Newton`](crate::nonlinear::Newton) with kept, Broyden-updated, grouped or
+//! closed-form Jacobians — any number of constraints, dense or sparse.
+
+use crate::error::StepError;
+use crate::flow::Flow;
+use crate::nonlinear::NonlinearProblem;
+use crate::real::Real;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::vector::{Vector, ops};
+use num_traits::Float as _;
+use num_traits::{One, Zero};
+
+/// Which multiplier system a [`Stage`] residual evaluates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Mode {
+    /// `λ_k ↦ g(Φ_h(x + h/2 M Gᵀ λ_k))` (decoupled).
+    LambdaK,
+    /// `λ_{k+1} ↦ φ(y + h/2 M(y) G(y)ᵀ λ_{k+1})` (decoupled).
+    LambdaK1,
+    /// `(λ_k, λ_{k+1}) ↦ (g(x'), φ(x'))`, `x'` implicit.
+    Coupled,
+    /// `λ ↦ g(x')`, same `λ` in both half-steps, `x'` implicit.
+    Symmetric,
+}
+
+/// The residual of one multiplier system, borrowing the flow's pieces.
+pub(super) struct Stage<'a, V: Vector, F, Ms, H, C> {
+    pub(super) mode: Mode,
+    pub(super) h: V::Real,
+    pub(super) m: usize,
+    pub(super) x: &'a V,
+    pub(super) inner: &'a mut F,
+    pub(super) system: &'a System<Ms, H, C>,
+    pub(super) y: &'a mut V,
+    pub(super) xe: &'a mut V,
+    pub(super) t1: &'a mut V,
+    pub(super) t2: &'a mut V,
+    pub(super) a_cached: &'a mut V,
+    pub(super) y_valid: &'a mut bool,
+    pub(super) u1: &'a mut V,
+    pub(super) u2: &'a mut V,
+    pub(super) ec: &'a mut V,
+    pub(super) g_y: &'a mut V,
+    pub(super) fixed_point_max_iterations: usize,
+    pub(super) fixed_point_tol: V::Real,
+}
+
+impl<V, F, Ms, H, C> Stage<'_, V, F, Ms, H, C>
+where
+    V: Vector,
+    F: Flow<V>,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    /// `y = Φ_h(x + h/2 M(x) G(x)ᵀ a)`, reusing the last `y` when `a` is unchanged.
+    fn compute_y(&mut self, a: &[V::Real]) -> Result<(), StepError> {
+        let m = self.m;
+        if *self.y_valid
+            && self.a_cached.as_slice()[..m]
+                .iter()
+                .zip(a)
+                .all(|(c, v)| c == v)
+        {
+            return Ok(());
+        }
+        *self.y_valid = false;
+        let half = self.h * V::Real::lit(0.5);
+        self.system.constraint_force(self.x, a, self.t1, self.t2);
+        // x̂ = x + h/2 M Gᵀ a, written straight into y (the inner flow then steps it in place).
+        ops::add_scaled(
+            self.y.as_mut_slice(),
+            self.x.as_slice(),
+            half,
+            self.t2.as_slice(),
+        );
+        self.inner.step(self.h, self.y)?;
+        // An element loop: `copy_from_slice` of a run-time length is a `memcpy` call, which
+        // costs more than the copy for a handful of multipliers.
+        for (c, &v) in self.a_cached.as_mut_slice()[..m].iter_mut().zip(a) {
+            *c = v;
+        }
+        *self.y_valid = true;
+        Ok(())
+    }
+
+    /// `x' = y + h/2 M(y) G(y)ᵀ b` (decoupled: `M Gᵀ` at `y` equals `M Gᵀ` at `x'`).
+    fn end_point_explicit(&mut self, b: &[V::Real]) {
+        let half = self.h * V::Real::lit(0.5);
+        self.system.constraint_force(&*self.y, b, self.t1, self.t2);
+        ops::add_scaled(
+            self.xe.as_mut_slice(),
+            self.y.as_slice(),
+            half,
+            self.t2.as_slice(),
+        );
+    }
+
+    /// `x' = y + h/2 M(x') G(x')ᵀ b` by fixed-point iteration from the explicit guess.
+    /// The map contracts with factor `O(h |b|)`; iterate until the change is at round-off.
+    fn end_point_implicit(&mut self, b: &[V::Real]) -> Result<(), StepError> {
+        let half = self.h * V::Real::lit(0.5);
+        self.end_point_explicit(b);
+        let tol = self.fixed_point_tol;
+        let mut change = V::Real::infinity();
+        for _ in 0..self.fixed_point_max_iterations {
+            self.system.constraint_force(&*self.xe, b, self.t1, self.t2);
+            change = V::Real::zero();
+            for ((xe, &y), &d) in self
+                .xe
+                .as_mut_slice()
+                .iter_mut()
+                .zip(self.y.as_slice())
+                .zip(self.t2.as_slice())
+            {
+                let new = y + half * d;
+                change = change.max((new - *xe).abs());
+                *xe = new;
+            }
+            if change <= tol * (V::Real::one() + ops::norm_inf(self.xe.as_slice())) {
+                return Ok(());
+            }
+            if !change.is_finite() {
+                break;
+            }
+        }
+        Err(StepError::FixedPointNotConverged {
+            iterations: self.fixed_point_max_iterations,
+            change: change.to_f64_lossy(),
+        })
+    }
+
+    fn hidden(&mut self, out: &mut [V::Real]) {
+        self.system
+            .hidden_constraint(&*self.xe, self.t1, self.t2, out);
+    }
+}
+
+impl<V, F, Ms, H, C> NonlinearProblem<V::Real> for Stage<'_, V, F, Ms, H, C>
+where
+    V: Vector,
+    F: Flow<V>,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    fn dim(&self) -> usize {
+        if self.mode == Mode::Coupled {
+            2 * self.m
+        } else {
+            self.m
+        }
+    }
+
+    /// `∂g/∂λ_k ≈ (h²/2) G M ∇²H M Gᵀ` in the degenerate case (the `O(h)` term is
+    /// `(h/2) G M Gᵀ = 0`); the other systems scale like `h` (the coupled one after dividing
+    /// its `g` rows by `h`).
+    fn jacobian_scale(&self) -> V::Real {
+        match self.mode {
+            Mode::LambdaK => self.h * self.h,
+            _ => self.h,
+        }
+    }
+
+    /// Closed-form Jacobian groups of the decoupled systems, from the model's Hessian
+    /// ([`Hamiltonian::hessian_apply`]); `e` is the indicator of `cols`:
+    /// - `λ_k`: `J e = G(y) DΦ_h (h/2) M Gᵀ e` with `DΦ_h ≈ I + h M ∇²H` —
+    ///   `(h/2) G(y) M Gᵀ e + (h²/2) G(y) M ∇²H M Gᵀ e` (`M`, `∇²H` at the step's start `x`),
+    ///   exact when the inner flow's tangent map is `I + h M ∇²H` with a constant Hessian (a
+    ///   kick–drift–kick with a potential linear in each particle, such as gravity), `O(h²)`
+    ///   relative otherwise;
+    /// - `λ_{k+1}`: `J e = (h/2) G(x') M(x') ∇²H(x') M(y) G(y)ᵀ e`, exact in the decoupled case.
+    fn jacobian_group(&mut self, z: &[V::Real], cols: &[usize], out: &mut [V::Real]) -> bool {
+        let (m, h) = (self.m, self.h);
+        if self.u1.len() < self.x.len() || self.ec.len() < m {
+            return false; // no scratch: the flow was built without a pattern
+        }
+        let half = h * V::Real::lit(0.5);
+        let mode = self.mode;
+        // The points the Jacobian is taken at: y for λ_k (cached per λ_k), x' for λ_{k+1}
+        // (recomputed, one pass).
+        match mode {
+            Mode::LambdaK => {
+                if self.compute_y(z).is_err() {
+                    return false;
+                }
+            }
+            Mode::LambdaK1 => self.end_point_explicit(z),
+            Mode::Coupled | Mode::Symmetric => return false,
+        }
+        let e = &mut self.ec.as_mut_slice()[..m];
+        ops::fill_zero(e);
+        for &j in cols {
+            e[j] = V::Real::one();
+        }
+        let e = &self.ec.as_slice()[..m];
+        let (sys, x) = (self.system, self.x);
+        if mode == Mode::LambdaK {
+            sys.constraint_force(x, e, self.t1, self.t2);
+            if !sys.hamiltonian.hessian_apply(self.x, &*self.t2, self.u1) {
+                return false;
+            }
+            sys.structure.apply(self.x, &*self.u1, self.u2);
+            ops::add_scaled(
+                self.u1.as_mut_slice(),
+                self.t2.as_slice(),
+                h,
+                self.u2.as_slice(),
+            );
+            sys.constraint.jacobian_apply(&*self.y, &*self.u1, out);
+        } else {
+            sys.constraint_force(&*self.y, e, self.t1, self.t2);
+            if !sys.hamiltonian.hessian_apply(&*self.xe, &*self.t2, self.u1) {
+                return false;
+            }
+            sys.structure.apply(&*self.xe, &*self.u1, self.u2);
+            sys.constraint.jacobian_apply(&*self.xe, &*self.u2, out);
+        }
+        out.iter_mut().for_each(|v| *v = *v * half);
+        true
+    }
+
+    fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
+        let m = self.m;
+        match self.mode {
+            Mode::LambdaK => {
+                self.compute_y(z)?;
+                self.system.constraint.residual(&*self.y, f);
+                for (g, &v) in self.g_y.as_mut_slice().iter_mut().zip(&*f) {
+                    *g = v;
+                }
+            }
+            Mode::LambdaK1 => {
+                self.end_point_explicit(z);
+                self.hidden(f);
+            }
+            Mode::Coupled => {
+                self.compute_y(&z[..m])?;
+                self.end_point_implicit(&z[m..])?;
+                let (fg, fp) = f.split_at_mut(m);
+                self.system.constraint.residual(&*self.xe, fg);
+                // g-rows of the Jacobian scale like h², φ-rows like h: g/h puts every row on the
+                // scale h that `jacobian_scale` reports (and asks |g| ≤ |h| ftol).
+                let inv_h = V::Real::one() / self.h;
+                fg.iter_mut().for_each(|v| *v = *v * inv_h);
+                self.hidden(fp);
+            }
+            Mode::Symmetric => {
+                self.compute_y(z)?;
+                self.end_point_implicit(z)?;
+                self.system.constraint.residual(&*self.xe, f);
+            }
+        }
+        Ok(())
+    }
+}
