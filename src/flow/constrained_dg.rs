@@ -1,9 +1,12 @@
 //! The discrete-gradient method with holonomic constraints (Gonzalez 1999).
 
 use super::implicit::{GonzalezRule, GradientRule, noise_image};
+use super::projection::{SecondHalf, fixed_mut, half_step, jacobian_constant_along_half_step};
 use super::{Flow, FlowStats, ProjectionOptions};
 use crate::error::{NewtonError, SetupError, StepError};
-use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver};
+use crate::nonlinear::{
+    Newton, NewtonOptions, NonlinearProblem, NonlinearSolver, SMALL_MAX, SmallNewton, SolveReport,
+};
 use crate::real::Real;
 use crate::system::{
     Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System, check_initial_state,
@@ -54,9 +57,13 @@ pub struct EnergyBalance<T> {
 /// [`without_hidden_projection`](Self::without_hidden_projection) turns it off (symmetric step,
 /// `|φ| = O(h²)`). In the non-degenerate case there is no hidden constraint and no projection.
 ///
-/// Each step solves for `(δ, hλ)` (`n + m` unknowns) by Newton with a finite-difference Jacobian
-/// kept across steps, stored in `W` (heap `faer::Col` by default, since `n + m` exceeds a stack
-/// vector's capacity `n`). The increment is added with compensated summation. Workspace is
+/// Each step solves for `(δ, hλ)` (`n + m` unknowns) by Newton, stored in `W` (heap `faer::Col`
+/// by default, since `n + m` exceeds a stack vector's capacity `n`). When the model gives
+/// `∇²H` ([`Hamiltonian::hessian_apply`]) and `DM` ([`StructureMatrix::derivative_apply_add`];
+/// automatic for a constant `M`) the Newton matrix is assembled in closed form at every
+/// iteration (full Newton); otherwise by differences, kept across steps. The hidden-constraint
+/// projection of up to four constraints runs on stack arrays with closed-form columns, and is
+/// one linear solve when `H` is quadratic and `M` constant. The increment is added with compensated summation. Workspace is
 /// allocated at construction; a step allocates nothing; on error the state is unchanged.
 pub struct ConstrainedDiscreteGradient<
     V: Vector,
@@ -67,7 +74,7 @@ pub struct ConstrainedDiscreteGradient<
 > {
     system: System<Ms, H, C>,
     newton: Newton<W>,
-    hidden: Option<Newton<V>>,
+    hidden: Option<HiddenSolver<V>>,
     /// Unknowns `(δ, ℓ = hλ)`.
     z: W,
     /// The multiplier `λ` of the last step (warm start).
@@ -85,6 +92,10 @@ pub struct ConstrainedDiscreteGradient<
     t2: V,
     comp: V,
     comp_next: V,
+    /// Scratch for closed-form Jacobian columns.
+    s1: V,
+    s2: V,
+    em: Vec<V::Real>,
     last: V,
     /// `x'` before the hidden-constraint projection.
     after_step: V,
@@ -133,7 +144,7 @@ where
         let (n, m) = (x0.len(), system.constraint.dim());
         let g0 = vec![V::Real::zero(); m];
         let hidden = match case {
-            Case::Degenerate => Some(Newton::new(m, options.newton)?),
+            Case::Degenerate => Some(HiddenSolver::new(&system, x0, options.newton)?),
             Case::NonDegenerate => None,
         };
         Ok(Self {
@@ -154,6 +165,9 @@ where
             t2: x0.zeros_like(),
             comp: x0.zeros_like(),
             comp_next: x0.zeros_like(),
+            s1: x0.zeros_like(),
+            s2: x0.zeros_like(),
+            em: vec![V::Real::zero(); m],
             last: x0.zeros_like(),
             after_step: x0.zeros_like(),
             last_h: V::Real::zero(),
@@ -219,6 +233,9 @@ macro_rules! problem {
             g0: &$s.g0,
             g1: &mut $s.g1,
             gd: &mut $s.gd,
+            s1: &mut $s.s1,
+            s2: &mut $s.s2,
+            em: &mut $s.em,
             system: &$s.system,
         }
     };
@@ -238,7 +255,26 @@ struct Problem<'a, V: Vector, Ms, H, C> {
     g0: &'a [V::Real],
     g1: &'a mut [V::Real],
     gd: &'a mut [V::Real],
+    s1: &'a mut V,
+    s2: &'a mut V,
+    em: &'a mut [V::Real],
     system: &'a System<Ms, H, C>,
+}
+
+impl<V, Ms, H, C> Problem<'_, V, Ms, H, C>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    /// `|δ|²` above which Gonzalez's correction term is evaluated (below, it is round-off).
+    fn corrected(&self, delta: &[V::Real]) -> Option<V::Real> {
+        let d2 = ops::dot(delta, delta);
+        let x2 = ops::dot(self.x.as_slice(), self.x.as_slice());
+        (d2 > V::Real::epsilon().powf(V::Real::lit(2.0 / 3.0)) * (V::Real::one() + x2))
+            .then_some(d2)
+    }
 }
 
 impl<V, Ms, H, C> NonlinearProblem<V::Real> for Problem<'_, V, Ms, H, C>
@@ -283,9 +319,7 @@ where
         sys.constraint.residual(self.xe, self.g1);
         sys.constraint
             .jacobian_transpose_apply_add(self.xm, ell, V::Real::one(), self.grad);
-        let d2 = ops::dot(delta, delta);
-        let x2 = ops::dot(x, x);
-        if d2 > V::Real::epsilon().powf(V::Real::lit(2.0 / 3.0)) * (V::Real::one() + x2) {
+        if let Some(d2) = self.corrected(delta) {
             for (t, &d) in self.tmp.as_mut_slice().iter_mut().zip(delta) {
                 *t = d;
             }
@@ -312,6 +346,93 @@ where
         }
         og.copy_from_slice(self.g1);
         Ok(())
+    }
+
+    /// Closed-form columns of `∂F/∂(δ, ℓ)` at the last residual's point, from the model's
+    /// derivatives:
+    /// - `δ_j`: `e_j − ½ M(x̄)(h ∇²H(x̄) + Σᵢ ℓᵢ ∇²gᵢ(x̄)) e_j − ½ DM(x̄)[e_j] F̄` over
+    ///   `G(x') e_j`, the constraint Hessian term as a central difference of `G(x)ᵀℓ`
+    ///   (exact for quadratic constraints);
+    /// - `ℓᵢ`: `−M(x̄) ∇̄gᵢ(x, x')ᵀ` over `0`.
+    ///
+    /// Gonzalez's correction terms enter only through `∇̄gᵢ`; their `δ`-derivatives (zero for
+    /// quadratic `H` and `g`) are left out, so for other models the matrix is a close
+    /// approximation and Newton, which tests the residual, converges slightly slower.
+    /// Declines (differences instead) when the model has no `∇²H` or `DM`.
+    fn jacobian_column(&mut self, z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
+        let n = self.x.len();
+        let (delta, ell) = z.split_at(n);
+        let (od, og) = out.split_at_mut(n);
+        let sys = self.system;
+        let half = V::Real::lit(0.5);
+        if j < n {
+            ops::fill_zero(self.s1.as_mut_slice());
+            self.s1.as_mut_slice()[j] = V::Real::one();
+            if !sys.hamiltonian.hessian_apply(self.xm, self.s1, self.s2) {
+                return false;
+            }
+            for v in self.s2.as_mut_slice() {
+                *v = *v * self.h;
+            }
+            // Σ ℓᵢ ∇²gᵢ e_j = ∂(G(x)ᵀℓ)/∂x_j by a central difference.
+            let xj = self.xm.as_slice()[j];
+            let eps =
+                V::Real::epsilon().powf(V::Real::lit(1.0 / 3.0)) * (V::Real::one() + xj.abs());
+            let inv = V::Real::one() / (eps + eps);
+            self.tmp.copy_from(self.xm);
+            self.tmp.as_mut_slice()[j] = xj + eps;
+            sys.constraint
+                .jacobian_transpose_apply_add(self.tmp, ell, inv, self.s2);
+            self.tmp.as_mut_slice()[j] = xj - eps;
+            sys.constraint
+                .jacobian_transpose_apply_add(self.tmp, ell, -inv, self.s2);
+            sys.structure.apply(self.xm, self.s2, self.tmp);
+            if !sys.structure.derivative_apply_add(
+                self.xm,
+                self.s1,
+                self.grad,
+                V::Real::one(),
+                self.tmp,
+            ) {
+                return false;
+            }
+            for (i, (o, &t)) in od.iter_mut().zip(self.tmp.as_slice()).enumerate() {
+                let e = if i == j {
+                    V::Real::one()
+                } else {
+                    V::Real::zero()
+                };
+                *o = e - half * t;
+            }
+            // G(x') e_j, x' = x + δ (the residual used `xe` as scratch after forming x').
+            ops::add_scaled(
+                self.tmp.as_mut_slice(),
+                self.x.as_slice(),
+                V::Real::one(),
+                delta,
+            );
+            sys.constraint.jacobian_apply(self.tmp, self.s1, og);
+        } else {
+            let i = j - n;
+            ops::fill_zero(self.em);
+            self.em[i] = V::Real::one();
+            ops::fill_zero(self.s2.as_mut_slice());
+            sys.constraint
+                .jacobian_transpose_apply_add(self.xm, self.em, V::Real::one(), self.s2);
+            if let Some(d2) = self.corrected(delta) {
+                // cᵢ δ, cᵢ = (gᵢ(x') − gᵢ(x) − (G(x̄) δ)ᵢ) / |δ|².
+                self.s1.as_mut_slice().copy_from_slice(delta);
+                sys.constraint.jacobian_apply(self.xm, self.s1, self.gd);
+                let c = (self.g1[i] - self.g0[i] - self.gd[i]) / d2;
+                ops::axpy(self.s2.as_mut_slice(), c, delta);
+            }
+            sys.structure.apply(self.xm, self.s2, self.tmp);
+            for (o, &t) in od.iter_mut().zip(self.tmp.as_slice()) {
+                *o = -t;
+            }
+            ops::fill_zero(og);
+        }
+        true
     }
 }
 
@@ -363,6 +484,122 @@ where
         self.place(nu);
         self.system.hidden_constraint(self.x, self.t1, self.t2, out);
         Ok(())
+    }
+}
+
+/// The solver of the hidden-constraint projection `φ(x' + M Gᵀ ν) = 0`.
+enum HiddenSolver<V: Vector> {
+    /// `m ≤` [`SMALL_MAX`] and a Hamiltonian with a Hessian: full Newton on stack arrays with
+    /// the closed-form columns `G M ∇²H M Gᵀ e_j` ([`SecondHalf`] with `h = 2`), and one
+    /// linear solve when the system is affine in `ν` (quadratic `H`, constant `M`, `G`
+    /// unchanged along `M Gᵀ`).
+    Small {
+        newton: SmallNewton<V::Real>,
+        /// `M(x') G(x')ᵀ e_j`.
+        dirs: Vec<V>,
+        affine: bool,
+    },
+    /// Otherwise: [`Newton`] with a kept difference Jacobian.
+    General(Newton<V>),
+}
+
+impl<V: Vector> HiddenSolver<V> {
+    fn new<Ms, H, C>(
+        system: &System<Ms, H, C>,
+        x0: &V,
+        options: NewtonOptions<V::Real>,
+    ) -> Result<Self, SetupError>
+    where
+        Ms: StructureMatrix<V>,
+        H: Hamiltonian<V>,
+        C: HolonomicConstraint<V>,
+    {
+        let m = system.constraint.dim();
+        let mut out = x0.zeros_like();
+        match SmallNewton::new(m, options) {
+            Some(newton) if system.hamiltonian.hessian_apply(x0, x0, &mut out) => {
+                Ok(HiddenSolver::Small {
+                    newton,
+                    dirs: vec![x0.zeros_like(); m],
+                    affine: system.hamiltonian.is_quadratic()
+                        && system.structure.is_constant()
+                        && jacobian_constant_along_half_step(system, x0),
+                })
+            }
+            _ => Ok(HiddenSolver::General(Newton::new(m, options)?)),
+        }
+    }
+}
+
+impl<V, Ms, H, C, W> ConstrainedDiscreteGradient<V, Ms, H, C, W>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+    W: Vector<Real = V::Real>,
+{
+    fn m(&self) -> usize {
+        self.g0.len()
+    }
+
+    /// The hidden-constraint projection from `after_step` into `xe` (`nu` holds `ν`). `K = m`
+    /// on the small path, `K = 0` on the general one.
+    #[inline(always)]
+    fn project_hidden<const K: usize>(&mut self) -> Result<SolveReport<V::Real>, NewtonError> {
+        let Some(hidden) = self.hidden.as_mut() else {
+            unreachable!("project_hidden without a hidden projection");
+        };
+        match hidden {
+            HiddenSolver::Small {
+                newton,
+                dirs,
+                affine,
+            } if K > 0 => {
+                let e: &mut [V; K] = fixed_mut(dirs);
+                let mut unit = [V::Real::zero(); K];
+                for (j, ej) in e.iter_mut().enumerate() {
+                    unit[j] = V::Real::one();
+                    self.system
+                        .constraint_force(&self.after_step, &unit, &mut self.tmp, ej);
+                    unit[j] = V::Real::zero();
+                }
+                let e: &[V; K] = e;
+                // x = x' + M Gᵀ ν: a half-step of "h = 2".
+                let two = V::Real::lit(2.0);
+                let mut problem = SecondHalf {
+                    h: two,
+                    half: V::Real::one(),
+                    y: &self.after_step,
+                    system: &self.system,
+                    e,
+                    xe: &mut self.xe,
+                    t1: &mut self.tmp,
+                    t2: &mut self.t2,
+                };
+                let nu: &mut [V::Real; K] = fixed_mut(&mut self.nu);
+                if *affine {
+                    let report = newton.solve_affine_fixed(&mut problem, nu)?;
+                    half_step(problem.xe, problem.y, V::Real::one(), &*nu, e);
+                    Ok(report)
+                } else {
+                    newton.solve_fixed(&mut problem, nu)
+                }
+            }
+            HiddenSolver::Small { .. } => unreachable!("the small hidden solver runs with K = m"),
+            HiddenSolver::General(newton) => {
+                let mut problem = Hidden {
+                    base: &self.after_step,
+                    x: &mut self.xe,
+                    t1: &mut self.tmp,
+                    t2: &mut self.t2,
+                    system: &self.system,
+                };
+                let report = newton.solve(&mut problem, &mut self.nu)?;
+                problem.place(&self.nu);
+                Ok(report)
+            }
+        }
     }
 }
 
@@ -459,23 +696,24 @@ where
         }
         // Hidden-constraint projection x'' = x' + M(x') G(x')ᵀ ν, φ(x'') = 0.
         self.last.copy_from(&self.after_step);
-        if let Some(hidden) = self.hidden.as_mut() {
+        if self.hidden.is_some() {
             ops::fill_zero(&mut self.nu);
-            let mut problem = Hidden {
-                base: &self.after_step,
-                x: &mut self.xe,
-                t1: &mut self.tmp,
-                t2: &mut self.t2,
-                system: &self.system,
+            let solved = match self.m() {
+                1 => self.project_hidden::<1>(),
+                2 => self.project_hidden::<2>(),
+                3 => self.project_hidden::<3>(),
+                4 => self.project_hidden::<SMALL_MAX>(),
+                _ => self.project_hidden::<0>(),
             };
-            let report = match hidden.solve(&mut problem, &mut self.nu) {
+            let report = match solved {
                 Ok(r) => r,
                 Err(e) => {
-                    hidden.invalidate_jacobian();
+                    if let Some(HiddenSolver::General(n)) = self.hidden.as_mut() {
+                        n.invalidate_jacobian();
+                    }
                     return Err(newton_error("hidden-constraint projection", e));
                 }
             };
-            problem.place(&self.nu);
             self.stats.newton_solves += 1;
             self.stats.newton_iterations += report.iterations as u64;
             self.stats.residual_evaluations += report.residual_evaluations as u64;

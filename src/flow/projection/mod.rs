@@ -38,7 +38,8 @@ use crate::system::{
 use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
-use small::{FirstHalf, SecondHalf, SmallPath, fixed_mut, half_step};
+use small::{FirstHalf, SmallPath};
+pub(crate) use small::{SecondHalf, fixed_mut, half_step, jacobian_constant_along_half_step};
 use stage::{Mode, Stage};
 use warm::WarmStart;
 
