@@ -396,6 +396,8 @@ fn scaling_summary() {
     );
     if let Ok(dir) = std::env::var("LIEFLOW_FIGURES") {
         let dir = std::path::Path::new(&dir);
+        rows.push(("hand-written", 10_000, hand_rows[0], f64::NAN));
+        rows.push(("hand-written", 100_000, hand_rows[1], f64::NAN));
         let mut csv = String::from("backend,links,ns_per_step,newton_iterations_per_step\n");
         for (name, n, ns, it) in &rows {
             csv.push_str(&format!("{name},{n},{ns:.0},{it:.2}\n"));
@@ -423,8 +425,15 @@ fn plot(
         .configure_mesh()
         .x_desc("links N")
         .y_desc("ns / step")
+        .x_label_formatter(&|v| format!("{v:.0e}"))
+        .y_label_formatter(&|v| format!("{v:.0e}"))
         .draw()?;
-    for (name, color) in [("banded", GREEN), ("sparse", BLUE), ("dense", RED)] {
+    for (name, color) in [
+        ("banded", GREEN),
+        ("sparse", BLUE),
+        ("dense", RED),
+        ("hand-written", BLACK),
+    ] {
         let pts: Vec<(f64, f64)> = rows
             .iter()
             .filter(|r| r.0 == name)
@@ -432,7 +441,11 @@ fn plot(
             .collect();
         chart
             .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
-            .label(format!("{name} LU"))
+            .label(if name == "hand-written" {
+                "hand-written RATTLE (Thomas)".to_string()
+            } else {
+                format!("{name} LU")
+            })
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
         chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
     }
