@@ -20,6 +20,9 @@ pub trait Vector: Clone + Debug + Send + Sync + 'static {
     type Real: Real;
     /// The default dense solver for multiplier systems of states stored like this.
     type Solver: LinearSolver<Self::Real>;
+    /// `true` when a clone is a plain copy without allocation (stack storage), so that hot
+    /// loops may keep a working copy in registers. Default `false`.
+    const CLONE_IS_COPY: bool = false;
 
     /// A zero vector with at least `len` entries (fixed-size vectors have exactly `N`; they
     /// panic if `len > N`). Allocates for heap storage: call it at construction, never per step.
@@ -53,6 +56,7 @@ where
 {
     type Real = T;
     type Solver = StackLu<T, N>;
+    const CLONE_IS_COPY: bool = true;
 
     #[track_caller]
     fn zeros(len: usize) -> Self {

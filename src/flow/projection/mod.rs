@@ -430,13 +430,29 @@ where
         let w = &mut self.w;
         let x = base.resolve(&w.prev);
         let half = h * V::Real::lit(0.5);
-        let d: &mut [V; K] = fixed_mut(&mut small.d);
+        // Directions and Jacobian columns: local arrays for stack states (kept in registers
+        // across the solve), the preallocated workspace otherwise.
+        let (mut d_local, mut w_local, mut t_local): ([V; K], [V; K], [V; 2]);
+        let (d, cols, t): (&mut [V; K], &mut [V; K], [&mut V; 2]) = if V::CLONE_IS_COPY {
+            d_local = core::array::from_fn(|_| x.clone());
+            w_local = core::array::from_fn(|_| x.clone());
+            t_local = core::array::from_fn(|_| x.clone());
+            let [t1, t2] = &mut t_local;
+            (&mut d_local, &mut w_local, [t1, t2])
+        } else {
+            (
+                fixed_mut(&mut small.d),
+                fixed_mut(&mut small.w),
+                [&mut w.t1, &mut w.t2],
+            )
+        };
+        let [t1, t2] = t;
         // The directions of this half-step, fixed for the whole solve.
         let base = if second { &w.y } else { x };
         let mut unit = [V::Real::zero(); K];
         for (j, dj) in d.iter_mut().enumerate() {
             unit[j] = V::Real::one();
-            self.system.constraint_force(base, &unit, &mut w.t1, dj);
+            self.system.constraint_force(base, &unit, t1, dj);
             unit[j] = V::Real::zero();
         }
         let d: &[V; K] = d;
@@ -463,15 +479,14 @@ where
             (result, "lambda_{k+1} from phi(x_{k+1}) = 0")
         } else {
             // w_j = (h/2)(d_j + h M(x) ∇²H(x) d_j), so that G(y) w_j is column j of ∂g/∂λ_k.
-            let cols: &mut [V; K] = fixed_mut(&mut small.w);
             let mut exact = true;
             for (dj, wj) in d.iter().zip(cols.iter_mut()) {
-                if !self.system.hamiltonian.hessian_apply(x, dj, &mut w.t1) {
+                if !self.system.hamiltonian.hessian_apply(x, dj, t1) {
                     exact = false;
                     break;
                 }
-                self.system.structure.apply(x, &w.t1, &mut w.t2);
-                let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), w.t2.as_slice());
+                self.system.structure.apply(x, t1, t2);
+                let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), t2.as_slice());
                 for ((o, &dv), &tv) in wj.iter_mut().zip(dj).zip(t2) {
                     *o = half * (dv + h * tv);
                 }

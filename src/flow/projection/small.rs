@@ -163,9 +163,19 @@ where
     }
     #[inline(always)]
     fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
-        half_step(self.y, self.x, self.half, z, self.d);
-        self.inner.step(self.h, self.y)?;
-        self.constraint.residual(&*self.y, f);
+        if V::CLONE_IS_COPY {
+            // A stack state: work on a local copy the compiler can keep in registers through
+            // the half-step, the inner flow and the constraint, and store it once.
+            let mut y = self.x.clone();
+            half_step(&mut y, self.x, self.half, z, self.d);
+            self.inner.step(self.h, &mut y)?;
+            self.constraint.residual(&y, f);
+            *self.y = y;
+        } else {
+            half_step(self.y, self.x, self.half, z, self.d);
+            self.inner.step(self.h, self.y)?;
+            self.constraint.residual(&*self.y, f);
+        }
         for (g, &v) in self.g.iter_mut().zip(&*f) {
             *g = v;
         }
@@ -213,9 +223,17 @@ where
     }
     #[inline(always)]
     fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
-        half_step(self.xe, self.y, self.half, z, self.e);
-        self.system
-            .hidden_constraint(&*self.xe, self.t1, self.t2, f);
+        if V::CLONE_IS_COPY {
+            // Stack states: local copies the compiler can keep in registers (see FirstHalf).
+            let (mut xe, mut t1, mut t2) = (self.y.clone(), self.y.clone(), self.y.clone());
+            half_step(&mut xe, self.y, self.half, z, self.e);
+            self.system.hidden_constraint(&xe, &mut t1, &mut t2, f);
+            *self.xe = xe;
+        } else {
+            half_step(self.xe, self.y, self.half, z, self.e);
+            self.system
+                .hidden_constraint(&*self.xe, self.t1, self.t2, f);
+        }
         Ok(())
     }
     /// `∂φ(x')/∂λ_j = (h/2) G(x') M(x') ∇²H(x') e_j`: exact in the decoupled case, where `G`
