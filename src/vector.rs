@@ -134,6 +134,20 @@ pub mod ops {
         x.iter().zip(y).fold(T::zero(), |s, (&a, &b)| s + a * b)
     }
 
+    /// `x ← x + d` with compensated (Kahan) summation: `c` carries the rounding error of the
+    /// previous additions and receives this one's, so that a long sequence of small increments
+    /// accumulates no more rounding error than one addition (Higham, *Accuracy and Stability of
+    /// Numerical Algorithms*, 2nd ed., §4.3; GNI §VIII.5).
+    #[inline]
+    pub fn add_compensated<T: Real>(x: &mut [T], d: &[T], c: &mut [T]) {
+        for ((xi, &di), ci) in x.iter_mut().zip(d).zip(c.iter_mut()) {
+            let y = di + *ci;
+            let t = *xi + y;
+            *ci = (*xi - t) + y;
+            *xi = t;
+        }
+    }
+
     /// Sets every entry to zero.
     #[inline(always)]
     pub fn fill_zero<T: Real>(x: &mut [T]) {

@@ -455,11 +455,8 @@ where
 {
     /// `x = base + M(base) G(base)ᵀ ν`.
     fn place(&mut self, nu: &[V::Real]) {
-        ops::fill_zero(self.t1.as_mut_slice());
         self.system
-            .constraint
-            .jacobian_transpose_apply_add(self.base, nu, V::Real::one(), self.t1);
-        self.system.structure.apply(self.base, self.t1, self.t2);
+            .constraint_force(self.base, nu, self.t1, self.t2);
         ops::add_scaled(
             self.x.as_mut_slice(),
             self.base.as_slice(),
@@ -665,10 +662,7 @@ where
                 return Err(newton_error("constrained discrete gradient", e));
             }
         };
-        self.stats.newton_solves += 1;
-        self.stats.newton_iterations += report.iterations as u64;
-        self.stats.residual_evaluations += report.residual_evaluations as u64;
-        self.stats.factorizations += report.factorizations as u64;
+        self.stats.record(&report);
         let delta = &self.z.as_slice()[..n];
         if let Some(component) = ops::first_non_finite(self.z.as_slice()) {
             self.newton.invalidate_jacobian();
@@ -682,18 +676,11 @@ where
             ops::fill_zero(self.comp.as_mut_slice());
         }
         self.comp_next.copy_from(&self.comp);
-        for ((xi, &d), c) in self
-            .after_step
-            .as_mut_slice()
-            .iter_mut()
-            .zip(delta)
-            .zip(self.comp_next.as_mut_slice())
-        {
-            let y = d + *c;
-            let t = *xi + y;
-            *c = (*xi - t) + y;
-            *xi = t;
-        }
+        ops::add_compensated(
+            self.after_step.as_mut_slice(),
+            delta,
+            self.comp_next.as_mut_slice(),
+        );
         // Hidden-constraint projection x'' = x' + M(x') G(x')ᵀ ν, φ(x'') = 0.
         self.last.copy_from(&self.after_step);
         if self.hidden.is_some() {
@@ -714,10 +701,7 @@ where
                     return Err(newton_error("hidden-constraint projection", e));
                 }
             };
-            self.stats.newton_solves += 1;
-            self.stats.newton_iterations += report.iterations as u64;
-            self.stats.residual_evaluations += report.residual_evaluations as u64;
-            self.stats.factorizations += report.factorizations as u64;
+            self.stats.record(&report);
             self.last.copy_from(&self.xe);
         }
         if let Some(component) = ops::first_non_finite(self.last.as_slice()) {

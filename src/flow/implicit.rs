@@ -396,10 +396,7 @@ where
         }
         match solved {
             Ok(report) => {
-                self.stats.newton_solves += 1;
-                self.stats.newton_iterations += report.iterations as u64;
-                self.stats.residual_evaluations += report.residual_evaluations as u64;
-                self.stats.factorizations += report.factorizations as u64;
+                self.stats.record(&report);
             }
             Err(e) => {
                 self.newton.invalidate_jacobian();
@@ -421,17 +418,11 @@ where
         if x.as_slice() != self.last.as_slice() {
             ops::fill_zero(self.comp.as_mut_slice());
         }
-        for ((xi, &d), c) in x
-            .as_mut_slice()
-            .iter_mut()
-            .zip(self.delta.as_slice())
-            .zip(self.comp.as_mut_slice())
-        {
-            let y = d + *c;
-            let t = *xi + y;
-            *c = (*xi - t) + y;
-            *xi = t;
-        }
+        ops::add_compensated(
+            x.as_mut_slice(),
+            self.delta.as_slice(),
+            self.comp.as_mut_slice(),
+        );
         self.last.copy_from(x);
         Ok(())
     }

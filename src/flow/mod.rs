@@ -50,6 +50,17 @@ pub struct FlowStats {
     pub factorizations: u64,
 }
 
+impl FlowStats {
+    /// Counts one Newton solve and its work.
+    #[inline]
+    pub fn record<T>(&mut self, report: &crate::nonlinear::SolveReport<T>) {
+        self.newton_solves += 1;
+        self.newton_iterations += report.iterations as u64;
+        self.residual_evaluations += report.residual_evaluations as u64;
+        self.factorizations += report.factorizations as u64;
+    }
+}
+
 impl core::ops::Add for FlowStats {
     type Output = Self;
     fn add(self, o: Self) -> Self {

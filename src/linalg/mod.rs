@@ -18,12 +18,14 @@
 
 mod any_lu;
 mod banded_lu;
+mod coloring;
 mod dense_lu;
 mod sparse_lu;
 mod stack_lu;
 
 pub use any_lu::{AutoLu, BANDED_MAX, SolverChoice, SolverKind};
 pub use banded_lu::BandedLu;
+pub(crate) use coloring::ColumnGroups;
 pub use dense_lu::DenseLu;
 pub use sparse_lu::SparseLu;
 pub use stack_lu::StackLu;

@@ -4,9 +4,11 @@
 //! their residual runs the inner flow, so Newton's cost is counted in residual evaluations.
 
 mod newton;
+mod options;
 mod small;
 
-pub use newton::{JacobianUpdate, Newton, NewtonOptions, SolveReport};
+pub use newton::Newton;
+pub use options::{JacobianUpdate, NewtonOptions, SolveReport};
 pub use small::{SMALL_MAX, SmallNewton};
 
 use crate::error::{NewtonError, StepError};

@@ -73,6 +73,18 @@ pub struct Brackets<'a, Ms, H, C> {
     sys: &'a System<Ms, H, C>,
 }
 
+/// `out = G(x)ᵀ μ`: the right factor of every bracket with `g`.
+fn transpose_of<V, C>(c: &C) -> impl Fn(&V, &[V::Real], &mut V) + '_
+where
+    V: Vector,
+    C: HolonomicConstraint<V>,
+{
+    move |x, mu, out| {
+        ops::fill_zero(out.as_mut_slice());
+        c.jacobian_transpose_apply_add(x, mu, V::Real::one(), out);
+    }
+}
+
 impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
     /// Bracket computations for `sys`.
     pub fn new(sys: &'a System<Ms, H, C>) -> Self {
@@ -94,10 +106,7 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
             m,
             |x, u, out| c.jacobian_apply(x, u, out),
             m,
-            |x, mu, out| {
-                ops::fill_zero(out.as_mut_slice());
-                c.jacobian_transpose_apply_add(x, mu, V::Real::one(), out);
-            },
+            transpose_of(c),
         )
     }
 
@@ -158,10 +167,7 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
             m,
             |x, u, out| self.dphi(x, u, out),
             m,
-            |x, mu, out| {
-                ops::fill_zero(out.as_mut_slice());
-                c.jacobian_transpose_apply_add(x, mu, V::Real::one(), out);
-            },
+            transpose_of(c),
         )
     }
 

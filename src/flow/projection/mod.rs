@@ -342,10 +342,7 @@ where
     }
 
     fn record(&mut self, r: &SolveReport<V::Real>) {
-        self.stats.newton_solves += 1;
-        self.stats.newton_iterations += r.iterations as u64;
-        self.stats.residual_evaluations += r.residual_evaluations as u64;
-        self.stats.factorizations += r.factorizations as u64;
+        self.stats.record(r);
     }
 
     /// Solves one multiplier system. Newton evaluates the residual last at the iterate it
