@@ -98,10 +98,14 @@ pub enum LinearSolveError {
     },
 }
 
-/// Newton's method failed to solve a nonlinear system.
+/// Newton's method failed to solve a nonlinear system. `E` is the error of the problem's
+/// residual evaluation ([`NonlinearProblem::Error`](crate::nonlinear::NonlinearProblem::Error));
+/// the default, [`Infallible`](core::convert::Infallible), is Newton's own failures only (as
+/// [`StepError::Newton`] carries them: a failed residual evaluation of a step is reported as
+/// that step's own error, not wrapped).
 #[derive(Debug, Clone, PartialEq, Error)]
 #[non_exhaustive]
-pub enum NewtonError {
+pub enum NewtonError<E = core::convert::Infallible> {
     /// The iteration limit was reached before the residual met the tolerance.
     #[error("Newton did not converge in {iterations} iterations (residual {residual:e})")]
     NotConverged {
@@ -121,7 +125,26 @@ pub enum NewtonError {
     },
     /// Evaluating the residual failed (for instance an inner flow or fixed point failed).
     #[error("residual evaluation failed: {0}")]
-    Residual(Box<StepError>),
+    Residual(E),
+}
+
+impl<E> NewtonError<E> {
+    /// Separates the problem's own failure (`Err`) from Newton's (`Ok`, without a residual
+    /// variant).
+    pub fn split(self) -> Result<NewtonError, E> {
+        match self {
+            NewtonError::NotConverged {
+                iterations,
+                residual,
+            } => Ok(NewtonError::NotConverged {
+                iterations,
+                residual,
+            }),
+            NewtonError::Linear(e) => Ok(NewtonError::Linear(e)),
+            NewtonError::NonFinite { iteration } => Ok(NewtonError::NonFinite { iteration }),
+            NewtonError::Residual(e) => Err(e),
+        }
+    }
 }
 
 /// One step of a flow failed. On error the state passed to `step` is left unchanged.
@@ -189,6 +212,17 @@ pub enum StepError {
         /// The length passed.
         got: usize,
     },
+}
+
+impl StepError {
+    /// A multiplier solve of `stage` failed: the residual's own error (an inner flow's, say) is
+    /// the step's error; Newton's failures are wrapped in [`StepError::Newton`].
+    pub(crate) fn from_newton(stage: &'static str, e: NewtonError<StepError>) -> Self {
+        match e.split() {
+            Ok(source) => StepError::Newton { stage, source },
+            Err(step) => step,
+        }
+    }
 }
 
 /// A scheme could not be built for the given model and initial state.

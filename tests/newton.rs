@@ -13,6 +13,7 @@ struct Circle {
 }
 
 impl NonlinearProblem<f64> for Circle {
+    type Error = StepError;
     fn dim(&self) -> usize {
         2
     }
@@ -96,6 +97,7 @@ fn a_floor_far_above_ftol_is_reported_not_hidden() {
 fn a_problem_without_root_fails_with_numbers() {
     struct NoRoot;
     impl NonlinearProblem<f64> for NoRoot {
+        type Error = StepError;
         fn dim(&self) -> usize {
             1
         }

@@ -108,6 +108,7 @@ struct Circle {
 }
 
 impl NonlinearProblem<f64> for Circle {
+    type Error = StepError;
     fn dim(&self) -> usize {
         2
     }
@@ -159,6 +160,7 @@ fn small_newton_falls_back_to_differences_for_a_poor_jacobian() {
 struct Singular;
 
 impl NonlinearProblem<f64> for Singular {
+    type Error = StepError;
     fn dim(&self) -> usize {
         2
     }
@@ -196,6 +198,7 @@ fn small_newton_reports_a_singular_jacobian() {
 fn small_newton_solves_an_affine_system_in_one_solve() {
     struct Affine;
     impl NonlinearProblem<f64> for Affine {
+        type Error = StepError;
         fn dim(&self) -> usize {
             2
         }

@@ -212,6 +212,7 @@ struct Tridiagonal {
 }
 
 impl NonlinearProblem<f64> for Tridiagonal {
+    type Error = StepError;
     fn dim(&self) -> usize {
         self.k
     }
@@ -287,6 +288,7 @@ fn damped_newton_recovers_where_full_steps_overshoot() {
     // F(z) = atan(z): full Newton steps from |z₀| > 1.39 diverge.
     struct Atan;
     impl NonlinearProblem<f64> for Atan {
+        type Error = StepError;
         fn dim(&self) -> usize {
             1
         }
@@ -338,6 +340,7 @@ fn a_closed_form_jacobian_outside_the_pattern_is_a_typed_error() {
     struct Skip;
     const K: usize = 5;
     impl NonlinearProblem<f64> for Skip {
+        type Error = StepError;
         fn dim(&self) -> usize {
             K
         }

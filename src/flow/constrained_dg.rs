@@ -284,6 +284,8 @@ where
     H: Hamiltonian<V>,
     C: HolonomicConstraint<V>,
 {
+    type Error = StepError;
+
     fn dim(&self) -> usize {
         self.x.len() + self.g0.len()
     }
@@ -473,6 +475,8 @@ where
     H: Hamiltonian<V>,
     C: HolonomicConstraint<V>,
 {
+    type Error = StepError;
+
     fn dim(&self) -> usize {
         self.system.constraint.dim()
     }
@@ -543,7 +547,9 @@ where
     /// The hidden-constraint projection from `after_step` into `xe` (`nu` holds `ν`). `K = m`
     /// on the small path, `K = 0` on the general one.
     #[inline(always)]
-    fn project_hidden<const K: usize>(&mut self) -> Result<SolveReport<V::Real>, NewtonError> {
+    fn project_hidden<const K: usize>(
+        &mut self,
+    ) -> Result<SolveReport<V::Real>, NewtonError<StepError>> {
         let Some(hidden) = self.hidden.as_mut() else {
             unreachable!("project_hidden without a hidden projection");
         };
@@ -600,11 +606,8 @@ where
     }
 }
 
-fn newton_error(stage: &'static str, e: NewtonError) -> StepError {
-    match e {
-        NewtonError::Residual(e) => *e,
-        source => StepError::Newton { stage, source },
-    }
+fn newton_error(stage: &'static str, e: NewtonError<StepError>) -> StepError {
+    StepError::from_newton(stage, e)
 }
 
 impl<V, Ms, H, C, W> Flow<V> for ConstrainedDiscreteGradient<V, Ms, H, C, W>

@@ -3,7 +3,7 @@
 //! differing in the gradient `∇̄H` ([`GradientRule`]).
 
 use super::{Flow, FlowStats};
-use crate::error::{NewtonError, SetupError, StepError};
+use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver};
 use crate::real::Real;
@@ -283,6 +283,8 @@ where
     H: Hamiltonian<V>,
     R: GradientRule<V, H>,
 {
+    type Error = StepError;
+
     fn dim(&self) -> usize {
         self.x.len()
     }
@@ -400,13 +402,7 @@ where
             }
             Err(e) => {
                 self.newton.invalidate_jacobian();
-                return Err(match e {
-                    NewtonError::Residual(e) => *e,
-                    source => StepError::Newton {
-                        stage: R::NAME,
-                        source,
-                    },
-                });
+                return Err(StepError::from_newton(R::NAME, e));
             }
         }
         if let Some(component) = ops::first_non_finite(self.delta.as_slice()) {

@@ -11,15 +11,19 @@ pub use newton::Newton;
 pub use options::{JacobianUpdate, NewtonOptions, SolveReport};
 pub use small::{SMALL_MAX, SmallNewton};
 
-use crate::error::{NewtonError, StepError};
+use crate::error::NewtonError;
 use crate::real::Real;
 
 /// A square nonlinear system `F(z) = 0` with `dim()` unknowns.
 pub trait NonlinearProblem<T: Real> {
+    /// What a failed residual evaluation reports (a flow's
+    /// [`StepError`](crate::error::StepError) for the multiplier systems of a step). Newton
+    /// passes it through as [`NewtonError::Residual`].
+    type Error;
     /// The number of unknowns (and equations).
     fn dim(&self) -> usize;
     /// `f = F(z)`.
-    fn residual(&mut self, z: &[T], f: &mut [T]) -> Result<(), StepError>;
+    fn residual(&mut self, z: &[T], f: &mut [T]) -> Result<(), Self::Error>;
     /// How the Jacobian scales from one solve to the next: a solver that keeps a Jacobian
     /// built at scale `s₀` reuses it at scale `s` as `(s/s₀) J`. Multiplier systems of a
     /// projected step scale like `h` or `h²`, so a kept Jacobian stays valid across the
@@ -68,5 +72,5 @@ pub trait NonlinearSolver<T: Real> {
         &mut self,
         problem: &mut P,
         z: &mut [T],
-    ) -> Result<SolveReport<T>, NewtonError>;
+    ) -> Result<SolveReport<T>, NewtonError<P::Error>>;
 }

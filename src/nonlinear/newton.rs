@@ -129,7 +129,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
     /// Broyden's rank-one secant update `J += F(z_new) Δzᵀ / (Δzᵀ Δz)` (the "good" update,
     /// simplified because `J Δz = −F(z_old)`), then refactors. Broyden, Math. Comp. 19 (1965).
     /// `ratio = s₀/s` converts the update to the scale the Jacobian is kept at.
-    fn broyden_update(&mut self, ratio: V::Real) -> Result<(), NewtonError> {
+    fn broyden_update<E>(&mut self, ratio: V::Real) -> Result<(), NewtonError<E>> {
         let k = self.k;
         if k == 1 {
             // The secant slope: J += ratio f / Δz.
@@ -189,7 +189,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         z: &[V::Real],
         scale: V::Real,
         report: &mut SolveReport<V::Real>,
-    ) -> Result<(), NewtonError> {
+    ) -> Result<(), NewtonError<P::Error>> {
         let k = self.k;
         let one = V::Real::one();
         let inv = one / scale.abs();
@@ -198,8 +198,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         let fd_step = self.options.fd_step;
         let delta_of = |zj: V::Real| fd_step * zj.abs().max(zmax);
         let residual = |p: &mut P, zp: &[V::Real], fp: &mut [V::Real]| {
-            p.residual(zp, fp)
-                .map_err(|e| NewtonError::Residual(Box::new(e)))
+            p.residual(zp, fp).map_err(NewtonError::Residual)
         };
         if let (Some(groups), true) = (self.groups.as_ref(), k > 1) {
             self.analytic = false;
@@ -344,16 +343,16 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
         &mut self,
         problem: &mut P,
         z: &mut [V::Real],
-    ) -> Result<SolveReport<V::Real>, NewtonError> {
+    ) -> Result<SolveReport<V::Real>, NewtonError<P::Error>> {
         let k = self.k;
         debug_assert_eq!(problem.dim(), k, "problem and solver dimensions differ");
         let z = &mut z[..k];
         let mut report = SolveReport::default();
         let eval = |p: &mut P, z: &[V::Real], f: &mut V, r: &mut SolveReport<V::Real>| {
             p.residual(z, &mut f.as_mut_slice()[..k])
-                .map_err(|e| NewtonError::Residual(Box::new(e)))?;
+                .map_err(NewtonError::Residual)?;
             r.residual_evaluations += 1;
-            Ok::<_, NewtonError>(ops::norm_inf(&f.as_slice()[..k]))
+            Ok::<_, NewtonError<P::Error>>(ops::norm_inf(&f.as_slice()[..k]))
         };
         let mut r = eval(problem, z, &mut self.f, &mut report)?;
         if !r.is_finite() {

@@ -146,10 +146,8 @@ fn evaluate<T: Real, P: NonlinearProblem<T>, const K: usize>(
     z: &[T; K],
     f: &mut [T; K],
     report: &mut SolveReport<T>,
-) -> Result<T, NewtonError> {
-    problem
-        .residual(z, f)
-        .map_err(|e| NewtonError::Residual(Box::new(e)))?;
+) -> Result<T, NewtonError<P::Error>> {
+    problem.residual(z, f).map_err(NewtonError::Residual)?;
     report.residual_evaluations += 1;
     Ok(norm_inf(f))
 }
@@ -162,7 +160,7 @@ impl<T: Real> SmallNewton<T> {
         &self,
         problem: &mut P,
         z: &mut [T; K],
-    ) -> Result<SolveReport<T>, NewtonError> {
+    ) -> Result<SolveReport<T>, NewtonError<P::Error>> {
         debug_assert_eq!(problem.dim(), K, "problem and solver dimensions differ");
         debug_assert_eq!(self.k, K, "solver built for another dimension");
         let opts = &self.options;
@@ -274,7 +272,7 @@ impl<T: Real> SmallNewton<T> {
         &self,
         problem: &mut P,
         z: &mut [T; K],
-    ) -> Result<SolveReport<T>, NewtonError> {
+    ) -> Result<SolveReport<T>, NewtonError<P::Error>> {
         let mut report = SolveReport::default();
         let mut f = [T::zero(); K];
         let r = evaluate(problem, z, &mut f, &mut report)?;
@@ -319,7 +317,7 @@ impl<T: Real> NonlinearSolver<T> for SmallNewton<T> {
         &mut self,
         problem: &mut P,
         z: &mut [T],
-    ) -> Result<SolveReport<T>, NewtonError> {
+    ) -> Result<SolveReport<T>, NewtonError<P::Error>> {
         match self.k {
             1 => self.solve_fixed::<1, P>(problem, fixed(z)),
             2 => self.solve_fixed::<2, P>(problem, fixed(z)),
@@ -340,7 +338,7 @@ fn forward_difference<T: Real, P: NonlinearProblem<T>, const K: usize>(
     fd_step: T,
     col: &mut [T; K],
     report: &mut SolveReport<T>,
-) -> Result<(), NewtonError> {
+) -> Result<(), NewtonError<P::Error>> {
     let inv = T::one() / problem.jacobian_scale().abs();
     let floor = if inv.is_finite() { inv } else { T::one() };
     let zj = z[j];
@@ -349,7 +347,7 @@ fn forward_difference<T: Real, P: NonlinearProblem<T>, const K: usize>(
     let taken = z[j] - zj;
     let res = problem.residual(z, col);
     z[j] = zj;
-    res.map_err(|e| NewtonError::Residual(Box::new(e)))?;
+    res.map_err(NewtonError::Residual)?;
     report.residual_evaluations += 1;
     for (c, &b) in col.iter_mut().zip(f) {
         *c = (*c - b) / taken;

@@ -27,7 +27,7 @@ mod stage;
 mod warm;
 
 use super::{CompositionTable, Flow, FlowStats};
-use crate::error::{NewtonError, SetupError, StepError};
+use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, NewtonOptions, NonlinearSolver, SMALL_MAX, SolveReport};
 use crate::real::Real;
@@ -406,8 +406,7 @@ where
                 self.record(&report);
                 Ok(())
             }
-            Err(NewtonError::Residual(e)) => Err(*e),
-            Err(source) => Err(StepError::Newton { stage, source }),
+            Err(e) => Err(StepError::from_newton(stage, e)),
         }
     }
 
@@ -510,8 +509,7 @@ where
                 self.record(&report);
                 Ok(())
             }
-            Err(NewtonError::Residual(e)) => Err(*e),
-            Err(source) => Err(StepError::Newton { stage, source }),
+            Err(e) => Err(StepError::from_newton(stage, e)),
         }
     }
 

@@ -155,6 +155,8 @@ where
     F: Flow<V>,
     C: HolonomicConstraint<V>,
 {
+    type Error = StepError;
+
     fn dim(&self) -> usize {
         K
     }
@@ -215,6 +217,8 @@ where
     H: Hamiltonian<V>,
     C: HolonomicConstraint<V>,
 {
+    type Error = StepError;
+
     fn dim(&self) -> usize {
         K
     }

@@ -145,6 +145,8 @@ where
     H: Hamiltonian<V>,
     C: HolonomicConstraint<V>,
 {
+    type Error = StepError;
+
     fn dim(&self) -> usize {
         if self.mode == Mode::Coupled {
             2 * self.m
