@@ -576,14 +576,14 @@ where
                     y: &self.after_step,
                     system: &self.system,
                     e,
-                    xe: &mut self.xe,
+                    x_next: &mut self.xe,
                     t1: &mut self.tmp,
                     t2: &mut self.t2,
                 };
                 let nu: &mut [V::Real; K] = fixed_mut(&mut self.nu);
                 if *affine {
                     let report = newton.solve_affine_fixed(&mut problem, nu)?;
-                    half_step(problem.xe, problem.y, V::Real::one(), &*nu, e);
+                    half_step(problem.x_next, problem.y, V::Real::one(), &*nu, e);
                     Ok(report)
                 } else {
                     newton.solve_fixed(&mut problem, nu)

@@ -138,10 +138,13 @@ impl<T: Real> ProjectionOptions<T> {
 /// Workspace: states of length `n`, multipliers in vectors of at least `2m` entries.
 #[derive(Debug, Clone)]
 struct Work<V: Vector> {
+    /// `y = Φ_h(x + (h/2) M Gᵀ λ_k)`, the state between the two half-steps.
     y: V,
     /// The previous stage's `y`: the base point of a fused stage (see `step_fused`).
     prev: V,
-    xe: V,
+    /// `x_{k+1}`, the step's result until it is swapped into the caller's state.
+    x_next: V,
+    /// Scratch states for `Gᵀλ` / `∇H` and `M Gᵀλ` / `M ∇H`.
     t1: V,
     t2: V,
     /// `(λ_k, λ_{k+1})` being solved for (the last successful ones are in `warm`).
@@ -151,14 +154,16 @@ struct Work<V: Vector> {
     /// `λ_k` for which `y` was last computed.
     a_cached: V,
     y_valid: bool,
-    /// Scratch for `m` residual entries.
+    /// Scratch for `m` entries: `g(x_{k+1})` for the decoupling guard, the force estimate of a
+    /// fused stage.
     r: V,
     /// `g(y)` of the last `λ_k` residual evaluation (general path), for the decoupling guard.
     g_y: V,
-    /// Scratch for closed-form Jacobian groups: two states and an indicator of `m` entries.
-    u1: V,
-    u2: V,
-    ec: V,
+    /// Scratch for closed-form Jacobian groups: `∇²H v`, `M ∇²H v`, and the indicator vector
+    /// of a column group (`m` entries).
+    hess_v: V,
+    m_hess_v: V,
+    indicator: V,
 }
 
 /// The projected flow of Zhang & Deng (2004, §3) around an inner flow `F` (see the module docs).
@@ -271,7 +276,7 @@ where
         let w = Work {
             y: zeros.clone(),
             prev: zeros.clone(),
-            xe: zeros.clone(),
+            x_next: zeros.clone(),
             t1: zeros.clone(),
             t2: zeros,
             z: V::zeros(k_z),
@@ -281,9 +286,9 @@ where
             r: V::zeros(m),
             g_y: V::zeros(m),
             // Only grouped (sparse) Jacobians use these: no memory for them otherwise.
-            u1: V::zeros(if grouped { n } else { 0 }),
-            u2: V::zeros(if grouped { n } else { 0 }),
-            ec: V::zeros(if grouped { m } else { 0 }),
+            hess_v: V::zeros(if grouped { n } else { 0 }),
+            m_hess_v: V::zeros(if grouped { n } else { 0 }),
+            indicator: V::zeros(if grouped { m } else { 0 }),
         };
         Ok(Self {
             inner,
@@ -363,15 +368,15 @@ where
         let Work {
             y,
             g_y,
-            xe,
+            x_next,
             t1,
             t2,
             z,
             a_cached,
             y_valid,
-            u1,
-            u2,
-            ec,
+            hess_v,
+            m_hess_v,
+            indicator,
             prev,
             ..
         } = &mut self.w;
@@ -384,14 +389,14 @@ where
             inner: &mut self.inner,
             system: &self.system,
             y,
-            xe,
+            x_next,
             t1,
             t2,
             a_cached,
             y_valid,
-            u1,
-            u2,
-            ec,
+            hess_v,
+            m_hess_v,
+            indicator,
             g_y,
             fixed_point_max_iterations: self.fixed_point_max_iterations,
             fixed_point_tol: self.fixed_point_tol,
@@ -459,7 +464,7 @@ where
                 y: &w.y,
                 system: &self.system,
                 e: d,
-                xe: &mut w.xe,
+                x_next: &mut w.x_next,
                 t1: &mut w.t1,
                 t2: &mut w.t2,
             };
@@ -467,7 +472,7 @@ where
             let result = if small.affine_k1 {
                 // One linear solve; x_{k+1} at the solution is formed here, not by Newton.
                 let r = small.newton_k1.solve_affine_fixed(&mut problem, z);
-                half_step(problem.xe, problem.y, half, &*z, d);
+                half_step(problem.x_next, problem.y, half, &*z, d);
                 r
             } else {
                 small.newton_k1.solve_fixed(&mut problem, z)
@@ -553,7 +558,7 @@ where
     fn decoupling_guard<const K: usize>(&mut self, m: usize) -> Result<(), StepError> {
         let w = &mut self.w;
         let gx = &mut w.r.as_mut_slice()[..m];
-        self.system.constraint.residual(&w.xe, gx);
+        self.system.constraint.residual(&w.x_next, gx);
         // g(y) is the λ_k system's last residual.
         let change = match self.small.as_ref() {
             Some(small) if K > 0 => ops::dist_inf(gx, &small.g_y[..m]),
@@ -642,7 +647,7 @@ where
         Ok(h_prev)
     }
 
-    /// One step from `w.start`; the result is left in `w.xe`.
+    /// One step from `x`; the result is left in `w.x_next`.
     fn step_impl(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         self.w.y_valid = false;
         match self.scheme {
@@ -679,10 +684,10 @@ where
     L: LinearSolver<V::Real>,
 {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
-        if x.len() != self.w.xe.len() {
+        if x.len() != self.w.x_next.len() {
             return Err(StepError::StateLength {
                 flow: "Projected",
-                expected: self.w.xe.len(),
+                expected: self.w.x_next.len(),
                 got: x.len(),
             });
         }
@@ -692,12 +697,12 @@ where
         if self.scheme != Scheme::Decoupled {
             self.w.warm.start_from_last(&mut self.w.z);
         }
-        let result =
-            self.step_impl(h, x)
-                .and_then(|()| match ops::first_non_finite(self.w.xe.as_slice()) {
-                    Some(component) => Err(StepError::NonFinite { component }),
-                    None => Ok(()),
-                });
+        let result = self.step_impl(h, x).and_then(|()| {
+            match ops::first_non_finite(self.w.x_next.as_slice()) {
+                Some(component) => Err(StepError::NonFinite { component }),
+                None => Ok(()),
+            }
+        });
         if let Err(e) = result {
             // A failed iterate must not become the next warm start (nothing was committed) or
             // kept Jacobian.
@@ -708,8 +713,8 @@ where
             return Err(e);
         }
         // The new state is in the workspace: swap it in (O(1) for heap vectors; the old state
-        // left in `xe` is overwritten by the next step).
-        core::mem::swap(x, &mut self.w.xe);
+        // left in `x_next` is overwritten by the next step).
+        core::mem::swap(x, &mut self.w.x_next);
         let decoupled = self.scheme == Scheme::Decoupled;
         self.w.warm.commit(&mut self.w.z, h, decoupled);
         self.stats.projected_steps += 1;
@@ -729,10 +734,10 @@ where
             }
             return Ok(());
         }
-        if x.len() != self.w.xe.len() {
+        if x.len() != self.w.x_next.len() {
             return Err(StepError::StateLength {
                 flow: "Projected",
-                expected: self.w.xe.len(),
+                expected: self.w.x_next.len(),
                 got: x.len(),
             });
         }
@@ -748,10 +753,12 @@ where
             (true, 3) => self.step_fused::<3>(h, table, x),
             (true, _) => self.step_fused::<SMALL_MAX>(h, table, x),
         }
-        .and_then(|h_last| match ops::first_non_finite(self.w.xe.as_slice()) {
-            Some(component) => Err(StepError::NonFinite { component }),
-            None => Ok(h_last),
-        });
+        .and_then(
+            |h_last| match ops::first_non_finite(self.w.x_next.as_slice()) {
+                Some(component) => Err(StepError::NonFinite { component }),
+                None => Ok(h_last),
+            },
+        );
         let h_last = match result {
             Ok(h_last) => h_last,
             Err(e) => {
@@ -763,7 +770,7 @@ where
                 return Err(e);
             }
         };
-        core::mem::swap(x, &mut self.w.xe);
+        core::mem::swap(x, &mut self.w.x_next);
         self.w.warm.commit_fused(&mut self.w.z, h_last);
         self.stats.projected_steps += 1;
         Ok(())

@@ -205,7 +205,7 @@ pub(crate) struct SecondHalf<'a, V: Vector, Ms, H, C, const K: usize> {
     pub(crate) y: &'a V,
     pub(crate) system: &'a System<Ms, H, C>,
     pub(crate) e: &'a [V; K],
-    pub(crate) xe: &'a mut V,
+    pub(crate) x_next: &'a mut V,
     pub(crate) t1: &'a mut V,
     pub(crate) t2: &'a mut V,
 }
@@ -229,14 +229,14 @@ where
     fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
         if V::CLONE_IS_COPY {
             // Stack states: local copies the compiler can keep in registers (see FirstHalf).
-            let (mut xe, mut t1, mut t2) = (self.y.clone(), self.y.clone(), self.y.clone());
-            half_step(&mut xe, self.y, self.half, z, self.e);
-            self.system.hidden_constraint(&xe, &mut t1, &mut t2, f);
-            *self.xe = xe;
+            let (mut x_next, mut t1, mut t2) = (self.y.clone(), self.y.clone(), self.y.clone());
+            half_step(&mut x_next, self.y, self.half, z, self.e);
+            self.system.hidden_constraint(&x_next, &mut t1, &mut t2, f);
+            *self.x_next = x_next;
         } else {
-            half_step(self.xe, self.y, self.half, z, self.e);
+            half_step(self.x_next, self.y, self.half, z, self.e);
             self.system
-                .hidden_constraint(&*self.xe, self.t1, self.t2, f);
+                .hidden_constraint(&*self.x_next, self.t1, self.t2, f);
         }
         Ok(())
     }
@@ -247,12 +247,12 @@ where
         let sys = self.system;
         if !sys
             .hamiltonian
-            .hessian_apply(&*self.xe, &self.e[j], self.t1)
+            .hessian_apply(&*self.x_next, &self.e[j], self.t1)
         {
             return false;
         }
-        sys.structure.apply(&*self.xe, &*self.t1, self.t2);
-        sys.constraint.jacobian_apply(&*self.xe, &*self.t2, out);
+        sys.structure.apply(&*self.x_next, &*self.t1, self.t2);
+        sys.constraint.jacobian_apply(&*self.x_next, &*self.t2, out);
         out.iter_mut().for_each(|v| *v = *v * self.half);
         true
     }

@@ -33,14 +33,14 @@ pub(super) struct Stage<'a, V: Vector, F, Ms, H, C> {
     pub(super) inner: &'a mut F,
     pub(super) system: &'a System<Ms, H, C>,
     pub(super) y: &'a mut V,
-    pub(super) xe: &'a mut V,
+    pub(super) x_next: &'a mut V,
     pub(super) t1: &'a mut V,
     pub(super) t2: &'a mut V,
     pub(super) a_cached: &'a mut V,
     pub(super) y_valid: &'a mut bool,
-    pub(super) u1: &'a mut V,
-    pub(super) u2: &'a mut V,
-    pub(super) ec: &'a mut V,
+    pub(super) hess_v: &'a mut V,
+    pub(super) m_hess_v: &'a mut V,
+    pub(super) indicator: &'a mut V,
     pub(super) g_y: &'a mut V,
     pub(super) fixed_point_max_iterations: usize,
     pub(super) fixed_point_tol: V::Real,
@@ -90,7 +90,7 @@ where
         let half = self.h * V::Real::lit(0.5);
         self.system.constraint_force(&*self.y, b, self.t1, self.t2);
         ops::add_scaled(
-            self.xe.as_mut_slice(),
+            self.x_next.as_mut_slice(),
             self.y.as_slice(),
             half,
             self.t2.as_slice(),
@@ -105,20 +105,21 @@ where
         let tol = self.fixed_point_tol;
         let mut change = V::Real::infinity();
         for _ in 0..self.fixed_point_max_iterations {
-            self.system.constraint_force(&*self.xe, b, self.t1, self.t2);
+            self.system
+                .constraint_force(&*self.x_next, b, self.t1, self.t2);
             change = V::Real::zero();
-            for ((xe, &y), &d) in self
-                .xe
+            for ((x_next, &y), &d) in self
+                .x_next
                 .as_mut_slice()
                 .iter_mut()
                 .zip(self.y.as_slice())
                 .zip(self.t2.as_slice())
             {
                 let new = y + half * d;
-                change = change.max((new - *xe).abs());
-                *xe = new;
+                change = change.max((new - *x_next).abs());
+                *x_next = new;
             }
-            if change <= tol * (V::Real::one() + ops::norm_inf(self.xe.as_slice())) {
+            if change <= tol * (V::Real::one() + ops::norm_inf(self.x_next.as_slice())) {
                 return Ok(());
             }
             if !change.is_finite() {
@@ -133,7 +134,7 @@ where
 
     fn hidden(&mut self, out: &mut [V::Real]) {
         self.system
-            .hidden_constraint(&*self.xe, self.t1, self.t2, out);
+            .hidden_constraint(&*self.x_next, self.t1, self.t2, out);
     }
 }
 
@@ -175,7 +176,7 @@ where
     /// - `λ_{k+1}`: `J e = (h/2) G(x') M(x') ∇²H(x') M(y) G(y)ᵀ e`, exact in the decoupled case.
     fn jacobian_group(&mut self, z: &[V::Real], cols: &[usize], out: &mut [V::Real]) -> bool {
         let (m, h) = (self.m, self.h);
-        if self.u1.len() < self.x.len() || self.ec.len() < m {
+        if self.hess_v.len() < self.x.len() || self.indicator.len() < m {
             return false; // no scratch: the flow was built without a pattern
         }
         let half = h * V::Real::lit(0.5);
@@ -191,33 +192,41 @@ where
             Mode::LambdaK1 => self.end_point_explicit(z),
             Mode::Coupled | Mode::Symmetric => return false,
         }
-        let e = &mut self.ec.as_mut_slice()[..m];
+        let e = &mut self.indicator.as_mut_slice()[..m];
         ops::fill_zero(e);
         for &j in cols {
             e[j] = V::Real::one();
         }
-        let e = &self.ec.as_slice()[..m];
+        let e = &self.indicator.as_slice()[..m];
         let (sys, x) = (self.system, self.x);
         if mode == Mode::LambdaK {
             sys.constraint_force(x, e, self.t1, self.t2);
-            if !sys.hamiltonian.hessian_apply(self.x, &*self.t2, self.u1) {
+            if !sys
+                .hamiltonian
+                .hessian_apply(self.x, &*self.t2, self.hess_v)
+            {
                 return false;
             }
-            sys.structure.apply(self.x, &*self.u1, self.u2);
+            sys.structure.apply(self.x, &*self.hess_v, self.m_hess_v);
             ops::add_scaled(
-                self.u1.as_mut_slice(),
+                self.hess_v.as_mut_slice(),
                 self.t2.as_slice(),
                 h,
-                self.u2.as_slice(),
+                self.m_hess_v.as_slice(),
             );
-            sys.constraint.jacobian_apply(&*self.y, &*self.u1, out);
+            sys.constraint.jacobian_apply(&*self.y, &*self.hess_v, out);
         } else {
             sys.constraint_force(&*self.y, e, self.t1, self.t2);
-            if !sys.hamiltonian.hessian_apply(&*self.xe, &*self.t2, self.u1) {
+            if !sys
+                .hamiltonian
+                .hessian_apply(&*self.x_next, &*self.t2, self.hess_v)
+            {
                 return false;
             }
-            sys.structure.apply(&*self.xe, &*self.u1, self.u2);
-            sys.constraint.jacobian_apply(&*self.xe, &*self.u2, out);
+            sys.structure
+                .apply(&*self.x_next, &*self.hess_v, self.m_hess_v);
+            sys.constraint
+                .jacobian_apply(&*self.x_next, &*self.m_hess_v, out);
         }
         out.iter_mut().for_each(|v| *v = *v * half);
         true
@@ -241,7 +250,7 @@ where
                 self.compute_y(&z[..m])?;
                 self.end_point_implicit(&z[m..])?;
                 let (fg, fp) = f.split_at_mut(m);
-                self.system.constraint.residual(&*self.xe, fg);
+                self.system.constraint.residual(&*self.x_next, fg);
                 // g-rows of the Jacobian scale like h², φ-rows like h: g/h puts every row on the
                 // scale h that `jacobian_scale` reports (and asks |g| ≤ |h| ftol).
                 let inv_h = V::Real::one() / self.h;
@@ -251,7 +260,7 @@ where
             Mode::Symmetric => {
                 self.compute_y(z)?;
                 self.end_point_implicit(z)?;
-                self.system.constraint.residual(&*self.xe, f);
+                self.system.constraint.residual(&*self.x_next, f);
             }
         }
         Ok(())
