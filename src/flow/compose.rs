@@ -165,7 +165,7 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
     #[inline]
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
         let table = self.table;
-        if table.has_negative_steps() && !self.allow_backward_dissipation && self.inner.dissipates()
+        if !self.allow_backward_dissipation && self.inner.dissipates() && table.has_negative_steps()
         {
             let stage = (0..table.stages)
                 .find(|&i| table.gamma(i) < 0.0)
