@@ -337,7 +337,9 @@ where
     }
 
     /// The multipliers `(λ_k, λ_{k+1})` of the last step (`λ_k = λ_{k+1}` for the symmetric
-    /// projection).
+    /// projection). After a fused composition step ([`Flow::step_table`]) the pair belongs to
+    /// its last stage, whose `λ_k` is not solved for on its own (it is combined with the previous
+    /// stage's `λ_{k+1}`): the first entry is then the force estimate `λ̃/(1 + h_{i−1}/h_i)`.
     pub fn multipliers(&self) -> (&[V::Real], &[V::Real]) {
         let z = self.w.warm.last().as_slice();
         match self.scheme {
