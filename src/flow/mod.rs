@@ -103,6 +103,14 @@ pub trait Flow<V: Vector> {
     fn dissipates(&self) -> bool {
         false
     }
+    /// `out = DΦ_h v`, the tangent map of the last successful step at its starting point, and
+    /// `true`, when the flow can apply it cheaply (an implicit method from its factored Newton
+    /// matrix); `false` (the default) otherwise. A projection around this flow uses it for the
+    /// Jacobian of its `λ_k` system, which then converges quadratically whatever the flow.
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        let _ = (v, out);
+        false
+    }
     /// Advances `x` through the stages of a composition: steps of `γ_i h` for the table's
     /// coefficients in order — the map [`Composition`] applies. The default takes them one
     /// [`step`](Self::step) at a time. A flow whose consecutive steps can share work overrides
@@ -152,6 +160,9 @@ impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for &mut F {
     ) -> Result<(), StepError> {
         (**self).step_table(h, table, x)
     }
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        (**self).tangent_apply(v, out)
+    }
 }
 
 impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
@@ -183,6 +194,9 @@ impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
         x: &mut V,
     ) -> Result<(), StepError> {
         (**self).step_table(h, table, x)
+    }
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        (**self).tangent_apply(v, out)
     }
 }
 

@@ -121,6 +121,22 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         self.k
     }
 
+    /// `rhs ← J⁻¹ rhs` with the kept, factored Jacobian `J` of the last solve (at the scale of
+    /// that solve), and `true`; `false` when no Jacobian is kept (before the first solve, after
+    /// a failure) or it is stored sparse. Lets a flow apply its tangent map, which for an
+    /// implicit method is a function of its Newton matrix.
+    pub fn apply_kept_inverse(&mut self, rhs: &mut [V::Real]) -> bool {
+        if !self.have_jacobian || self.groups.is_some() {
+            return false;
+        }
+        let k = self.k;
+        if k == 1 {
+            rhs[0] = rhs[0] / self.j11;
+            return rhs[0].is_finite();
+        }
+        self.lin.solve_in_place(&mut rhs[..k]).is_ok()
+    }
+
     /// Forgets a kept Jacobian (the next solve builds a new one).
     pub fn invalidate_jacobian(&mut self) {
         self.have_jacobian = false;

@@ -504,6 +504,7 @@ where
                 w: exact.then_some(&*cols),
                 y: &mut w.y,
                 g: fixed_mut(&mut small.g_y),
+                scratch: t1,
             };
             let z: &mut [V::Real; K] = fixed_mut(w.z.as_mut_slice());
             (

@@ -147,6 +147,8 @@ pub(super) struct FirstHalf<'a, V: Vector, F, C, const K: usize> {
     pub(crate) y: &'a mut V,
     /// `g(y)` of the last evaluation.
     pub(crate) g: &'a mut [V::Real; K],
+    /// Scratch for the inner flow's tangent map.
+    pub(crate) scratch: &'a mut V,
 }
 
 impl<V, F, C, const K: usize> NonlinearProblem<V::Real> for FirstHalf<'_, V, F, C, K>
@@ -186,8 +188,17 @@ where
     /// `∂g(y)/∂λ_j = G(y) DΦ_h (h/2) d_j` with `DΦ_h ≈ I + h M ∇²H` at `x`: exact when the
     /// inner flow's tangent map is that (a drift, or a kick–drift–kick with a potential linear
     /// in the constrained coordinates), `O(h²)` relative otherwise.
+    ///
+    /// An inner flow that applies its own tangent map ([`Flow::tangent_apply`], at the point of
+    /// the last evaluation) gives the exact column `G(y) DΦ_h (h/2) d_j` instead.
     #[inline(always)]
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
+        if self.inner.tangent_apply(&self.d[j], self.scratch) {
+            self.constraint
+                .jacobian_apply(&*self.y, &*self.scratch, out);
+            out.iter_mut().for_each(|v| *v = *v * self.half);
+            return true;
+        }
         match self.w {
             Some(w) => {
                 self.constraint.jacobian_apply(&*self.y, &w[j], out);
