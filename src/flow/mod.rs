@@ -130,75 +130,47 @@ pub trait Flow<V: Vector> {
     }
 }
 
-impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for &mut F {
-    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
-        (**self).step(h, x)
-    }
-    fn order(&self) -> u32 {
-        (**self).order()
-    }
-    fn is_symmetric(&self) -> bool {
-        (**self).is_symmetric()
-    }
-    fn prepare(&mut self, x: &V) {
-        (**self).prepare(x)
-    }
-    fn stats(&self) -> FlowStats {
-        (**self).stats()
-    }
-    fn is_fallible(&self) -> bool {
-        (**self).is_fallible()
-    }
-    fn dissipates(&self) -> bool {
-        (**self).dissipates()
-    }
-    fn step_table(
-        &mut self,
-        h: V::Real,
-        table: &CompositionTable,
-        x: &mut V,
-    ) -> Result<(), StepError> {
-        (**self).step_table(h, table, x)
-    }
-    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
-        (**self).tangent_apply(v, out)
-    }
+/// Forwards every [`Flow`] method through a pointer type (`&mut F`, `Box<F>`).
+macro_rules! forward_flow {
+    ($($ptr:ty),*) => {$(
+        impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for $ptr {
+            fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+                (**self).step(h, x)
+            }
+            fn order(&self) -> u32 {
+                (**self).order()
+            }
+            fn is_symmetric(&self) -> bool {
+                (**self).is_symmetric()
+            }
+            fn prepare(&mut self, x: &V) {
+                (**self).prepare(x)
+            }
+            fn stats(&self) -> FlowStats {
+                (**self).stats()
+            }
+            fn is_fallible(&self) -> bool {
+                (**self).is_fallible()
+            }
+            fn dissipates(&self) -> bool {
+                (**self).dissipates()
+            }
+            fn step_table(
+                &mut self,
+                h: V::Real,
+                table: &CompositionTable,
+                x: &mut V,
+            ) -> Result<(), StepError> {
+                (**self).step_table(h, table, x)
+            }
+            fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+                (**self).tangent_apply(v, out)
+            }
+        }
+    )*};
 }
 
-impl<V: Vector, F: Flow<V> + ?Sized> Flow<V> for Box<F> {
-    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
-        (**self).step(h, x)
-    }
-    fn order(&self) -> u32 {
-        (**self).order()
-    }
-    fn is_symmetric(&self) -> bool {
-        (**self).is_symmetric()
-    }
-    fn prepare(&mut self, x: &V) {
-        (**self).prepare(x)
-    }
-    fn stats(&self) -> FlowStats {
-        (**self).stats()
-    }
-    fn is_fallible(&self) -> bool {
-        (**self).is_fallible()
-    }
-    fn dissipates(&self) -> bool {
-        (**self).dissipates()
-    }
-    fn step_table(
-        &mut self,
-        h: V::Real,
-        table: &CompositionTable,
-        x: &mut V,
-    ) -> Result<(), StepError> {
-        (**self).step_table(h, table, x)
-    }
-    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
-        (**self).tangent_apply(v, out)
-    }
-}
+forward_flow!(&mut F, Box<F>);
 
 /// Validates the input of a step: `h` and `x` finite. `Ok(false)` when `h = 0` (the step is the
 /// identity and nothing needs to be computed).

@@ -27,7 +27,7 @@ mod stage;
 mod warm;
 
 use super::{CompositionTable, Flow, FlowStats};
-use crate::error::{SetupError, StepError};
+use crate::error::{NewtonError, SetupError, StepError};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, NewtonOptions, NonlinearSolver, SMALL_MAX, SolveReport};
 use crate::real::Real;
@@ -348,10 +348,6 @@ where
         }
     }
 
-    fn record(&mut self, r: &SolveReport<V::Real>) {
-        self.stats.record(r);
-    }
-
     /// Solves one multiplier system. Newton evaluates the residual last at the iterate it
     /// returns, so afterwards `y` and `x_{k+1}` in the workspace belong to the solution.
     fn solve(
@@ -408,9 +404,19 @@ where
             _ => &mut self.newton,
         };
         let result = newton.solve(&mut problem, &mut z.as_mut_slice()[range]);
+        self.finish_solve(result, stage)
+    }
+
+    /// Counts a successful multiplier solve; turns a failed one into the step's error.
+    #[inline(always)]
+    fn finish_solve(
+        &mut self,
+        result: Result<SolveReport<V::Real>, NewtonError<StepError>>,
+        stage: &'static str,
+    ) -> Result<(), StepError> {
         match result {
             Ok(report) => {
-                self.record(&report);
+                self.stats.record(&report);
                 Ok(())
             }
             Err(e) => Err(StepError::from_newton(stage, e)),
@@ -512,13 +518,7 @@ where
                 "lambda_k from g(x_{k+1}) = 0",
             )
         };
-        match result {
-            Ok(report) => {
-                self.record(&report);
-                Ok(())
-            }
-            Err(e) => Err(StepError::from_newton(stage, e)),
-        }
+        self.finish_solve(result, stage)
     }
 
     /// The decoupled step (RATTLE-like): `λ_k` from `g(x_{k+1}) = 0`, then `λ_{k+1}` from
