@@ -176,7 +176,8 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
                 gamma: table.gamma(stage),
             });
         }
-        let guard = self.inner.is_fallible();
+        // A flow whose stages run atomically (the fused projection) restores the state itself.
+        let guard = self.inner.is_fallible() && !self.inner.step_table_is_atomic();
         self.backup
             .run(guard, x, |x| self.inner.step_table(h, table, x))
     }

@@ -103,6 +103,12 @@ pub trait Flow<V: Vector> {
     fn dissipates(&self) -> bool {
         false
     }
+    /// `true` when [`step_table`](Self::step_table) itself leaves the state unchanged on
+    /// failure, so that a [`Composition`] needs no saved copy of it. Default `false` (the default
+    /// `step_table` takes the stages one step at a time).
+    fn step_table_is_atomic(&self) -> bool {
+        false
+    }
     /// `out = DΦ_h v`, the tangent map of the last successful step at its starting point, and
     /// `true`, when the flow can apply it cheaply (an implicit method from its factored Newton
     /// matrix); `false` (the default) otherwise. A projection around this flow uses it for the
@@ -165,6 +171,9 @@ macro_rules! forward_flow {
             }
             fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
                 (**self).tangent_apply(v, out)
+            }
+            fn step_table_is_atomic(&self) -> bool {
+                (**self).step_table_is_atomic()
             }
         }
     )*};

@@ -778,6 +778,10 @@ where
         self.stats.projected_steps += 1;
         Ok(())
     }
+    /// The fused composition works on the workspace and swaps the result in only on success.
+    fn step_table_is_atomic(&self) -> bool {
+        self.scheme == Scheme::Decoupled
+    }
     fn order(&self) -> u32 {
         self.inner.order().min(2)
     }
