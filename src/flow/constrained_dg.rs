@@ -1,7 +1,7 @@
 //! The discrete-gradient method with holonomic constraints (Gonzalez 1999).
 
 use super::implicit::{GonzalezRule, GradientRule, noise_image};
-use super::projection::{SecondHalf, fixed_mut, half_step, jacobian_constant_along_half_step};
+use super::projection::{SecondHalf, fixed_mut, half_step};
 use super::{Flow, FlowStats, ProjectionOptions};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::nonlinear::{
@@ -10,6 +10,7 @@ use crate::nonlinear::{
 use crate::real::Real;
 use crate::system::{
     Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System, check_initial_state,
+    half_step_keeps_jacobian,
 };
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
@@ -524,7 +525,7 @@ impl<V: Vector> HiddenSolver<V> {
                     dirs: vec![x0.zeros_like(); m],
                     affine: system.hamiltonian.is_quadratic()
                         && system.structure.is_constant()
-                        && jacobian_constant_along_half_step(system, x0),
+                        && half_step_keeps_jacobian(system, x0),
                 })
             }
             _ => Ok(HiddenSolver::General(Newton::new(m, options)?)),

@@ -28,6 +28,38 @@ pub(crate) struct InitialChecks<T> {
     pub solver: SolverChoice,
 }
 
+/// A probe of the second half-step at `x0`: a fixed multiplier `μ`, the direction
+/// `d = M Gᵀ μ` at `x0`, and the displaced point `x0 + s d` with `s` a small step relative to
+/// `x0`. `None` when the direction vanishes (the half-step cannot move anything).
+struct HalfStepProbe<V: Vector> {
+    mu: Vec<V::Real>,
+    d: V,
+    xp: V,
+    tmp: V,
+}
+
+impl<V: Vector> HalfStepProbe<V> {
+    fn new<Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> Option<Self>
+    where
+        Ms: StructureMatrix<V>,
+        C: HolonomicConstraint<V>,
+    {
+        let m = system.constraint.dim();
+        let mu: Vec<V::Real> = (0..m)
+            .map(|j| V::Real::one() + V::Real::lit(j as f64 / (m as f64 + 1.0)))
+            .collect();
+        let (mut tmp, mut d, mut xp) = (x0.zeros_like(), x0.zeros_like(), x0.zeros_like());
+        system.constraint_force(x0, &mu, &mut tmp, &mut d);
+        let dn = ops::norm_inf(d.as_slice());
+        if dn == V::Real::zero() {
+            return None;
+        }
+        let s = V::Real::lit(1e-3) * (V::Real::one() + ops::norm_inf(x0.as_slice())) / dn;
+        ops::add_scaled(xp.as_mut_slice(), x0.as_slice(), s, d.as_slice());
+        Some(Self { mu, d, xp, tmp })
+    }
+}
+
 /// Probes at `x0` whether a second half-step `x ↦ x + s M(x) G(x)ᵀ μ` leaves both `g` and the
 /// direction `M Gᵀ μ` unchanged (position constraints with `M Gᵀ` acting on momenta).
 /// Every decoupled step re-checks that `g(x_{k+1})` equals `g(y)`, which catches a second
@@ -38,31 +70,45 @@ where
     Ms: StructureMatrix<V>,
     C: HolonomicConstraint<V>,
 {
-    let m = system.constraint.dim();
-    let mu: Vec<V::Real> = (0..m)
-        .map(|j| V::Real::one() + V::Real::lit(j as f64 / (m as f64 + 1.0)))
-        .collect();
-    let (mut tmp, mut d0, mut d1, mut xp) = (
-        x0.zeros_like(),
-        x0.zeros_like(),
-        x0.zeros_like(),
-        x0.zeros_like(),
-    );
-    system.constraint_force(x0, &mu, &mut tmp, &mut d0);
-    let dn = ops::norm_inf(d0.as_slice());
-    if dn == V::Real::zero() {
+    let Some(mut p) = HalfStepProbe::new(system, x0) else {
         return true;
-    }
-    let s = V::Real::lit(1e-3) * (V::Real::one() + ops::norm_inf(x0.as_slice())) / dn;
-    ops::add_scaled(xp.as_mut_slice(), x0.as_slice(), s, d0.as_slice());
+    };
+    let m = system.constraint.dim();
     let (mut g0, mut g1) = (vec![V::Real::zero(); m], vec![V::Real::zero(); m]);
     system.constraint.residual(x0, &mut g0);
-    system.constraint.residual(&xp, &mut g1);
-    system.constraint_force(&xp, &mu, &mut tmp, &mut d1);
+    system.constraint.residual(&p.xp, &mut g1);
+    let mut d1 = x0.zeros_like();
+    system.constraint_force(&p.xp, &p.mu, &mut p.tmp, &mut d1);
     let tol = V::Real::lit(64.0) * V::Real::epsilon();
     let gscale = V::Real::one() + ops::norm_inf(&g0);
+    let dn = ops::norm_inf(p.d.as_slice());
     ops::dist_inf(&g0, &g1) <= tol * gscale
-        && ops::dist_inf(d0.as_slice(), d1.as_slice()) <= tol * dn
+        && ops::dist_inf(p.d.as_slice(), d1.as_slice()) <= tol * dn
+}
+
+/// Probes at `x0` whether `G` is unchanged along a second half-step `x0 + s M Gᵀ μ` (for
+/// position constraints and a momentum-only direction it is, exactly): `G v` for a fixed `v`
+/// at both points. With a quadratic `H` and a constant `M` the hidden constraint is then
+/// affine in the half-step's multiplier.
+pub(crate) fn half_step_keeps_jacobian<V, Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> bool
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    C: HolonomicConstraint<V>,
+{
+    let Some(p) = HalfStepProbe::new(system, x0) else {
+        return true;
+    };
+    let (m, n) = (system.constraint.dim(), x0.len());
+    let mut v = x0.zeros_like();
+    for (i, vi) in v.as_mut_slice().iter_mut().enumerate() {
+        *vi = V::Real::one() + V::Real::lit(i as f64 / (n as f64 + 1.0));
+    }
+    let (mut a, mut b) = (vec![V::Real::zero(); m], vec![V::Real::zero(); m]);
+    system.constraint.jacobian_apply(x0, &v, &mut a);
+    system.constraint.jacobian_apply(&p.xp, &v, &mut b);
+    let scale = V::Real::one() + ops::norm_inf(&a);
+    ops::dist_inf(&a, &b) <= V::Real::lit(64.0) * V::Real::epsilon() * scale
 }
 
 /// The checks every constrained flow makes at construction: `x0` finite, `m ≤ n`, independent

@@ -15,7 +15,9 @@ mod modified;
 mod structure;
 
 pub use analysis::MAX_BRACKET_CONSTRAINTS;
-pub(crate) use analysis::{InitialChecks, check_initial_state, probe_decoupled};
+pub(crate) use analysis::{
+    InitialChecks, check_initial_state, half_step_keeps_jacobian, probe_decoupled,
+};
 pub use bracket::{Brackets, Case, bracket};
 pub use constraint::HolonomicConstraint;
 pub use hamiltonian::Hamiltonian;

@@ -39,7 +39,7 @@ use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
 use small::{FirstHalf, SmallPath};
-pub(crate) use small::{SecondHalf, fixed_mut, half_step, jacobian_constant_along_half_step};
+pub(crate) use small::{SecondHalf, fixed_mut, half_step};
 use stage::{Mode, Stage};
 use warm::WarmStart;
 
@@ -485,7 +485,7 @@ where
             } else {
                 small.newton_k1.solve_fixed(&mut problem, z)
             };
-            (result, "lambda_{k+1} from phi(x_{k+1}) = 0")
+            (result, STAGE_LAMBDA_K1)
         } else {
             // w_j = (h/2)(d_j + h M(x) ∇²H(x) d_j), so that G(y) w_j is column j of ∂g/∂λ_k.
             let mut exact = true;
@@ -513,12 +513,33 @@ where
                 scratch: t1,
             };
             let z: &mut [V::Real; K] = fixed_mut(w.z.as_mut_slice());
-            (
-                small.newton_k.solve_fixed(&mut problem, z),
-                "lambda_k from g(x_{k+1}) = 0",
-            )
+            (small.newton_k.solve_fixed(&mut problem, z), STAGE_LAMBDA_K)
         };
         self.finish_solve(result, stage)
+    }
+
+    /// The `λ_k` system from `base`: on the small path for `K = m`, the general one for `K = 0`.
+    #[inline(always)]
+    fn solve_lambda_k<const K: usize>(
+        &mut self,
+        h: V::Real,
+        base: Base<'_, V>,
+    ) -> Result<(), StepError> {
+        if K == 0 {
+            self.solve(Mode::LambdaK, h, base, STAGE_LAMBDA_K)
+        } else {
+            self.solve_small::<K>(false, h, base)
+        }
+    }
+
+    /// The `λ_{k+1}` system from `y`: on the small path for `K = m`, the general one for `K = 0`.
+    #[inline(always)]
+    fn solve_lambda_k1<const K: usize>(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
+        if K == 0 {
+            self.solve(Mode::LambdaK1, h, Base::Given(x), STAGE_LAMBDA_K1)
+        } else {
+            self.solve_small::<K>(true, h, Base::Given(x))
+        }
     }
 
     /// The decoupled step (RATTLE-like): `λ_k` from `g(x_{k+1}) = 0`, then `λ_{k+1}` from
@@ -528,28 +549,10 @@ where
     fn step_decoupled<const K: usize>(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         let m = if K == 0 { self.m } else { K };
         self.w.warm.predict_lambda_k(m, h, self.w.z.as_mut_slice());
-        if K == 0 {
-            self.solve(
-                Mode::LambdaK,
-                h,
-                Base::Given(x),
-                "lambda_k from g(x_{k+1}) = 0",
-            )?;
-        } else {
-            self.solve_small::<K>(false, h, Base::Given(x))?;
-        }
+        self.solve_lambda_k::<K>(h, Base::Given(x))?;
         self.w.warm.record_lambda_k(m, h, self.w.z.as_slice());
         self.w.warm.predict_lambda_k1(m, h, self.w.z.as_mut_slice());
-        if K == 0 {
-            self.solve(
-                Mode::LambdaK1,
-                h,
-                Base::Given(x),
-                "lambda_{k+1} from phi(x_{k+1}) = 0",
-            )?;
-        } else {
-            self.solve_small::<K>(true, h, Base::Given(x))?;
-        }
+        self.solve_lambda_k1::<K>(h, x)?;
         self.w.warm.record_lambda_k1(m, h, self.w.z.as_slice());
         self.decoupling_guard::<K>(m)
     }
@@ -591,17 +594,12 @@ where
         x: &V,
     ) -> Result<V::Real, StepError> {
         let m = if K == 0 { self.m } else { K };
-        let stage = "lambda_k from g(x_{k+1}) = 0";
         let one = V::Real::one();
         let mut h_prev = table.gamma_in::<V::Real>(0) * h;
         self.w
             .warm
             .predict_lambda_k(m, h_prev, self.w.z.as_mut_slice());
-        if K == 0 {
-            self.solve(Mode::LambdaK, h_prev, Base::Given(x), stage)?;
-        } else {
-            self.solve_small::<K>(false, h_prev, Base::Given(x))?;
-        }
+        self.solve_lambda_k::<K>(h_prev, Base::Given(x))?;
         self.w.warm.record_lambda_k(m, h_prev, self.w.z.as_slice());
         for i in 1..table.stages {
             let hi = table.gamma_in::<V::Real>(i) * h;
@@ -618,11 +616,7 @@ where
                 *f = *v;
                 *v = *v * grow;
             }
-            if K == 0 {
-                self.solve(Mode::LambdaK, hi, Base::Prev, stage)?;
-            } else {
-                self.solve_small::<K>(false, hi, Base::Prev)?;
-            }
+            self.solve_lambda_k::<K>(hi, Base::Prev)?;
             // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate (the
             // previous one when the stages nearly cancel, h_prev ≈ −h_i).
             let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
@@ -640,14 +634,70 @@ where
             let (a, b) = z.split_at_mut(m);
             b[..m].copy_from_slice(a);
         }
-        let stage1 = "lambda_{k+1} from phi(x_{k+1}) = 0";
-        if K == 0 {
-            self.solve(Mode::LambdaK1, h_prev, Base::Given(x), stage1)?;
-        } else {
-            self.solve_small::<K>(true, h_prev, Base::Given(x))?;
-        }
+        self.solve_lambda_k1::<K>(h_prev, x)?;
         self.decoupling_guard::<K>(m)?;
         Ok(h_prev)
+    }
+
+    /// What every step shares: the state's length and finiteness (`None` for `h = 0`, the
+    /// identity), the `work` from `x` into `w.x_next`, the result's finiteness, and then either
+    /// the result swapped into `x` (O(1) for heap vectors) or, on failure, no trace: `x`, the
+    /// warm starts (committed by the caller only on success) and the step count as they were,
+    /// and no kept Jacobian from a failed iterate.
+    #[inline(always)]
+    fn run_atomic<R>(
+        &mut self,
+        h: V::Real,
+        x: &mut V,
+        work: impl FnOnce(&mut Self, &V) -> Result<R, StepError>,
+    ) -> Result<Option<R>, StepError> {
+        if x.len() != self.w.x_next.len() {
+            return Err(StepError::StateLength {
+                flow: "Projected",
+                expected: self.w.x_next.len(),
+                got: x.len(),
+            });
+        }
+        if !super::check_step(h, x)? {
+            return Ok(None);
+        }
+        let steps_before = self.stats.projected_steps;
+        let result =
+            work(self, x).and_then(|r| match ops::first_non_finite(self.w.x_next.as_slice()) {
+                Some(component) => Err(StepError::NonFinite { component }),
+                None => Ok(r),
+            });
+        match result {
+            Ok(r) => {
+                core::mem::swap(x, &mut self.w.x_next);
+                Ok(Some(r))
+            }
+            Err(e) => {
+                self.stats.projected_steps = steps_before;
+                self.newton.invalidate_jacobian();
+                if let Some(n) = self.newton_k1.as_mut() {
+                    n.invalidate_jacobian();
+                }
+                Err(e)
+            }
+        }
+    }
+
+    /// The fused composition dispatched on the multiplier count (see `step_fused`).
+    fn step_fused_any(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &V,
+    ) -> Result<V::Real, StepError> {
+        self.w.y_valid = false;
+        match (self.small.is_some(), self.m) {
+            (false, _) => self.step_fused::<0>(h, table, x),
+            (true, 1) => self.step_fused::<1>(h, table, x),
+            (true, 2) => self.step_fused::<2>(h, table, x),
+            (true, 3) => self.step_fused::<3>(h, table, x),
+            (true, _) => self.step_fused::<SMALL_MAX>(h, table, x),
+        }
     }
 
     /// One step from `x`; the result is left in `w.x_next`.
@@ -687,40 +737,17 @@ where
     L: LinearSolver<V::Real>,
 {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
-        if x.len() != self.w.x_next.len() {
-            return Err(StepError::StateLength {
-                flow: "Projected",
-                expected: self.w.x_next.len(),
-                got: x.len(),
-            });
-        }
-        if !super::check_step(h, x)? {
-            return Ok(());
-        }
         if self.scheme != Scheme::Decoupled {
             self.w.warm.start_from_last(&mut self.w.z);
         }
-        let result = self.step_impl(h, x).and_then(|()| {
-            match ops::first_non_finite(self.w.x_next.as_slice()) {
-                Some(component) => Err(StepError::NonFinite { component }),
-                None => Ok(()),
-            }
-        });
-        if let Err(e) = result {
-            // A failed iterate must not become the next warm start (nothing was committed) or
-            // kept Jacobian.
-            self.newton.invalidate_jacobian();
-            if let Some(n) = self.newton_k1.as_mut() {
-                n.invalidate_jacobian();
-            }
-            return Err(e);
+        if self
+            .run_atomic(h, x, |flow, x| flow.step_impl(h, x))?
+            .is_some()
+        {
+            let decoupled = self.scheme == Scheme::Decoupled;
+            self.w.warm.commit(&mut self.w.z, h, decoupled);
+            self.stats.projected_steps += 1;
         }
-        // The new state is in the workspace: swap it in (O(1) for heap vectors; the old state
-        // left in `x_next` is overwritten by the next step).
-        core::mem::swap(x, &mut self.w.x_next);
-        let decoupled = self.scheme == Scheme::Decoupled;
-        self.w.warm.commit(&mut self.w.z, h, decoupled);
-        self.stats.projected_steps += 1;
         Ok(())
     }
     /// The decoupled scheme fuses the stages (see `step_fused`): one multiplier solve per
@@ -737,45 +764,11 @@ where
             }
             return Ok(());
         }
-        if x.len() != self.w.x_next.len() {
-            return Err(StepError::StateLength {
-                flow: "Projected",
-                expected: self.w.x_next.len(),
-                got: x.len(),
-            });
+        let fused = self.run_atomic(h, x, |flow, x| flow.step_fused_any(h, table, x))?;
+        if let Some(h_last) = fused {
+            self.w.warm.commit_fused(&mut self.w.z, h_last);
+            self.stats.projected_steps += 1;
         }
-        if !super::check_step(h, x)? {
-            return Ok(());
-        }
-        let steps_before = self.stats.projected_steps;
-        self.w.y_valid = false;
-        let result = match (self.small.is_some(), self.m) {
-            (false, _) => self.step_fused::<0>(h, table, x),
-            (true, 1) => self.step_fused::<1>(h, table, x),
-            (true, 2) => self.step_fused::<2>(h, table, x),
-            (true, 3) => self.step_fused::<3>(h, table, x),
-            (true, _) => self.step_fused::<SMALL_MAX>(h, table, x),
-        }
-        .and_then(
-            |h_last| match ops::first_non_finite(self.w.x_next.as_slice()) {
-                Some(component) => Err(StepError::NonFinite { component }),
-                None => Ok(h_last),
-            },
-        );
-        let h_last = match result {
-            Ok(h_last) => h_last,
-            Err(e) => {
-                self.stats.projected_steps = steps_before;
-                self.newton.invalidate_jacobian();
-                if let Some(n) = self.newton_k1.as_mut() {
-                    n.invalidate_jacobian();
-                }
-                return Err(e);
-            }
-        };
-        core::mem::swap(x, &mut self.w.x_next);
-        self.w.warm.commit_fused(&mut self.w.z, h_last);
-        self.stats.projected_steps += 1;
         Ok(())
     }
     /// The fused composition works on the workspace and swaps the result in only on success.
@@ -796,6 +789,10 @@ where
         self.inner.dissipates() || self.system.structure.is_dissipative()
     }
 }
+
+/// The stage names errors carry.
+const STAGE_LAMBDA_K: &str = "lambda_k from g(x_{k+1}) = 0";
+const STAGE_LAMBDA_K1: &str = "lambda_{k+1} from phi(x_{k+1}) = 0";
 
 /// The base point of a first half-step: the state passed to the step, or the previous
 /// stage's `y` (workspace `prev`) in a fused composition.

@@ -6,11 +6,11 @@
 use crate::error::StepError;
 use crate::flow::Flow;
 use crate::nonlinear::{NewtonOptions, NonlinearProblem, SMALL_MAX, SmallNewton};
-use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::{
+    Hamiltonian, HolonomicConstraint, StructureMatrix, System, half_step_keeps_jacobian,
+};
 use crate::vector::{Vector, ops};
-use num_traits::Float as _;
-use num_traits::{One, Zero};
+use num_traits::Zero;
 
 /// The decoupled scheme for a few constraints (`m ≤` [`SMALL_MAX`], dense `G`) and a
 /// Hamiltonian with a Hessian ([`Hamiltonian::hessian_apply`]): each multiplier system is
@@ -54,7 +54,7 @@ impl<V: Vector> SmallPath<V> {
         }
         let affine_k1 = system.hamiltonian.is_quadratic()
             && system.structure.is_constant()
-            && jacobian_constant_along_half_step(system, x0);
+            && half_step_keeps_jacobian(system, x0);
         Some(Self {
             newton_k,
             newton_k1,
@@ -64,45 +64,6 @@ impl<V: Vector> SmallPath<V> {
             affine_k1,
         })
     }
-}
-
-/// Probes at `x0` whether `G` is unchanged along a second half-step `x0 + s M Gᵀ μ` (for
-/// position constraints and a momentum-only direction it is, exactly): `G v` for a fixed `v`
-/// at both points.
-pub(crate) fn jacobian_constant_along_half_step<V, Ms, H, C>(
-    system: &System<Ms, H, C>,
-    x0: &V,
-) -> bool
-where
-    V: Vector,
-    Ms: StructureMatrix<V>,
-    C: HolonomicConstraint<V>,
-{
-    let (m, n) = (system.constraint.dim(), x0.len());
-    let mu: Vec<V::Real> = (0..m)
-        .map(|j| V::Real::one() + V::Real::lit(j as f64 / (m as f64 + 1.0)))
-        .collect();
-    let (mut tmp, mut d, mut xp, mut v) = (
-        x0.zeros_like(),
-        x0.zeros_like(),
-        x0.zeros_like(),
-        x0.zeros_like(),
-    );
-    system.constraint_force(x0, &mu, &mut tmp, &mut d);
-    let dn = ops::norm_inf(d.as_slice());
-    if dn == V::Real::zero() {
-        return true;
-    }
-    let s = V::Real::lit(1e-3) * (V::Real::one() + ops::norm_inf(x0.as_slice())) / dn;
-    ops::add_scaled(xp.as_mut_slice(), x0.as_slice(), s, d.as_slice());
-    for (i, vi) in v.as_mut_slice().iter_mut().enumerate() {
-        *vi = V::Real::one() + V::Real::lit(i as f64 / (n as f64 + 1.0));
-    }
-    let (mut a, mut b) = (vec![V::Real::zero(); m], vec![V::Real::zero(); m]);
-    system.constraint.jacobian_apply(x0, &v, &mut a);
-    system.constraint.jacobian_apply(&xp, &v, &mut b);
-    let scale = V::Real::one() + ops::norm_inf(&a);
-    ops::dist_inf(&a, &b) <= V::Real::lit(64.0) * V::Real::epsilon() * scale
 }
 
 /// `&mut v[..K]` as an array; `v` has at least `K` entries (the small path sizes its vectors
