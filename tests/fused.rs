@@ -9,19 +9,11 @@ use lieflow::models::{PendulumChain, paper};
 use lieflow::prelude::*;
 use nalgebra::SVector;
 
+mod common;
+
 type V = SVector<f64, 4>;
 
-/// The paper's Hamiltonian without its Hessian: the general (kept-Jacobian) path.
-struct NoHessian;
-
-impl Hamiltonian<V> for NoHessian {
-    fn energy(&self, x: &V) -> f64 {
-        Hamiltonian::<V>::energy(&paper::Energy, x)
-    }
-    fn gradient(&self, x: &V, out: &mut V) {
-        Hamiltonian::<V>::gradient(&paper::Energy, x, out)
-    }
-}
+use common::PaperNoHessian as NoHessian;
 
 /// The stage-by-stage composition: `step(γ_i h)` on the projected flow itself.
 fn staged<F: Flow<V>>(flow: &mut F, table: &CompositionTable, h: f64, x: &mut V) {

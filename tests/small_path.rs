@@ -8,19 +8,11 @@ use lieflow::nonlinear::{NewtonOptions, NonlinearProblem, NonlinearSolver, Small
 use lieflow::prelude::*;
 use nalgebra::SVector;
 
+mod common;
+
 type V = SVector<f64, 4>;
 
-/// The paper's Hamiltonian without its Hessian: the projection takes the general path.
-struct NoHessian;
-
-impl Hamiltonian<V> for NoHessian {
-    fn energy(&self, x: &V) -> f64 {
-        Hamiltonian::<V>::energy(&paper::Energy, x)
-    }
-    fn gradient(&self, x: &V, out: &mut V) {
-        Hamiltonian::<V>::gradient(&paper::Energy, x, out)
-    }
-}
+use common::PaperNoHessian as NoHessian;
 
 /// The paper's Hamiltonian with its Hessian but not declared quadratic: the small path with
 /// Newton iterations for `λ_{k+1}` instead of one linear solve.

@@ -139,3 +139,16 @@ pub mod gradient_sphere {
         Case::NonDegenerate
     }
 }
+
+/// The paper's Hamiltonian without its Hessian, so that a projection of the paper's model takes
+/// the general path (kept difference Jacobians) instead of the small one.
+pub struct PaperNoHessian;
+
+impl Hamiltonian<SVector<f64, 4>> for PaperNoHessian {
+    fn energy(&self, x: &SVector<f64, 4>) -> f64 {
+        Hamiltonian::<SVector<f64, 4>>::energy(&lieflow::models::paper::Energy, x)
+    }
+    fn gradient(&self, x: &SVector<f64, 4>, out: &mut SVector<f64, 4>) {
+        Hamiltonian::<SVector<f64, 4>>::gradient(&lieflow::models::paper::Energy, x, out)
+    }
+}
