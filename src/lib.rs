@@ -58,6 +58,8 @@ pub mod linalg;
 pub mod models;
 pub mod nonlinear;
 mod real;
+#[cfg(feature = "scene")]
+pub mod scene;
 pub mod system;
 mod vector;
 

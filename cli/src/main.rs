@@ -1,0 +1,351 @@
+//! `lieflow`: run, check and print scene files (see `lieflow --help`).
+//!
+//! The command is thin: it parses flags, calls `lieflow::scene`, prints, writes CSV and plots.
+//! Exit codes: 0 success, 1 a run that stopped early (what it computed is still written), 2 bad
+//! input (flags or scene).
+
+mod plot;
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use lieflow::scene::{Assembly, DEFAULT_SCENE, RunSummary, Sample, Scene, SceneError, run};
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Simulate constrained generalized Hamiltonian systems with dissipation, described as scene
+/// files (Zhang & Deng 2004 projection integrators).
+#[derive(Debug, Parser)]
+#[command(name = "lieflow", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run a scene (the embedded default scene without an argument) and print a summary; the
+    /// last line of stdout is a JSON summary.
+    Run(RunArgs),
+    /// Validate a scene and print what is assembled: bodies, constraints, effects, structure,
+    /// the paper's case, the scheme and its order, the solver.
+    Check {
+        /// The scene file.
+        scene: PathBuf,
+        /// Print the assembly as one JSON line instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print the default scene, a starting point for your own.
+    Scene,
+}
+
+#[derive(Debug, clap::Args)]
+struct RunArgs {
+    /// The scene file (default: the embedded default scene, see `lieflow scene`).
+    scene: Option<PathBuf>,
+    /// Override the scene's step size.
+    #[arg(long, value_name = "H")]
+    dt: Option<f64>,
+    /// Override the scene's final time.
+    #[arg(long, value_name = "T")]
+    t_end: Option<f64>,
+    /// Write the trajectory (t, x, and the diagnostics) as CSV.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Write every K-th step to the CSV (default: about 1000 rows).
+    #[arg(long, value_name = "K")]
+    every: Option<usize>,
+    /// Plot energy and constraint residual over time (and the paths, for 2D scenes) as SVG.
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
+    /// Time each effect (adds a clock read per evaluation; shares go in the JSON).
+    #[arg(long)]
+    profile: bool,
+    /// Switch a declared part off, as `[flags] NAME = false` does (repeatable): gravity,
+    /// springs, pair, trap, damping, magnetic, constraints, energy, residuals.
+    #[arg(long, value_name = "NAME")]
+    off: Vec<String>,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Scene => {
+            print!("{DEFAULT_SCENE}");
+            ExitCode::SUCCESS
+        }
+        Command::Check { scene, json } => match load(Some(&scene)).and_then(|s| s.compile()) {
+            Ok(compiled) => {
+                if json {
+                    println!(
+                        "{}",
+                        serde_json::to_string(&compiled.assembly).expect("serializable")
+                    );
+                } else {
+                    print_assembly(&compiled.assembly);
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => bad_scene(&e),
+        },
+        Command::Run(args) => run_scene(&args),
+    }
+}
+
+fn load(path: Option<&PathBuf>) -> Result<Scene, SceneError> {
+    match path {
+        Some(p) => Scene::from_path(p),
+        None => Ok(Scene::default_scene()),
+    }
+}
+
+fn bad_scene(e: &SceneError) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(2)
+}
+
+fn print_assembly(a: &Assembly) {
+    println!("scene        {}", a.name);
+    if let Some(d) = a.dim {
+        println!(
+            "space        {d}D, {} bodies, state of {}",
+            a.bodies, a.state_len
+        );
+    } else {
+        println!("model        built-in, state of {}", a.state_len);
+    }
+    if a.constraints.is_empty() {
+        println!("constraints  none");
+    } else {
+        let list: Vec<String> = a
+            .constraints
+            .iter()
+            .map(|(k, n)| format!("{n} {k}"))
+            .collect();
+        println!(
+            "constraints  {} rows: {}",
+            a.constraint_rows,
+            list.join(", ")
+        );
+    }
+    for (i, (label, kind)) in a.effects.iter().enumerate() {
+        let head = if i == 0 { "effects" } else { "" };
+        println!("{head:<12} {label} ({kind})");
+    }
+    for d in &a.disabled {
+        println!("switched off {d}");
+    }
+    println!(
+        "structure    {}, {}",
+        if a.canonical {
+            "J canonical"
+        } else {
+            "J non-canonical (magnetic field)"
+        },
+        if a.dissipative {
+            "dissipative (M = J - R)"
+        } else {
+            "conservative"
+        }
+    );
+    if let Some(case) = &a.case {
+        println!("case         {case} (Zhang & Deng 2004)");
+    }
+    if let Some(p) = &a.projection {
+        println!("projection   {p}");
+    }
+    println!("scheme       {}, order {}", a.scheme, a.order);
+    if let Some(s) = &a.solver {
+        println!("solver       {s}");
+    }
+    println!("steps        {}", a.steps);
+    if let Some((dq, dp)) = a.initial_projection {
+        println!("projected    initial state moved by max |dq| = {dq:.3e}, max |dp| = {dp:.3e}");
+    }
+}
+
+fn run_scene(args: &RunArgs) -> ExitCode {
+    let mut scene = match load(args.scene.as_ref()) {
+        Ok(s) => s,
+        Err(e) => return bad_scene(&e),
+    };
+    for (v, name) in [(args.dt, "--dt"), (args.t_end, "--t-end")] {
+        if let Some(v) = v
+            && !(v.is_finite() && v > 0.0)
+        {
+            eprintln!("error: {name} must be positive and finite, not {v}");
+            return ExitCode::from(2);
+        }
+    }
+    for name in &args.off {
+        if let Err(e) = scene.file.flags.set(name, false) {
+            eprintln!("error: --off: {e}");
+            return ExitCode::from(2);
+        }
+    }
+    if let Some(dt) = args.dt {
+        scene.file.integrator.dt = dt;
+    }
+    if let Some(t) = args.t_end {
+        scene.file.integrator.t_end = t;
+    }
+    if args.profile
+        && !scene
+            .file
+            .integrator
+            .diagnostics
+            .iter()
+            .any(|d| d == "profile")
+    {
+        scene.file.integrator.diagnostics.push("profile".into());
+    }
+    let mut compiled = match scene.compile() {
+        Ok(c) => c,
+        Err(e) => return bad_scene(&e),
+    };
+    let a = &compiled.assembly;
+    println!(
+        "{}: {} bodies, {} constraint rows, {}, order {}, dt = {}, {} steps",
+        a.name, a.bodies, a.constraint_rows, a.scheme, a.order, scene.file.integrator.dt, a.steps
+    );
+    if let Some((dq, dp)) = a.initial_projection {
+        println!("  initial state projected: max |dq| = {dq:.3e}, max |dp| = {dp:.3e}");
+    }
+    let steps = compiled.plan.steps;
+    let every = args.every.unwrap_or((steps / 1000).max(1)).max(1);
+    let mut csv = match &args.csv {
+        Some(p) => match std::fs::File::create(p) {
+            Ok(f) => Some(std::io::BufWriter::new(f)),
+            Err(e) => {
+                eprintln!("error: cannot create {}: {e}", p.display());
+                return ExitCode::from(2);
+            }
+        },
+        None => None,
+    };
+    let bodies = compiled.simulation.bodies();
+    let mut series = plot::Series::new(steps, bodies);
+    let bar = ProgressBar::new(steps as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} steps, {elapsed} (eta {eta})")
+            .expect("valid template"),
+    );
+    let tick = (steps / 200).max(1);
+    let mut io_error = None;
+    if let Some(w) = csv.as_mut() {
+        let n = compiled.simulation.state().len();
+        if let Err(e) = write_header(w, n, &compiled.assembly) {
+            io_error.get_or_insert(e);
+        }
+    }
+    let mut observe = |s: &Sample<'_>| {
+        if s.step.is_multiple_of(tick) {
+            bar.set_position(s.step as u64);
+        }
+        if args.plot.is_some() {
+            series.push(s);
+        }
+        if let Some(w) = csv.as_mut()
+            && (s.step.is_multiple_of(every) || s.step == steps)
+            && let Err(e) = write_row(w, s)
+        {
+            io_error.get_or_insert(e);
+        }
+    };
+    let summary = run(compiled.simulation.as_mut(), &compiled.plan, &mut observe);
+    bar.finish_and_clear();
+    if let Some(mut w) = csv
+        && let Err(e) = w.flush()
+    {
+        io_error.get_or_insert(e);
+    }
+    print_summary(&summary);
+    let mut code = ExitCode::SUCCESS;
+    if let Some(e) = io_error {
+        eprintln!("error: writing the CSV: {e}");
+        code = ExitCode::from(1);
+    }
+    if let Some(p) = &args.plot {
+        match series.draw(p, &compiled.assembly.name) {
+            Ok(()) => println!("  plot: {}", p.display()),
+            Err(e) => {
+                eprintln!("error: plotting {}: {e}", p.display());
+                code = ExitCode::from(1);
+            }
+        }
+    }
+    if let Some(f) = &summary.error {
+        eprintln!(
+            "error: step {} at t = {} failed ({}): {}; the outputs hold the run up to the last good state",
+            f.step, f.t, f.kind, f.message
+        );
+        code = ExitCode::from(1);
+    }
+    let mut json = serde_json::to_value(&summary).expect("serializable");
+    let obj = json.as_object_mut().expect("an object");
+    obj.insert("scene".into(), compiled.assembly.name.clone().into());
+    obj.insert("scheme".into(), compiled.assembly.scheme.clone().into());
+    obj.insert("order".into(), compiled.assembly.order.into());
+    println!("{json}");
+    code
+}
+
+fn print_summary(s: &RunSummary) {
+    let opt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| format!("{v:.3e}"));
+    println!(
+        "  t = {}, {} of {} steps, {:.0} ns/step",
+        s.t, s.steps, s.steps_planned, s.ns_per_step
+    );
+    println!(
+        "  max |g|   = {}   max |phi| = {}",
+        opt(s.max_abs_g),
+        opt(s.max_abs_phi)
+    );
+    if let (Some(e0), Some(e1)) = (s.energy_initial, s.energy_final) {
+        println!(
+            "  energy {e0:.9} -> {e1:.9}, max |H - H0| = {}, max increase per step = {}",
+            opt(s.max_abs_energy_error),
+            opt(s.max_energy_increase)
+        );
+    }
+    if let Some(d) = s.dissipated {
+        println!(
+            "  dissipated {d:.9}, energy budget error {}",
+            opt(s.max_energy_balance_error)
+        );
+    }
+    let counts: Vec<String> = s
+        .effects
+        .iter()
+        .map(|e| match e.time_share {
+            Some(share) => format!("{} {} ({:.0}%)", e.name, e.evaluations, 100.0 * share),
+            None => format!("{} {}", e.name, e.evaluations),
+        })
+        .collect();
+    println!("  evaluations: {}", counts.join(", "));
+}
+
+fn write_header(w: &mut impl Write, n: usize, a: &Assembly) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "# lieflow {} scene: {}; scheme: {}",
+        env!("CARGO_PKG_VERSION"),
+        a.name,
+        a.scheme
+    )?;
+    write!(w, "step,t")?;
+    for i in 0..n {
+        write!(w, ",x{i}")?;
+    }
+    writeln!(w, ",energy,max_abs_g,max_abs_phi")
+}
+
+fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
+    write!(w, "{},{}", s.step, s.t)?;
+    for v in s.x {
+        write!(w, ",{v}")?;
+    }
+    let opt = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
+    writeln!(w, ",{},{},{}", opt(s.energy), opt(s.g), opt(s.phi))
+}

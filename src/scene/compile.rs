@@ -1,0 +1,1594 @@
+//! Scene → model and scheme: validation with located errors, the assembly of only the declared
+//! terms, the choice of scheme, and the initial-state checks.
+
+use super::error::{FieldPath, SceneError, SceneErrorKind};
+use super::model::{
+    ConstraintKind, ConstraintTerm, Counter, EffectKind, PairLaw, Potential, PotentialTerm,
+    SceneModel, StructureTerm,
+};
+use super::run::{ModelRun, RunPlan, Simulation};
+use super::schema::{
+    Builtin, ConstraintSpec, EffectSpec, Flags, IntegratorSpec, SCENE_VERSION, SceneFile,
+};
+use crate::error::SetupError;
+use crate::flow::coefficients::table_by_name;
+use crate::flow::{CompositionTable, Coupling, Flow, FlowExt, ProjectionOptions, Scheme, from_fn};
+use crate::linalg::{LinearSolver, Sink, SolverChoice, Structure};
+use crate::nonlinear::NewtonOptions;
+use crate::system::{Case, HolonomicConstraint, System};
+use crate::vector::Vector;
+use faer::Col;
+use std::collections::HashMap;
+use std::sync::Arc;
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// What a compiled scene assembled: printed by `lieflow check`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Assembly {
+    /// The scene's name.
+    pub name: String,
+    /// Dimension of the space (scenes of bodies).
+    pub dim: Option<usize>,
+    /// Number of bodies.
+    pub bodies: usize,
+    /// Length of the state.
+    pub state_len: usize,
+    /// Constraint terms by type and their rows, e.g. `("rod", 12)`.
+    pub constraints: Vec<(String, usize)>,
+    /// Total constraint rows `m`.
+    pub constraint_rows: usize,
+    /// The assembled terms: `(label, kind)`.
+    pub effects: Vec<(String, String)>,
+    /// Declared parts switched off by flags.
+    pub disabled: Vec<String>,
+    /// The skew part `J` of `M` canonical (no magnetic field).
+    pub canonical: bool,
+    /// `M` has a dissipative part.
+    pub dissipative: bool,
+    /// The paper's case: `degenerate` (`⟨g,g⟩ = 0`) or `non-degenerate`; `None` without constraints.
+    pub case: Option<String>,
+    /// The projection variant (`decoupled`, `coupled`, `symmetric`).
+    pub projection: Option<String>,
+    /// The scheme, described.
+    pub scheme: String,
+    /// Its order.
+    pub order: u32,
+    /// The multiplier solver backend.
+    pub solver: Option<String>,
+    /// Steps planned.
+    pub steps: usize,
+    /// The initial projection, if the scene asked for one: `(max |Δq|, max |Δp|)`.
+    pub initial_projection: Option<(f64, f64)>,
+}
+
+/// A compiled scene: the simulation, what was assembled, and the run's plan.
+pub struct Compiled {
+    /// The simulation, ready to step.
+    pub simulation: Box<dyn Simulation>,
+    /// What was assembled.
+    pub assembly: Assembly,
+    /// Steps and diagnostics.
+    pub plan: RunPlan,
+    /// The assembled model (`None` for built-in models).
+    pub model: Option<Arc<SceneModel>>,
+}
+
+impl std::fmt::Debug for Compiled {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Compiled")
+            .field("assembly", &self.assembly)
+            .field("plan", &self.plan)
+            .finish_non_exhaustive()
+    }
+}
+
+fn err(kind: SceneErrorKind, path: FieldPath, msg: impl Into<String>) -> SceneError {
+    SceneError::new(kind, path, msg)
+}
+
+/// A body after generators are expanded.
+struct Body {
+    name: String,
+    mass: f64,
+    q: [f64; 3],
+    v: [f64; 3],
+    charge: f64,
+}
+
+/// Bodies, names and selectors.
+struct Bodies {
+    dim: usize,
+    list: Vec<Body>,
+    groups: HashMap<String, Vec<usize>>,
+}
+
+impl Bodies {
+    fn add_group(&mut self, name: &str, members: Vec<usize>, path: &FieldPath) -> Result<()> {
+        if name.is_empty() || name == "*" || name.contains('.') {
+            return Err(err(
+                SceneErrorKind::Reference,
+                path.clone(),
+                format!("the name '{name}' is reserved or empty (no '.', not '*')"),
+            ));
+        }
+        if self.groups.insert(name.to_owned(), members).is_some() {
+            return Err(err(
+                SceneErrorKind::Reference,
+                path.clone(),
+                format!("the name '{name}' is used twice"),
+            ));
+        }
+        Ok(())
+    }
+
+    fn push(&mut self, body: Body) -> usize {
+        self.list.push(body);
+        self.list.len() - 1
+    }
+
+    /// The bodies a selector names.
+    fn select(&self, sel: &str, path: &FieldPath) -> Result<Vec<usize>> {
+        if sel == "*" {
+            return Ok((0..self.list.len()).collect());
+        }
+        if let Some(g) = self.groups.get(sel) {
+            return Ok(g.clone());
+        }
+        if let Some((group, index)) = sel.rsplit_once('.')
+            && let (Some(g), Ok(i)) = (self.groups.get(group), index.parse::<usize>())
+        {
+            return g.get(i).map(|&b| vec![b]).ok_or_else(|| {
+                err(
+                    SceneErrorKind::Reference,
+                    path.clone(),
+                    format!(
+                        "'{sel}': '{group}' has {} bodies (0 … {})",
+                        g.len(),
+                        g.len().saturating_sub(1)
+                    ),
+                )
+            });
+        }
+        Err(err(
+            SceneErrorKind::Reference,
+            path.clone(),
+            format!(
+                "'{sel}' names no body or group (bodies, chains, shells and grids are named; '*' is all)"
+            ),
+        ))
+    }
+
+    fn select_all(&self, sels: &[String], path: &FieldPath) -> Result<Vec<usize>> {
+        let mut out = Vec::new();
+        for (i, s) in sels.iter().enumerate() {
+            for b in self.select(s, &path.index(i))? {
+                if !out.contains(&b) {
+                    out.push(b);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// `None` → all bodies.
+    fn select_opt(&self, sels: &Option<Vec<String>>, path: &FieldPath) -> Result<Vec<usize>> {
+        match sels {
+            None => Ok((0..self.list.len()).collect()),
+            Some(s) => self.select_all(s, path),
+        }
+    }
+}
+
+fn finite(x: f64, path: &FieldPath) -> Result<f64> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(err(
+            SceneErrorKind::Value,
+            path.clone(),
+            format!("{x} is not finite"),
+        ))
+    }
+}
+
+fn positive(x: f64, path: &FieldPath, what: &str) -> Result<f64> {
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(err(
+            SceneErrorKind::Value,
+            path.clone(),
+            format!("the {what} must be positive and finite, not {x}"),
+        ))
+    }
+}
+
+fn non_negative(x: f64, path: &FieldPath, what: &str) -> Result<f64> {
+    if x.is_finite() && x >= 0.0 {
+        Ok(x)
+    } else {
+        Err(err(
+            SceneErrorKind::Value,
+            path.clone(),
+            format!("the {what} must be non-negative and finite, not {x}"),
+        ))
+    }
+}
+
+/// A `dim`-vector as `[f64; 3]` (zero-padded).
+fn vector(v: &[f64], dim: usize, path: &FieldPath) -> Result<[f64; 3]> {
+    if v.len() != dim {
+        return Err(err(
+            SceneErrorKind::Dimension,
+            path.clone(),
+            format!("{} entries, but the scene is {dim}-dimensional", v.len()),
+        ));
+    }
+    let mut out = [0.0; 3];
+    for (i, &x) in v.iter().enumerate() {
+        out[i] = finite(x, &path.index(i))?;
+    }
+    Ok(out)
+}
+
+fn vector_or(
+    v: &Option<Vec<f64>>,
+    dim: usize,
+    path: &FieldPath,
+    default: [f64; 3],
+) -> Result<[f64; 3]> {
+    match v {
+        Some(v) => vector(v, dim, path),
+        None => Ok(default),
+    }
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// Expands bodies and generators; returns the bodies and the generators' own constraints.
+fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(ConstraintKind, String)>)> {
+    let mut bodies = Bodies {
+        dim,
+        list: Vec::new(),
+        groups: HashMap::new(),
+    };
+    let mut generated = Vec::new();
+    let root = FieldPath::root();
+    for (i, b) in file.bodies.iter().enumerate() {
+        let path = root.key("bodies").index(i);
+        let body = Body {
+            name: b.name.clone(),
+            mass: positive(b.mass, &path.key("mass"), "mass")?,
+            q: vector(&b.position, dim, &path.key("position"))?,
+            v: vector_or(&b.velocity, dim, &path.key("velocity"), [0.0; 3])?,
+            charge: finite(b.charge, &path.key("charge"))?,
+        };
+        let idx = bodies.push(body);
+        bodies.add_group(&b.name, vec![idx], &path.key("name"))?;
+    }
+    for (i, c) in file.chains.iter().enumerate() {
+        let path = root.key("chains").index(i);
+        if c.links == 0 {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key("links"),
+                "a chain needs at least one link",
+            ));
+        }
+        let mass = positive(c.mass, &path.key("mass"), "mass")?;
+        let length = positive(c.length, &path.key("length"), "length")?;
+        let charge = finite(c.charge, &path.key("charge"))?;
+        let anchor = vector_or(&c.anchor, dim, &path.key("anchor"), [0.0; 3])?;
+        let dir = vector_or(&c.direction, dim, &path.key("direction"), [1.0, 0.0, 0.0])?;
+        let n = norm(dir);
+        if n == 0.0 {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key("direction"),
+                "the direction must not be zero",
+            ));
+        }
+        let dir = dir.map(|x| x / n);
+        let mut members = Vec::with_capacity(c.links);
+        for k in 0..c.links {
+            let s = (k + 1) as f64 * length;
+            let q = [
+                anchor[0] + s * dir[0],
+                anchor[1] + s * dir[1],
+                anchor[2] + s * dir[2],
+            ];
+            let idx = bodies.push(Body {
+                name: format!("{}.{k}", c.name),
+                mass,
+                q,
+                v: [0.0; 3],
+                charge,
+            });
+            let kind = match members.last() {
+                None => ConstraintKind::Rod {
+                    a: idx,
+                    b: None,
+                    point: anchor,
+                    length,
+                },
+                Some(&prev) => ConstraintKind::Rod {
+                    a: idx,
+                    b: Some(prev),
+                    point: [0.0; 3],
+                    length,
+                },
+            };
+            generated.push((kind, format!("chains[{i}] '{}' link {k}", c.name)));
+            members.push(idx);
+        }
+        bodies.add_group(&c.name, members, &path.key("name"))?;
+    }
+    for (i, s) in file.shells.iter().enumerate() {
+        let path = root.key("shells").index(i);
+        let radius = positive(s.radius, &path.key("radius"), "radius")?;
+        let mass = positive(s.mass, &path.key("mass"), "mass")?;
+        let charge = finite(s.charge, &path.key("charge"))?;
+        let center = vector_or(&s.center, dim, &path.key("center"), [0.0; 3])?;
+        let mut points: Vec<([f64; 3], [f64; 3])> = Vec::new();
+        match (&s.rings, &s.positions) {
+            (Some(rings), None) => {
+                let rp = path.key("rings");
+                if dim == 2 && rings.len() != 1 {
+                    return Err(err(
+                        SceneErrorKind::Dimension,
+                        rp,
+                        "in 2D, `rings` has one entry: the number of particles on the circle",
+                    ));
+                }
+                let nr = rings.len();
+                for (k, &count) in rings.iter().enumerate() {
+                    if count == 0 {
+                        return Err(err(
+                            SceneErrorKind::Value,
+                            rp.index(k),
+                            "a ring needs at least one particle",
+                        ));
+                    }
+                    for j in 0..count {
+                        let u = if dim == 2 {
+                            let a = 2.0 * std::f64::consts::PI * j as f64 / count as f64;
+                            [a.cos(), a.sin(), 0.0]
+                        } else {
+                            let theta = (k as f64 + 0.5) * std::f64::consts::PI / nr as f64;
+                            let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5 * k as f64)
+                                / count as f64;
+                            [
+                                theta.sin() * phi.cos(),
+                                theta.sin() * phi.sin(),
+                                theta.cos(),
+                            ]
+                        };
+                        points.push((
+                            [
+                                center[0] + radius * u[0],
+                                center[1] + radius * u[1],
+                                center[2] + radius * u[2],
+                            ],
+                            [0.0; 3],
+                        ));
+                    }
+                }
+            }
+            (None, Some(pos)) => {
+                let pp = path.key("positions");
+                for (j, p) in pos.iter().enumerate() {
+                    let q = vector(p, dim, &pp.index(j))?;
+                    let r = norm(sub(q, center));
+                    if (r - radius).abs() > 1e-12 * radius {
+                        return Err(err(
+                            SceneErrorKind::OffConstraints,
+                            pp.index(j),
+                            format!(
+                                "at distance {r} from the centre, not on the sphere of radius {radius}"
+                            ),
+                        ));
+                    }
+                    points.push((q, [0.0; 3]));
+                }
+                if let Some(vels) = &s.velocities {
+                    let vp = path.key("velocities");
+                    if vels.len() != pos.len() {
+                        return Err(err(
+                            SceneErrorKind::Dimension,
+                            vp,
+                            format!("{} velocities for {} positions", vels.len(), pos.len()),
+                        ));
+                    }
+                    for (j, v) in vels.iter().enumerate() {
+                        points[j].1 = vector(v, dim, &vp.index(j))?;
+                    }
+                }
+            }
+            _ => {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.clone(),
+                    "a shell takes either `rings` or `positions`, exactly one of them",
+                ));
+            }
+        }
+        let mut members = Vec::new();
+        for (j, (q, v)) in points.into_iter().enumerate() {
+            let idx = bodies.push(Body {
+                name: format!("{}.{j}", s.name),
+                mass,
+                q,
+                v,
+                charge,
+            });
+            generated.push((
+                ConstraintKind::Sphere {
+                    body: idx,
+                    center,
+                    radius,
+                },
+                format!("shells[{i}] '{}' particle {j}", s.name),
+            ));
+            members.push(idx);
+        }
+        bodies.add_group(&s.name, members, &path.key("name"))?;
+    }
+    for (i, g) in file.grids.iter().enumerate() {
+        let path = root.key("grids").index(i);
+        let spacing = positive(g.spacing, &path.key("spacing"), "spacing")?;
+        let mass = positive(g.mass, &path.key("mass"), "mass")?;
+        let charge = finite(g.charge, &path.key("charge"))?;
+        let origin = vector_or(&g.origin, dim, &path.key("origin"), [0.0; 3])?;
+        let v = vector_or(&g.velocity, dim, &path.key("velocity"), [0.0; 3])?;
+        if g.counts.len() != dim {
+            return Err(err(
+                SceneErrorKind::Dimension,
+                path.key("counts"),
+                format!(
+                    "{} entries, but the scene is {dim}-dimensional",
+                    g.counts.len()
+                ),
+            ));
+        }
+        if let Some(k) = g.counts.iter().position(|&c| c == 0) {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key("counts").index(k),
+                "at least one particle per axis",
+            ));
+        }
+        let total: usize = g.counts.iter().product();
+        let mut members = Vec::with_capacity(total);
+        for j in 0..total {
+            let mut rest = j;
+            let mut q = origin;
+            for axis in (0..dim).rev() {
+                q[axis] += spacing * (rest % g.counts[axis]) as f64;
+                rest /= g.counts[axis];
+            }
+            members.push(bodies.push(Body {
+                name: format!("{}.{j}", g.name),
+                mass,
+                q,
+                v,
+                charge,
+            }));
+        }
+        bodies.add_group(&g.name, members, &path.key("name"))?;
+    }
+    if bodies.list.is_empty() {
+        return Err(err(
+            SceneErrorKind::Value,
+            root,
+            "the scene has no bodies (declare [[bodies]], [[chains]], [[shells]] or [[grids]], or a [builtin] model)",
+        ));
+    }
+    Ok((bodies, generated))
+}
+
+fn constraint_terms(
+    file: &SceneFile,
+    bodies: &Bodies,
+    generated: Vec<(ConstraintKind, String)>,
+) -> Result<Vec<(ConstraintKind, String)>> {
+    let dim = bodies.dim;
+    let mut out = generated;
+    let root = FieldPath::root().key("constraints");
+    for (i, c) in file.constraints.iter().enumerate() {
+        let path = root.index(i);
+        match c {
+            ConstraintSpec::Pin { bodies: sel, point } => {
+                let list = bodies.select_all(sel, &path.key("bodies"))?;
+                if point.is_some() && list.len() != 1 {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("point"),
+                        "a pin with a `point` names exactly one body",
+                    ));
+                }
+                for b in list {
+                    let point = vector_or(point, dim, &path.key("point"), bodies.list[b].q)?;
+                    out.push((
+                        ConstraintKind::Pin { body: b, point },
+                        format!("constraints[{i}] pin '{}'", bodies.list[b].name),
+                    ));
+                }
+            }
+            ConstraintSpec::Rod {
+                bodies: sel,
+                point,
+                length,
+            } => {
+                let bp = path.key("bodies");
+                let ends: Vec<usize> = sel
+                    .iter()
+                    .enumerate()
+                    .map(|(j, s)| {
+                        let v = bodies.select(s, &bp.index(j))?;
+                        if v.len() == 1 {
+                            Ok(v[0])
+                        } else {
+                            Err(err(
+                                SceneErrorKind::Reference,
+                                bp.index(j),
+                                format!("'{s}' names {} bodies; a rod end is one body", v.len()),
+                            ))
+                        }
+                    })
+                    .collect::<Result<_>>()?;
+                let (a, b, p) = match (ends.as_slice(), point) {
+                    (&[a, b], None) if a != b => (a, Some(b), [0.0; 3]),
+                    (&[a], Some(p)) => (a, None, vector(p, dim, &path.key("point"))?),
+                    _ => {
+                        return Err(err(
+                            SceneErrorKind::Value,
+                            bp,
+                            "a rod joins two different bodies, or one body and a fixed `point`",
+                        ));
+                    }
+                };
+                let other = b.map_or(p, |b| bodies.list[b].q);
+                let initial = norm(sub(bodies.list[a].q, other));
+                let length = match length {
+                    Some(l) => positive(*l, &path.key("length"), "length")?,
+                    None => positive(
+                        initial,
+                        &path.key("bodies"),
+                        "initial distance of the rod's ends",
+                    )?,
+                };
+                let names = match b {
+                    Some(b) => format!("'{}'–'{}'", bodies.list[a].name, bodies.list[b].name),
+                    None => format!("'{}'–point", bodies.list[a].name),
+                };
+                out.push((
+                    ConstraintKind::Rod {
+                        a,
+                        b,
+                        point: p,
+                        length,
+                    },
+                    format!("constraints[{i}] rod {names}"),
+                ));
+            }
+            ConstraintSpec::Sphere {
+                bodies: sel,
+                center,
+                radius,
+            } => {
+                let center = vector_or(center, dim, &path.key("center"), [0.0; 3])?;
+                for b in bodies.select_all(sel, &path.key("bodies"))? {
+                    let r = match radius {
+                        Some(r) => positive(*r, &path.key("radius"), "radius")?,
+                        None => positive(
+                            norm(sub(bodies.list[b].q, center)),
+                            &path.key("bodies"),
+                            "initial distance from the centre",
+                        )?,
+                    };
+                    out.push((
+                        ConstraintKind::Sphere {
+                            body: b,
+                            center,
+                            radius: r,
+                        },
+                        format!("constraints[{i}] sphere '{}'", bodies.list[b].name),
+                    ));
+                }
+            }
+            ConstraintSpec::Plane {
+                bodies: sel,
+                normal,
+                offset,
+            } => {
+                let n = vector(normal, dim, &path.key("normal"))?;
+                let len = norm(n);
+                if len == 0.0 {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("normal"),
+                        "the normal must not be zero",
+                    ));
+                }
+                let n = n.map(|x| x / len);
+                let list = bodies.select_all(sel, &path.key("bodies"))?;
+                for &b in &list {
+                    let q = bodies.list[b].q;
+                    let off = match offset {
+                        Some(o) => finite(*o, &path.key("offset"))?,
+                        None => {
+                            n[0] * bodies.list[list[0]].q[0]
+                                + n[1] * bodies.list[list[0]].q[1]
+                                + n[2] * bodies.list[list[0]].q[2]
+                        }
+                    };
+                    let _ = q;
+                    out.push((
+                        ConstraintKind::Plane {
+                            body: b,
+                            normal: n,
+                            offset: off,
+                        },
+                        format!("constraints[{i}] plane '{}'", bodies.list[b].name),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Effects split by where they go: potential terms, and the merged `M` terms.
+struct Effects {
+    potentials: Vec<PotentialTerm>,
+    damping: Option<StructureTerm<f64>>,
+    magnetic: Option<StructureTerm<[f64; 3]>>,
+    disabled: Vec<String>,
+}
+
+fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effects> {
+    let dim = bodies.dim;
+    let flags = &file.flags;
+    let n = bodies.list.len();
+    let mut fx = Effects {
+        potentials: Vec::new(),
+        damping: None,
+        magnetic: None,
+        disabled: Vec::new(),
+    };
+    let (mut damping, mut damping_labels) = (vec![0.0; n], Vec::new());
+    let (mut magnetic, mut magnetic_labels) = (vec![[0.0; 3]; n], Vec::new());
+    let root = FieldPath::root().key("effects");
+    for (i, e) in file.effects.iter().enumerate() {
+        let path = root.index(i);
+        let (kind, name, on) = match e {
+            EffectSpec::Gravity { name, .. } => (EffectKind::Gravity, name, flags.gravity),
+            EffectSpec::Spring { name, .. } => (EffectKind::Spring, name, flags.springs),
+            EffectSpec::Pair { name, .. } => (EffectKind::Pair, name, flags.pair),
+            EffectSpec::Trap { name, .. } => (EffectKind::Trap, name, flags.trap),
+            EffectSpec::Damping { name, .. } => (EffectKind::Damping, name, flags.damping),
+            EffectSpec::Magnetic { name, .. } => (EffectKind::Magnetic, name, flags.magnetic),
+        };
+        let label = name.clone().unwrap_or_else(|| kind.name().to_owned());
+        // Validate even what is switched off: a flag must not hide an error in the file.
+        let potential = match e {
+            EffectSpec::Gravity { g, bodies: sel, .. } => {
+                let g = vector(g, dim, &path.key("g"))?;
+                let forces = bodies
+                    .select_opt(sel, &path.key("bodies"))?
+                    .into_iter()
+                    .map(|b| {
+                        let m = bodies.list[b].mass;
+                        (b, g.map(|x| m * x))
+                    })
+                    .collect();
+                Some(Potential::Gravity { forces })
+            }
+            EffectSpec::Spring {
+                bodies: sel,
+                stiffness,
+                rest_length,
+                ..
+            } => {
+                let bp = path.key("bodies");
+                let ends = bodies.select_all(sel, &bp)?;
+                if sel.len() != 2 || ends.len() != 2 {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        bp,
+                        "a spring joins exactly two different bodies",
+                    ));
+                }
+                let k = non_negative(*stiffness, &path.key("stiffness"), "stiffness")?;
+                let rest = match rest_length {
+                    Some(l) => non_negative(*l, &path.key("rest_length"), "rest length")?,
+                    None => norm(sub(bodies.list[ends[0]].q, bodies.list[ends[1]].q)),
+                };
+                Some(Potential::Pairs {
+                    pairs: vec![(ends[0], ends[1])],
+                    law: PairLaw::Spring { stiffness: k, rest },
+                })
+            }
+            EffectSpec::Pair {
+                bodies: sel,
+                law,
+                strength,
+                power,
+                epsilon,
+                sigma,
+                ..
+            } => {
+                let group = bodies.select_opt(sel, &path.key("bodies"))?;
+                let need = |v: &Option<f64>, key: &str| -> Result<f64> {
+                    v.ok_or_else(|| {
+                        err(
+                            SceneErrorKind::Value,
+                            path.key("law"),
+                            format!("the law '{law}' needs `{key}`"),
+                        )
+                    })
+                };
+                let law = match law.as_str() {
+                    "inverse-power" => PairLaw::InversePower {
+                        strength: finite(need(strength, "strength")?, &path.key("strength"))?,
+                        power: positive(power.unwrap_or(1.0), &path.key("power"), "power")?,
+                    },
+                    "log" => PairLaw::Log {
+                        strength: finite(need(strength, "strength")?, &path.key("strength"))?,
+                    },
+                    "lennard-jones" => PairLaw::LennardJones {
+                        epsilon: positive(
+                            need(epsilon, "epsilon")?,
+                            &path.key("epsilon"),
+                            "epsilon",
+                        )?,
+                        sigma: positive(need(sigma, "sigma")?, &path.key("sigma"), "sigma")?,
+                    },
+                    other => {
+                        return Err(err(
+                            SceneErrorKind::Value,
+                            path.key("law"),
+                            format!("unknown law '{other}' (inverse-power, log, lennard-jones)"),
+                        ));
+                    }
+                };
+                let mut pairs = Vec::new();
+                for (x, &a) in group.iter().enumerate() {
+                    for &b in &group[x + 1..] {
+                        pairs.push((a, b));
+                    }
+                }
+                Some(Potential::Pairs { pairs, law })
+            }
+            EffectSpec::Trap {
+                stiffness,
+                center,
+                bodies: sel,
+                ..
+            } => Some(Potential::Trap {
+                stiffness: non_negative(*stiffness, &path.key("stiffness"), "stiffness")?,
+                center: vector_or(center, dim, &path.key("center"), [0.0; 3])?,
+                bodies: bodies.select_opt(sel, &path.key("bodies"))?,
+            }),
+            EffectSpec::Damping {
+                coefficient,
+                bodies: sel,
+                ..
+            } => {
+                let c = non_negative(
+                    *coefficient,
+                    &path.key("coefficient"),
+                    "damping coefficient",
+                )?;
+                let list = bodies.select_opt(sel, &path.key("bodies"))?;
+                if on {
+                    for b in list {
+                        damping[b] += c;
+                    }
+                    damping_labels.push(label.clone());
+                }
+                None
+            }
+            EffectSpec::Magnetic {
+                field, bodies: sel, ..
+            } => {
+                let fp = path.key("field");
+                let b = match (dim, field.len()) {
+                    (2, 1) => [0.0, 0.0, finite(field[0], &fp.index(0))?],
+                    (3, 3) => vector(field, 3, &fp)?,
+                    (d, len) => {
+                        return Err(err(
+                            SceneErrorKind::Dimension,
+                            fp,
+                            format!(
+                                "{len} entries: the field has 1 entry (B_z) in 2D and 3 in 3D (dim = {d})"
+                            ),
+                        ));
+                    }
+                };
+                let list = bodies.select_opt(sel, &path.key("bodies"))?;
+                if on {
+                    for i in list {
+                        let e = bodies.list[i].charge;
+                        for k in 0..3 {
+                            magnetic[i][k] += e * b[k];
+                        }
+                    }
+                    magnetic_labels.push(label.clone());
+                }
+                None
+            }
+        };
+        if !on {
+            fx.disabled
+                .push(format!("effects[{i}] {} ({})", label, kind.name()));
+            continue;
+        }
+        if let Some(potential) = potential {
+            fx.potentials.push(PotentialTerm {
+                label,
+                kind,
+                potential,
+                counter: Counter::default(),
+            });
+        }
+    }
+    if !damping_labels.is_empty() {
+        fx.damping = Some(StructureTerm {
+            label: damping_labels.join("+"),
+            per_body: damping,
+            counter: Counter::default(),
+        });
+    }
+    if !magnetic_labels.is_empty() {
+        fx.magnetic = Some(StructureTerm {
+            label: magnetic_labels.join("+"),
+            per_body: magnetic,
+            counter: Counter::default(),
+        });
+    }
+    Ok(fx)
+}
+
+/// The scheme a scene asks for: the composition table (`None`: Strang) and its order.
+fn choose_scheme(
+    integ: &IntegratorSpec,
+    dissipative: bool,
+) -> Result<(Option<&'static CompositionTable>, u32)> {
+    let path = FieldPath::root().key("integrator");
+    let (table, order) = match integ.scheme.as_str() {
+        "auto" => {
+            let order = integ.order.unwrap_or(2);
+            let table = match order {
+                2 => None,
+                4 => table_by_name("suzuki4"),
+                6 => table_by_name("kahan-li6"),
+                8 => table_by_name("kahan-li8"),
+                o => {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("order"),
+                        format!("order {o}: the compositions have orders 2, 4, 6 and 8"),
+                    ));
+                }
+            };
+            (table, order)
+        }
+        "strang" => (None, 2),
+        name => match table_by_name(name) {
+            Some(t) => (Some(t), t.order),
+            None => {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.key("scheme"),
+                    format!(
+                        "unknown scheme '{name}' (auto, strang, triple-jump, suzuki4, yoshida6, kahan-li6, suzuki-umeno8, kahan-li8)"
+                    ),
+                ));
+            }
+        },
+    };
+    if let Some(o) = integ.order
+        && o != order
+    {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("order"),
+            format!("order {o}, but scheme '{}' has order {order}", integ.scheme),
+        ));
+    }
+    if dissipative && order > 2 {
+        let field = if integ.order.is_some() {
+            "order"
+        } else {
+            "scheme"
+        };
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            path.key(field),
+            format!(
+                "an order-{order} composition takes negative sub-steps, which run the damping backwards (energy grows, unstable when stiff); with damping use order = 2 (Strang with the exact damping flow), or switch the damping off with [flags] damping = false"
+            ),
+        ));
+    }
+    Ok((table, order))
+}
+
+fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(usize, bool, bool, bool)> {
+    let path = FieldPath::root().key("integrator");
+    let dt = positive(integ.dt, &path.key("dt"), "step size")?;
+    let t_end = positive(integ.t_end, &path.key("t_end"), "final time")?;
+    let steps = (t_end / dt).round();
+    if steps < 1.0 {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("t_end"),
+            format!("t_end = {t_end} is less than half a step (dt = {dt})"),
+        ));
+    }
+    let (mut energy, mut residuals, mut profile) = (false, false, false);
+    for (i, d) in integ.diagnostics.iter().enumerate() {
+        match d.as_str() {
+            "energy" => energy = true,
+            "constraints" => residuals = true,
+            "profile" => profile = true,
+            other => {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.key("diagnostics").index(i),
+                    format!("unknown diagnostic '{other}' (energy, constraints, profile)"),
+                ));
+            }
+        }
+    }
+    Ok((
+        steps as usize,
+        energy && flags.energy,
+        residuals && flags.residuals,
+        profile,
+    ))
+}
+
+/// Compiles a parsed scene (no source text: errors carry paths but no line numbers).
+pub fn compile(file: &SceneFile) -> Result<Compiled> {
+    let root = FieldPath::root();
+    if file.version != SCENE_VERSION {
+        return Err(err(
+            SceneErrorKind::Version,
+            root.key("version"),
+            format!(
+                "version {} is not supported; this library reads version {SCENE_VERSION}",
+                file.version
+            ),
+        ));
+    }
+    if let Some(b) = &file.builtin {
+        if !file.bodies.is_empty()
+            || !file.chains.is_empty()
+            || !file.shells.is_empty()
+            || !file.grids.is_empty()
+            || !file.constraints.is_empty()
+            || !file.effects.is_empty()
+        {
+            return Err(err(
+                SceneErrorKind::Value,
+                root.key("builtin"),
+                "a built-in model takes no bodies, constraints or effects of its own",
+            ));
+        }
+        return compile_builtin(file, b);
+    }
+    let dim = match file.dim {
+        Some(d @ (2 | 3)) => d,
+        Some(d) => {
+            return Err(err(
+                SceneErrorKind::Dimension,
+                root.key("dim"),
+                format!("dim = {d}: scenes are 2- or 3-dimensional"),
+            ));
+        }
+        None => {
+            return Err(err(
+                SceneErrorKind::Syntax,
+                root.key("dim"),
+                "missing `dim` (2 or 3)",
+            ));
+        }
+    };
+    let (steps, energy, residuals, profile) = plan(&file.integrator, &file.flags)?;
+    let (bodies, generated) = expand_bodies(file, dim)?;
+    let mut disabled = Vec::new();
+    let constraints = constraint_terms(file, &bodies, generated)?;
+    let constraints = if file.flags.constraints {
+        constraints
+    } else {
+        if !constraints.is_empty() {
+            disabled.push(format!("{} constraints", constraints.len()));
+        }
+        Vec::new()
+    };
+    let fx = assemble_effects(file, &bodies)?;
+    disabled.extend(fx.disabled);
+    let mut row = 0;
+    let terms: Vec<ConstraintTerm> = constraints
+        .into_iter()
+        .map(|(kind, label)| {
+            let t = ConstraintTerm { kind, row, label };
+            row += t.rows(dim);
+            t
+        })
+        .collect();
+    let effects: Vec<(String, String)> =
+        std::iter::once(("kinetic".to_owned(), "kinetic".to_owned()))
+            .chain(
+                fx.potentials
+                    .iter()
+                    .map(|t| (t.label.clone(), t.kind.name().to_owned())),
+            )
+            .chain(
+                fx.damping
+                    .iter()
+                    .map(|t| (t.label.clone(), "damping".to_owned())),
+            )
+            .chain(
+                fx.magnetic
+                    .iter()
+                    .map(|t| (t.label.clone(), "magnetic".to_owned())),
+            )
+            .collect();
+    let masses: Vec<f64> = bodies.list.iter().map(|b| b.mass).collect();
+    let model = Arc::new(SceneModel::new(
+        dim,
+        masses,
+        fx.potentials,
+        terms,
+        fx.damping,
+        fx.magnetic,
+        profile,
+    ));
+    let n = model.state_len();
+    let nq = n / 2;
+    let mut x0 = Col::<f64>::zeros(n);
+    for (b, body) in bodies.list.iter().enumerate() {
+        for k in 0..dim {
+            x0[b * dim + k] = body.q[k];
+            x0[nq + b * dim + k] = body.mass * body.v[k];
+        }
+    }
+    let (table, order) = choose_scheme(&file.integrator, model.is_dissipative())?;
+    let m = model.m;
+    let mut initial_projection = None;
+    if m > 0 {
+        let off = off_constraints(&model, &x0);
+        if let Some((value, row, level)) = off {
+            if file.integrator.project_initial {
+                initial_projection = Some(project_initial(&model, &mut x0).map_err(|e| {
+                    err(
+                        SceneErrorKind::OffConstraints,
+                        root.key("integrator").key("project_initial"),
+                        e,
+                    )
+                })?);
+            } else {
+                let label = constraint_label(&model, row);
+                return Err(err(
+                    SceneErrorKind::OffConstraints,
+                    root.key("integrator"),
+                    format!(
+                        "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `project_initial = true` to project them (mass-weighted, reported)"
+                    ),
+                ));
+            }
+        }
+    }
+    let dt = file.integrator.dt;
+    let dissipative = model.is_dissipative();
+    let shared = model.clone();
+    let mut scratch = vec![0.0; nq];
+    let kick = {
+        let model = model.clone();
+        from_fn(move |t: f64, x: &mut Col<f64>| model.kick(t, x.as_mut_slice(), &mut scratch))
+    };
+    let drift = {
+        let model = model.clone();
+        from_fn(move |t: f64, x: &mut Col<f64>| model.free_flight(t, x.as_mut_slice()))
+            .dissipative_if(dissipative)
+    };
+    let has_potential = !model.potentials.is_empty();
+    let mut case = None;
+    let mut projection = None;
+    let mut solver = None;
+    let scheme_name;
+    let flow: Box<dyn Flow<Col<f64>>> = if m == 0 {
+        scheme_name = if has_potential {
+            "free flight ∘ kick ∘ free flight (Strang)"
+        } else {
+            "free flight (exact)"
+        };
+        match (has_potential, table) {
+            (false, _) => Box::new(drift),
+            (true, None) => Box::new(drift.strang(kick)),
+            (true, Some(t)) => Box::new(drift.strang(kick).composed(t)),
+        }
+    } else {
+        let system = System::new(model.clone(), model.clone(), model.clone());
+        let options = projection_options(&model, &x0);
+        let setup = |e: SetupError| setup_error(&model, e);
+        let p_desc = |scheme: Scheme, small: bool, kind: String| {
+            (
+                match scheme {
+                    Scheme::Symmetric => "non-degenerate",
+                    _ => "degenerate",
+                },
+                match scheme {
+                    Scheme::Decoupled => "decoupled",
+                    Scheme::Coupled => "coupled",
+                    Scheme::Symmetric => "symmetric",
+                },
+                if small {
+                    "small (stack, closed-form Jacobians)".to_owned()
+                } else {
+                    kind
+                },
+            )
+        };
+        let (flow, desc): (Box<dyn Flow<Col<f64>>>, _) = if has_potential {
+            scheme_name = "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)";
+            let p = kick
+                .strang(drift)
+                .projected(system, &x0, options)
+                .map_err(setup)?;
+            let desc = p_desc(
+                p.scheme(),
+                p.uses_small_path(),
+                format!("{:?}", p.newton().linear_solver().kind()),
+            );
+            match table {
+                None => (Box::new(p), desc),
+                Some(t) => (Box::new(p.composed(t)), desc),
+            }
+        } else {
+            scheme_name = "projection around free flight (exact)";
+            let p = drift.projected(system, &x0, options).map_err(setup)?;
+            let desc = p_desc(
+                p.scheme(),
+                p.uses_small_path(),
+                format!("{:?}", p.newton().linear_solver().kind()),
+            );
+            match table {
+                None => (Box::new(p), desc),
+                Some(t) => (Box::new(p.composed(t)), desc),
+            }
+        };
+        case = Some(desc.0.to_owned());
+        projection = Some(desc.1.to_owned());
+        solver = Some(desc.2);
+        flow
+    };
+    let scheme = match table {
+        None => scheme_name.to_owned(),
+        Some(t) => format!(
+            "{} composed by {} ({} stages)",
+            scheme_name, t.name, t.stages
+        ),
+    };
+    let mut constraint_counts: Vec<(String, usize)> = Vec::new();
+    for t in &model.constraints {
+        let kind = match t.kind {
+            ConstraintKind::Pin { .. } => "pin",
+            ConstraintKind::Rod { .. } => "rod",
+            ConstraintKind::Sphere { .. } => "sphere",
+            ConstraintKind::Plane { .. } => "plane",
+        };
+        match constraint_counts.iter_mut().find(|(k, _)| k == kind) {
+            Some(e) => e.1 += t.rows(dim),
+            None => constraint_counts.push((kind.to_owned(), t.rows(dim))),
+        }
+    }
+    let assembly = Assembly {
+        name: file.name.clone().unwrap_or_else(|| "scene".to_owned()),
+        dim: Some(dim),
+        bodies: model.bodies(),
+        state_len: n,
+        constraints: constraint_counts,
+        constraint_rows: m,
+        effects,
+        disabled,
+        canonical: model.is_canonical(),
+        dissipative,
+        case,
+        projection,
+        scheme,
+        order,
+        solver,
+        steps,
+        initial_projection,
+    };
+    let system = System::new(model.clone(), model.clone(), model.clone());
+    let simulation = Box::new(ModelRun::new(flow, system, x0, dt, m, Some(shared)));
+    Ok(Compiled {
+        simulation,
+        assembly,
+        plan: RunPlan {
+            steps,
+            energy,
+            residuals,
+        },
+        model: Some(model),
+    })
+}
+
+/// The label of the constraint term that owns row `row`.
+fn constraint_label(model: &SceneModel, row: usize) -> String {
+    model
+        .constraints
+        .iter()
+        .rev()
+        .find(|c| c.row <= row)
+        .map_or_else(|| format!("row {row}"), |c| c.label.clone())
+}
+
+/// Turns a projection's setup error into a scene error that names the constraint.
+fn setup_error(model: &SceneModel, e: SetupError) -> SceneError {
+    let path = FieldPath::root().key("constraints");
+    match e {
+        SetupError::RankDeficient { constraint, ratio } => err(
+            SceneErrorKind::Redundant,
+            path,
+            format!(
+                "the constraints are redundant: {} depends on the others (pivot ratio {ratio:.1e}); remove it or one of those it repeats",
+                constraint_label(model, constraint)
+            ),
+        ),
+        SetupError::SingularMultiplierMatrix { .. } => err(
+            SceneErrorKind::Redundant,
+            path,
+            format!("the constraints are redundant or singular at the initial state: {e}"),
+        ),
+        other => err(SceneErrorKind::Setup, FieldPath::root(), other.to_string()),
+    }
+}
+
+/// Projection options for a scene: position constraints with forces on the momenta only
+/// (`M Gᵀλ = (0, −G_qᵀλ)` whatever the damping and field), so the degenerate case and the
+/// decoupled variant hold by construction; naming them skips the dense bracket analysis. The
+/// residual tolerance is scaled like the chain's (`16 ε ℓ L`: `ℓ` the smallest constraint
+/// length, `L` the scene's extent), the rounding level of `g = (|u|² − ℓ²)/2`.
+fn projection_options(model: &SceneModel, x0: &Col<f64>) -> ProjectionOptions<f64> {
+    let nq = model.state_len() / 2;
+    let extent = x0.as_slice()[..nq]
+        .iter()
+        .fold(0.0f64, |a, &b| a.max(b.abs()));
+    let mut ell = f64::INFINITY;
+    for c in &model.constraints {
+        let l = match c.kind {
+            ConstraintKind::Rod { length, .. } => length,
+            ConstraintKind::Sphere { radius, .. } => radius,
+            _ => continue,
+        };
+        ell = ell.min(l);
+    }
+    if !ell.is_finite() {
+        ell = extent.max(1.0);
+    }
+    let big = extent.max(ell).max(1.0);
+    let ftol = 16.0 * f64::EPSILON * ell.min(1.0).max(ell) * big;
+    ProjectionOptions::default()
+        .with_case(Case::Degenerate)
+        .with_coupling(Coupling::Decoupled)
+        .with_newton(NewtonOptions::default().with_ftol(ftol.max(2.0 * f64::EPSILON)))
+}
+
+/// `Some((value, row, "position"|"velocity"))` when the initial state violates `g = 0` or
+/// `G v = 0` beyond `√ε` relative to the scene's scale.
+fn off_constraints(model: &Arc<SceneModel>, x: &Col<f64>) -> Option<(f64, usize, &'static str)> {
+    let m = model.m;
+    let mut g = vec![0.0; m];
+    HolonomicConstraint::<Col<f64>>::residual(model, x, &mut g);
+    let nq = model.state_len() / 2;
+    let scale = x.as_slice()[..nq]
+        .iter()
+        .fold(1.0f64, |a, &b| a.max(b.abs()));
+    let tol = f64::EPSILON.sqrt() * scale * scale;
+    let worst = |g: &[f64]| {
+        g.iter()
+            .enumerate()
+            .fold((0.0f64, 0usize), |(v, r), (i, &x)| {
+                if x.abs() > v { (x.abs(), i) } else { (v, r) }
+            })
+    };
+    let (v, r) = worst(&g);
+    if v > tol {
+        return Some((v, r, "position"));
+    }
+    let vel = velocity_state(model, x);
+    HolonomicConstraint::<Col<f64>>::jacobian_apply(model, x, &vel, &mut g);
+    let (v, r) = worst(&g);
+    let vscale = vel.as_slice().iter().fold(1.0f64, |a, &b| a.max(b.abs()));
+    (v > tol * vscale).then_some((v, r, "velocity"))
+}
+
+/// `(v, 0)` as a state-sized vector whose first half holds the velocities `p/m`.
+fn velocity_state(model: &SceneModel, x: &Col<f64>) -> Col<f64> {
+    let n = model.state_len();
+    let (nq, d) = (n / 2, model.dim);
+    let mut v = Col::<f64>::zeros(n);
+    for (b, w) in model.inv_masses.iter().enumerate() {
+        for k in 0..d {
+            v[b * d + k] = w * x[nq + b * d + k];
+        }
+    }
+    v
+}
+
+/// Projects `x` onto `g = 0`, then its velocities onto `G v = 0`, in the mass metric:
+/// `q ← q − W⁻¹Gᵀ (G W⁻¹ Gᵀ)⁻¹ g` (Gauss–Newton, to round-off), `v ← v − W⁻¹Gᵀ (G W⁻¹ Gᵀ)⁻¹ G v`.
+/// Returns `(max |Δq|, max |Δp|)`.
+fn project_initial(
+    model: &Arc<SceneModel>,
+    x: &mut Col<f64>,
+) -> std::result::Result<(f64, f64), String> {
+    let n = model.state_len();
+    let (nq, d, m) = (n / 2, model.dim, model.m);
+    let x_start = x.clone();
+    let w_inv: Vec<f64> = (0..nq).map(|i| model.inv_masses[i / d]).collect();
+    let mut g = vec![0.0; m];
+    let solve = |x: &Col<f64>, rhs: &mut [f64]| -> std::result::Result<Col<f64>, String> {
+        // A = G W⁻¹ Gᵀ from the Jacobian entries, grouped by state column.
+        let mut entries = crate::linalg::Triplets::default();
+        HolonomicConstraint::<Col<f64>>::jacobian_entries(&DenseEntries(model), x, &mut entries);
+        let mut by_col: HashMap<usize, Vec<(usize, f64)>> = HashMap::new();
+        for &(r, c, v) in &entries.entries {
+            by_col.entry(c).or_default().push((r, v));
+        }
+        let mut a: HashMap<(usize, usize), f64> = HashMap::new();
+        for (c, rows) in &by_col {
+            for &(i, vi) in rows {
+                for &(j, vj) in rows {
+                    *a.entry((i, j)).or_insert(0.0) += vi * w_inv[*c] * vj;
+                }
+            }
+        }
+        let mut keys: Vec<(usize, usize)> = a.keys().copied().collect();
+        keys.sort_unstable();
+        let structure = Structure::of_pattern(&keys);
+        let mut lu = crate::linalg::AutoLu::<f64>::with_structure(m, structure, SolverChoice::Auto)
+            .map_err(|e| e.to_string())?;
+        lu.clear();
+        for k in &keys {
+            lu.add(k.0, k.1, a[k]);
+        }
+        lu.factor().map_err(|e| {
+            format!("the constraints are redundant or singular at the initial state ({e})")
+        })?;
+        lu.solve_in_place(rhs).map_err(|e| e.to_string())?;
+        let mut delta = Col::<f64>::zeros(n);
+        HolonomicConstraint::<Col<f64>>::jacobian_transpose_apply_add(
+            model, x, rhs, 1.0, &mut delta,
+        );
+        for i in 0..nq {
+            delta[i] *= w_inv[i];
+        }
+        Ok(delta)
+    };
+    let nq_scale = x.as_slice()[..nq]
+        .iter()
+        .fold(1.0f64, |a, &b| a.max(b.abs()));
+    let mut converged = false;
+    for _ in 0..50 {
+        HolonomicConstraint::<Col<f64>>::residual(model, x, &mut g);
+        if g.iter()
+            .all(|v| v.abs() <= 4.0 * f64::EPSILON * nq_scale * nq_scale)
+        {
+            converged = true;
+            break;
+        }
+        let delta = solve(x, &mut g)?;
+        for i in 0..nq {
+            x[i] -= delta[i];
+        }
+    }
+    if !converged {
+        return Err("projecting the initial positions onto the constraints did not converge in 50 Gauss–Newton steps".into());
+    }
+    let vel = velocity_state(model, x);
+    HolonomicConstraint::<Col<f64>>::jacobian_apply(model, x, &vel, &mut g);
+    let delta = solve(x, &mut g)?;
+    for i in 0..nq {
+        // Δp = m Δv.
+        x[nq + i] -= delta[i] / w_inv[i];
+    }
+    let dq = (0..nq).fold(0.0f64, |a, i| a.max((x[i] - x_start[i]).abs()));
+    let dp = (0..nq).fold(0.0f64, |a, i| a.max((x[nq + i] - x_start[nq + i]).abs()));
+    Ok((dq, dp))
+}
+
+/// The model's constraints with their Jacobian entries always on (the model turns them off for
+/// `m ≤ 4` to take the small dense path).
+struct DenseEntries<'a>(&'a Arc<SceneModel>);
+
+#[allow(clippy::misnamed_getters)] // `dim` is the number of constraints `m`.
+impl HolonomicConstraint<Col<f64>> for DenseEntries<'_> {
+    fn dim(&self) -> usize {
+        self.0.m
+    }
+    fn residual(&self, x: &Col<f64>, out: &mut [f64]) {
+        HolonomicConstraint::<Col<f64>>::residual(self.0, x, out)
+    }
+    fn jacobian_apply(&self, x: &Col<f64>, v: &Col<f64>, out: &mut [f64]) {
+        HolonomicConstraint::<Col<f64>>::jacobian_apply(self.0, x, v, out)
+    }
+    fn jacobian_transpose_apply_add(
+        &self,
+        x: &Col<f64>,
+        mu: &[f64],
+        alpha: f64,
+        out: &mut Col<f64>,
+    ) {
+        HolonomicConstraint::<Col<f64>>::jacobian_transpose_apply_add(self.0, x, mu, alpha, out)
+    }
+    fn jacobian_entries(&self, x: &Col<f64>, sink: &mut dyn Sink<f64>) -> bool {
+        self.0.jacobian_entries_always(x.as_slice(), sink);
+        true
+    }
+}
+
+/// The built-in models, with the scene's integrator.
+fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
+    use crate::models::{
+        paper, pendulum_chain::PendulumChain, spherical_pendulum::SphericalPendulum,
+    };
+    use nalgebra::SVector;
+    let path = FieldPath::root().key("builtin");
+    let (steps, energy, residuals, _) = plan(&file.integrator, &file.flags)?;
+    let (table, order) = choose_scheme(&file.integrator, false)?;
+    let dt = file.integrator.dt;
+    let setup = |e: SetupError| err(SceneErrorKind::Setup, path.clone(), e.to_string());
+    let compose = |t: Option<&'static CompositionTable>, name: &str| match t {
+        None => name.to_owned(),
+        Some(t) => format!("{name} composed by {} ({} stages)", t.name, t.stages),
+    };
+    let (simulation, assembly): (Box<dyn Simulation>, Assembly) = match b.model.as_str() {
+        "paper" => {
+            type V = SVector<f64, 4>;
+            let x0: V = paper::initial_state();
+            let p = paper::drift()
+                .projected(paper::system(), &x0, ProjectionOptions::default())
+                .map_err(setup)?;
+            let flow: Box<dyn Flow<V>> = match table {
+                None => Box::new(p),
+                Some(t) => Box::new(p.composed(t)),
+            };
+            let assembly = builtin_assembly(
+                file,
+                "Zhang & Deng (2004) §4",
+                4,
+                1,
+                false,
+                compose(table, "projection around the drift (exact)"),
+                order,
+                steps,
+            );
+            (
+                Box::new(ModelRun::new(flow, paper::system(), x0, dt, 1, None)),
+                assembly,
+            )
+        }
+        "spherical-pendulum" => {
+            type V = SVector<f64, 6>;
+            let pend = SphericalPendulum::try_new(1.0, 1.0, 9.81).expect("valid constants");
+            let x0: V = pend.state(1.0, 1.0);
+            let p = pend
+                .kick()
+                .strang(pend.drift())
+                .projected(pend.system(), &x0, ProjectionOptions::default())
+                .map_err(setup)?;
+            let flow: Box<dyn Flow<V>> = match table {
+                None => Box::new(p),
+                Some(t) => Box::new(p.composed(t)),
+            };
+            let assembly = builtin_assembly(
+                file,
+                "spherical pendulum (RATTLE)",
+                6,
+                1,
+                true,
+                compose(table, "projection around kick ∘ drift ∘ kick (RATTLE)"),
+                order,
+                steps,
+            );
+            (
+                Box::new(ModelRun::new(flow, pend.system(), x0, dt, 1, None)),
+                assembly,
+            )
+        }
+        "pendulum-chain" => {
+            let links = b.links.unwrap_or(10);
+            let dim = b.dim.unwrap_or(2);
+            let chain = PendulumChain::<f64>::uniform(dim, links)
+                .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))?;
+            let x0: Col<f64> = chain.at_rest(|_| 0.5);
+            let p = chain
+                .kick()
+                .strang(chain.drift())
+                .projected(chain.system(), &x0, chain.projection_options())
+                .map_err(setup)?;
+            let flow: Box<dyn Flow<Col<f64>>> = match table {
+                None => Box::new(p),
+                Some(t) => Box::new(p.composed(t)),
+            };
+            let assembly = builtin_assembly(
+                file,
+                "pendulum chain",
+                chain.state_len(),
+                links,
+                true,
+                compose(table, "projection around kick ∘ drift ∘ kick (RATTLE)"),
+                order,
+                steps,
+            );
+            (
+                Box::new(ModelRun::new(flow, chain.system(), x0, dt, links, None)),
+                assembly,
+            )
+        }
+        other => {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key("model"),
+                format!(
+                    "unknown built-in model '{other}' (paper, spherical-pendulum, pendulum-chain)"
+                ),
+            ));
+        }
+    };
+    Ok(Compiled {
+        simulation,
+        assembly,
+        plan: RunPlan {
+            steps,
+            energy,
+            residuals,
+        },
+        model: None,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn builtin_assembly(
+    file: &SceneFile,
+    what: &str,
+    n: usize,
+    m: usize,
+    canonical: bool,
+    scheme: String,
+    order: u32,
+    steps: usize,
+) -> Assembly {
+    Assembly {
+        name: file.name.clone().unwrap_or_else(|| what.to_owned()),
+        dim: None,
+        bodies: 0,
+        state_len: n,
+        constraints: vec![("built-in".to_owned(), m)],
+        constraint_rows: m,
+        effects: vec![(what.to_owned(), "built-in".to_owned())],
+        disabled: Vec::new(),
+        canonical,
+        dissipative: false,
+        case: Some("degenerate".to_owned()),
+        projection: None,
+        scheme,
+        order,
+        solver: None,
+        steps,
+        initial_projection: None,
+    }
+}

@@ -1,0 +1,193 @@
+//! Errors of scene files: what is wrong, the field's path, and where it is in the file.
+
+use std::fmt;
+use toml::de::{DeTable, DeValue};
+
+/// One step of a path into a scene document: a key or an array index.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PathSegment {
+    /// A table key.
+    Key(String),
+    /// An array index.
+    Index(usize),
+}
+
+/// A path into a scene document, e.g. `effects[2].stiffness`.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct FieldPath(pub Vec<PathSegment>);
+
+impl FieldPath {
+    /// The empty path (the whole document).
+    pub fn root() -> Self {
+        Self(Vec::new())
+    }
+    /// This path followed by `key`.
+    pub fn key(&self, key: &str) -> Self {
+        let mut p = self.clone();
+        p.0.push(PathSegment::Key(key.to_owned()));
+        p
+    }
+    /// This path followed by `[index]`.
+    pub fn index(&self, index: usize) -> Self {
+        let mut p = self.clone();
+        p.0.push(PathSegment::Index(index));
+        p
+    }
+}
+
+impl fmt::Display for FieldPath {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, s) in self.0.iter().enumerate() {
+            match s {
+                PathSegment::Key(k) if i == 0 => write!(f, "{k}")?,
+                PathSegment::Key(k) => write!(f, ".{k}")?,
+                PathSegment::Index(j) => write!(f, "[{j}]")?,
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A position in a scene file (1-based line and column).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Location {
+    /// The file name as given (`<default scene>` for the embedded one).
+    pub file: String,
+    /// Line, from 1.
+    pub line: usize,
+    /// Column in characters, from 1.
+    pub column: usize,
+}
+
+/// What kind of problem a scene has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum SceneErrorKind {
+    /// The file could not be read.
+    Io,
+    /// Not valid TOML, or not the schema: a missing or unknown key, a wrong type.
+    Syntax,
+    /// A version this library does not read.
+    Version,
+    /// A value out of its range (non-positive mass or length, non-finite numbers, …).
+    Value,
+    /// A vector with the wrong number of entries.
+    Dimension,
+    /// A body name that names no body, or a name used twice.
+    Reference,
+    /// The initial state does not satisfy the constraints.
+    OffConstraints,
+    /// Constraints that depend on each other.
+    Redundant,
+    /// A combination the library refuses (an order above 2 with damping, …).
+    Unsupported,
+    /// Building the scheme failed (see the message).
+    Setup,
+}
+
+/// An error in a scene: its kind, the field's path, the message and, when the scene came from
+/// text, the file, line and column of the field.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub struct SceneError {
+    /// What kind of problem.
+    pub kind: SceneErrorKind,
+    /// The field the problem is in (empty for the whole file).
+    pub path: FieldPath,
+    /// What is wrong and, where it helps, what to do instead.
+    pub message: String,
+    /// Where the field is in the file, when known.
+    pub location: Option<Location>,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(l) = &self.location {
+            write!(f, "{}:{}:{}: ", l.file, l.line, l.column)?;
+        }
+        if !self.path.0.is_empty() {
+            write!(f, "`{}`: ", self.path)?;
+        }
+        write!(f, "{}", self.message)
+    }
+}
+
+impl SceneError {
+    /// An error of `kind` at `path`, not yet located in a file.
+    pub fn new(kind: SceneErrorKind, path: FieldPath, message: impl Into<String>) -> Self {
+        Self {
+            kind,
+            path,
+            message: message.into(),
+            location: None,
+        }
+    }
+
+    /// Fills in the location of the error's path in `text` (the file `file`): the deepest
+    /// element of the path that the document has.
+    pub fn locate(mut self, file: &str, text: &str) -> Self {
+        if self.location.is_none()
+            && let Some(offset) = span_of(text, &self.path)
+        {
+            self.location = Some(location_of(file, text, offset));
+        }
+        self
+    }
+}
+
+/// The byte offset of the deepest existing element of `path` in `text`.
+fn span_of(text: &str, path: &FieldPath) -> Option<usize> {
+    let doc = DeTable::parse(text).ok()?;
+    let mut start = doc.span().start;
+    let mut value: Option<&DeValue<'_>> = None;
+    let mut table: &DeTable<'_> = doc.get_ref();
+    for seg in &path.0 {
+        let next = match (seg, value) {
+            (PathSegment::Key(k), None) => table.get(k.as_str()),
+            (PathSegment::Key(k), Some(DeValue::Table(t))) => t.get(k.as_str()),
+            (PathSegment::Index(i), Some(DeValue::Array(a))) => a.get(*i),
+            _ => None,
+        };
+        let Some(next) = next else { break };
+        start = next.span().start;
+        value = Some(next.get_ref());
+        if let DeValue::Table(t) = next.get_ref() {
+            table = t;
+        }
+    }
+    Some(start)
+}
+
+/// Line and column (1-based, columns in characters) of byte `offset` in `text`.
+pub(crate) fn location_of(file: &str, text: &str, offset: usize) -> Location {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    Location {
+        file: file.to_owned(),
+        line,
+        column: before[line_start..].chars().count() + 1,
+    }
+}
+
+/// For serde's "unknown field `k`" inside the table spanning `span` (tagged tables are buffered,
+/// so the parser's span is the whole table): the offset of the line that sets `k`.
+pub(crate) fn unknown_key_offset(
+    message: &str,
+    text: &str,
+    span: std::ops::Range<usize>,
+) -> Option<usize> {
+    let key = message.strip_prefix("unknown field `")?.split('`').next()?;
+    let region = text.get(span.clone())?;
+    let mut offset = span.start;
+    for line in region.split_inclusive('\n') {
+        let trimmed = line.trim_start();
+        if let Some(rest) = trimmed.strip_prefix(key)
+            && rest.trim_start().starts_with('=')
+        {
+            return Some(offset + (line.len() - trimmed.len()));
+        }
+        offset += line.len();
+    }
+    None
+}

@@ -1,0 +1,410 @@
+//! The scene file format, version 1: the serde types a TOML scene deserializes into.
+//!
+//! Every table rejects unknown keys (`deny_unknown_fields`), so a misspelt key is an error that
+//! names it, never a silently ignored setting. Bodies and groups are referred to by name: a body's
+//! own `name`, a generator's name (all its bodies), `"<generator>.<i>"` (its `i`-th body,
+//! counting from 0), or `"*"` (every body).
+
+use serde::Deserialize;
+
+/// The scene format version this library reads.
+pub const SCENE_VERSION: u32 = 1;
+
+/// A whole scene file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// The format version; must be [`SCENE_VERSION`].
+    pub version: u32,
+    /// A title for summaries and plots.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Free text.
+    #[serde(default)]
+    pub description: Option<String>,
+    /// The space the bodies live in: 2 or 3. Required unless the scene is a [`Builtin`].
+    #[serde(default)]
+    pub dim: Option<usize>,
+    /// One of the library's ready models instead of bodies and effects.
+    #[serde(default)]
+    pub builtin: Option<Builtin>,
+    /// Point particles, one by one.
+    #[serde(default)]
+    pub bodies: Vec<BodySpec>,
+    /// Pendulum chains hanging from a fixed point (bodies and rods).
+    #[serde(default)]
+    pub chains: Vec<ChainSpec>,
+    /// Particles on a sphere (3D) or circle (2D), each held on it by a sphere constraint.
+    #[serde(default)]
+    pub shells: Vec<ShellSpec>,
+    /// Particles on a regular grid.
+    #[serde(default)]
+    pub grids: Vec<GridSpec>,
+    /// Holonomic constraints.
+    #[serde(default)]
+    pub constraints: Vec<ConstraintSpec>,
+    /// Terms of the Hamiltonian or of the structure matrix.
+    #[serde(default)]
+    pub effects: Vec<EffectSpec>,
+    /// The scheme, step and horizon.
+    pub integrator: IntegratorSpec,
+    /// Switches that turn declared parts off without deleting them.
+    #[serde(default)]
+    pub flags: Flags,
+}
+
+/// A ready model of the library, run through the same command and summary as a scene.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Builtin {
+    /// `"paper"` (Zhang & Deng §4), `"pendulum-chain"`, `"spherical-pendulum"`.
+    pub model: String,
+    /// Links of a `pendulum-chain` (default 10).
+    #[serde(default)]
+    pub links: Option<usize>,
+    /// Dimension of a `pendulum-chain` (2 or 3, default 2).
+    #[serde(default)]
+    pub dim: Option<usize>,
+}
+
+/// One point particle.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Unique name.
+    pub name: String,
+    /// Mass, positive.
+    pub mass: f64,
+    /// Initial position (`dim` entries).
+    pub position: Vec<f64>,
+    /// Initial velocity (`dim` entries; default 0).
+    #[serde(default)]
+    pub velocity: Option<Vec<f64>>,
+    /// Electric charge, for a magnetic field (default 0).
+    #[serde(default)]
+    pub charge: f64,
+}
+
+/// A chain of `links` bodies joined by rods, the first rod fixed at `anchor`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChainSpec {
+    /// Name; its bodies are `"<name>.0"` (next to the anchor) … `"<name>.<links − 1>"`.
+    pub name: String,
+    /// Number of links (bodies), at least 1.
+    pub links: usize,
+    /// The fixed point the first rod hangs from (default: the origin).
+    #[serde(default)]
+    pub anchor: Option<Vec<f64>>,
+    /// Direction the chain initially points in (default: along the first axis).
+    #[serde(default)]
+    pub direction: Option<Vec<f64>>,
+    /// Length of every link, positive.
+    pub length: f64,
+    /// Mass of every body, positive.
+    pub mass: f64,
+    /// Charge of every body (default 0).
+    #[serde(default)]
+    pub charge: f64,
+}
+
+/// Particles on the sphere `|q − center| = radius` (a circle in 2D).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShellSpec {
+    /// Name; its bodies are `"<name>.0"`, `"<name>.1"`, ….
+    pub name: String,
+    /// Centre (default: the origin).
+    #[serde(default)]
+    pub center: Option<Vec<f64>>,
+    /// Radius, positive.
+    pub radius: f64,
+    /// Mass of every particle, positive.
+    pub mass: f64,
+    /// Charge of every particle (default 0).
+    #[serde(default)]
+    pub charge: f64,
+    /// 3D: particles per ring, rings at polar angles `(k + ½) π / R` for `k = 0 … R − 1`, the
+    /// `j`-th of `n` at azimuth `2π (j + k/2) / n`. 2D: one entry, the number of particles
+    /// evenly spaced on the circle.
+    #[serde(default)]
+    pub rings: Option<Vec<usize>>,
+    /// Explicit positions instead of rings; each must lie on the sphere (to `1e-12` relative).
+    #[serde(default)]
+    pub positions: Option<Vec<Vec<f64>>>,
+    /// Initial velocities for explicit positions (tangent to the sphere; default 0).
+    #[serde(default)]
+    pub velocities: Option<Vec<Vec<f64>>>,
+}
+
+/// Particles on a grid `origin + spacing · (i, j[, k])`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    /// Name; its bodies are `"<name>.0"` … in row-major order (last axis fastest).
+    pub name: String,
+    /// Corner of the grid (default: the origin).
+    #[serde(default)]
+    pub origin: Option<Vec<f64>>,
+    /// Distance between neighbours, positive.
+    pub spacing: f64,
+    /// Particles along each axis (`dim` entries, each at least 1).
+    pub counts: Vec<usize>,
+    /// Mass of every particle, positive.
+    pub mass: f64,
+    /// Charge of every particle (default 0).
+    #[serde(default)]
+    pub charge: f64,
+    /// Initial velocity of every particle (default 0).
+    #[serde(default)]
+    pub velocity: Option<Vec<f64>>,
+}
+
+/// A holonomic constraint, by `type`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum ConstraintSpec {
+    /// `q_b = point` for each body `b` (`dim` equations each).
+    Pin {
+        /// The bodies pinned.
+        bodies: Vec<String>,
+        /// Where (default: each body's initial position; only for a single body).
+        #[serde(default)]
+        point: Option<Vec<f64>>,
+    },
+    /// `|q_a − q_b| = length` between two bodies, or between one body and a fixed `point`.
+    Rod {
+        /// One or two bodies.
+        bodies: Vec<String>,
+        /// The fixed end, when one body is named.
+        #[serde(default)]
+        point: Option<Vec<f64>>,
+        /// Length (default: the initial distance).
+        #[serde(default)]
+        length: Option<f64>,
+    },
+    /// `|q_b − center| = radius` for each body `b`.
+    Sphere {
+        /// The bodies held on the sphere.
+        bodies: Vec<String>,
+        /// Centre (default: the origin).
+        #[serde(default)]
+        center: Option<Vec<f64>>,
+        /// Radius (default: each body's initial distance from the centre).
+        #[serde(default)]
+        radius: Option<f64>,
+    },
+    /// `n · q_b = offset` for each body `b` (`n` normalized).
+    Plane {
+        /// The bodies held on the plane.
+        bodies: Vec<String>,
+        /// The normal, non-zero.
+        normal: Vec<f64>,
+        /// Offset (default: `n · q_b` of the first body's initial position).
+        #[serde(default)]
+        offset: Option<f64>,
+    },
+}
+
+/// A term of the Hamiltonian or of the structure matrix, by `type`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum EffectSpec {
+    /// Uniform gravity `V = −Σ m_b g · q_b`.
+    Gravity {
+        /// Label in summaries (default `gravity`).
+        #[serde(default)]
+        name: Option<String>,
+        /// Acceleration (`dim` entries), e.g. `[0, -9.81]`.
+        g: Vec<f64>,
+        /// Bodies it acts on (default: all).
+        #[serde(default)]
+        bodies: Option<Vec<String>>,
+    },
+    /// A spring between two bodies, `V = k/2 (|q_a − q_b| − L)²`.
+    Spring {
+        /// Label in summaries (default `spring`).
+        #[serde(default)]
+        name: Option<String>,
+        /// Exactly two bodies.
+        bodies: Vec<String>,
+        /// Stiffness `k ≥ 0`.
+        stiffness: f64,
+        /// Rest length `L ≥ 0` (default: the initial distance).
+        #[serde(default)]
+        rest_length: Option<f64>,
+    },
+    /// A pair potential between every two bodies of a group.
+    Pair {
+        /// Label in summaries (default `pair`).
+        #[serde(default)]
+        name: Option<String>,
+        /// The group (default: all bodies).
+        #[serde(default)]
+        bodies: Option<Vec<String>>,
+        /// `"inverse-power"` (`s / rⁿ`), `"log"` (`−s ln r`) or `"lennard-jones"`
+        /// (`4ε ((σ/r)¹² − (σ/r)⁶)`).
+        law: String,
+        /// `s` of `inverse-power` and `log`.
+        #[serde(default)]
+        strength: Option<f64>,
+        /// `n > 0` of `inverse-power` (default 1: Coulomb).
+        #[serde(default)]
+        power: Option<f64>,
+        /// `ε > 0` of `lennard-jones`.
+        #[serde(default)]
+        epsilon: Option<f64>,
+        /// `σ > 0` of `lennard-jones`.
+        #[serde(default)]
+        sigma: Option<f64>,
+    },
+    /// A harmonic trap `V = k/2 Σ |q_b − c|²`.
+    Trap {
+        /// Label in summaries (default `trap`).
+        #[serde(default)]
+        name: Option<String>,
+        /// Stiffness `k ≥ 0`.
+        stiffness: f64,
+        /// Centre (default: the origin).
+        #[serde(default)]
+        center: Option<Vec<f64>>,
+        /// Bodies it acts on (default: all).
+        #[serde(default)]
+        bodies: Option<Vec<String>>,
+    },
+    /// Viscous damping of the momenta, `p_b' = … − c v_b`: the `R` of `M = J − R`.
+    Damping {
+        /// Label in summaries (default `damping`).
+        #[serde(default)]
+        name: Option<String>,
+        /// Coefficient `c ≥ 0` (force per velocity).
+        coefficient: f64,
+        /// Bodies it acts on (default: all).
+        #[serde(default)]
+        bodies: Option<Vec<String>>,
+    },
+    /// A uniform magnetic field on charged bodies, `p_b' = … + e_b v_b × B`: a non-canonical `J`.
+    Magnetic {
+        /// Label in summaries (default `magnetic`).
+        #[serde(default)]
+        name: Option<String>,
+        /// `B`: one entry (`B_z`, out of the plane) in 2D, three in 3D.
+        field: Vec<f64>,
+        /// Bodies it acts on (default: all; bodies without charge feel nothing).
+        #[serde(default)]
+        bodies: Option<Vec<String>>,
+    },
+}
+
+/// The scheme, step size and horizon.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorSpec {
+    /// `"auto"` (default: the splitting of the declared effects, composed to `order`), or a
+    /// composition by name: `"strang"`, `"triple-jump"`, `"suzuki4"`, `"yoshida6"`,
+    /// `"kahan-li6"`, `"suzuki-umeno8"`, `"kahan-li8"`.
+    #[serde(default = "default_scheme")]
+    pub scheme: String,
+    /// The order for `auto`: 2, 4, 6 or 8 (default 2). With damping only 2.
+    #[serde(default)]
+    pub order: Option<u32>,
+    /// Step size, positive.
+    pub dt: f64,
+    /// Final time, positive (`t_end / dt` steps, rounded to the nearest integer).
+    pub t_end: f64,
+    /// Diagnostics computed after every step: `"energy"`, `"constraints"` (`|g|`, `|φ|`),
+    /// `"profile"` (time per effect). Default: energy and constraints.
+    #[serde(default = "default_diagnostics")]
+    pub diagnostics: Vec<String>,
+    /// Project an initial state that is off the constraints onto them (mass-weighted,
+    /// positions then velocities) and report by how much, instead of refusing it.
+    #[serde(default)]
+    pub project_initial: bool,
+}
+
+fn default_scheme() -> String {
+    "auto".to_owned()
+}
+
+fn default_diagnostics() -> Vec<String> {
+    vec!["energy".to_owned(), "constraints".to_owned()]
+}
+
+/// Switches (all on by default): `false` removes the declared parts of that kind from the
+/// assembled model, as if they were not written — no term, no sub-flow, no evaluation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Flags {
+    /// Gravity effects.
+    pub gravity: bool,
+    /// Spring effects.
+    pub springs: bool,
+    /// Pair potentials.
+    pub pair: bool,
+    /// Traps.
+    pub trap: bool,
+    /// Damping.
+    pub damping: bool,
+    /// Magnetic fields.
+    pub magnetic: bool,
+    /// Every constraint (the rods of chains and the spheres of shells too).
+    pub constraints: bool,
+    /// The energy diagnostic.
+    pub energy: bool,
+    /// The constraint-residual diagnostic.
+    pub residuals: bool,
+}
+
+impl Flags {
+    /// The names of the switches, as in the file.
+    pub const NAMES: [&'static str; 9] = [
+        "gravity",
+        "springs",
+        "pair",
+        "trap",
+        "damping",
+        "magnetic",
+        "constraints",
+        "energy",
+        "residuals",
+    ];
+
+    /// Sets the switch `name` (one of [`NAMES`](Self::NAMES)); `Err` names the valid ones.
+    pub fn set(&mut self, name: &str, on: bool) -> Result<(), String> {
+        let slot = match name {
+            "gravity" => &mut self.gravity,
+            "springs" => &mut self.springs,
+            "pair" => &mut self.pair,
+            "trap" => &mut self.trap,
+            "damping" => &mut self.damping,
+            "magnetic" => &mut self.magnetic,
+            "constraints" => &mut self.constraints,
+            "energy" => &mut self.energy,
+            "residuals" => &mut self.residuals,
+            _ => {
+                return Err(format!(
+                    "unknown flag '{name}' (one of {})",
+                    Self::NAMES.join(", ")
+                ));
+            }
+        };
+        *slot = on;
+        Ok(())
+    }
+}
+
+impl Default for Flags {
+    fn default() -> Self {
+        Self {
+            gravity: true,
+            springs: true,
+            pair: true,
+            trap: true,
+            damping: true,
+            magnetic: true,
+            constraints: true,
+            energy: true,
+            residuals: true,
+        }
+    }
+}
