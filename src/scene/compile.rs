@@ -12,7 +12,10 @@ use super::schema::{
 };
 use crate::error::SetupError;
 use crate::flow::coefficients::table_by_name;
-use crate::flow::{CompositionTable, Coupling, Flow, FlowExt, ProjectionOptions, Scheme, from_fn};
+use crate::flow::{
+    CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
+    ProjectionOptions, Scheme, from_fn,
+};
 use crate::linalg::{LinearSolver, Sink, SolverChoice, Structure};
 use crate::nonlinear::NewtonOptions;
 use crate::system::{Case, HolonomicConstraint, System};
@@ -881,7 +884,7 @@ fn choose_scheme(
             };
             (table, order)
         }
-        "strang" => (None, 2),
+        "strang" | "discrete-gradient" => (None, 2),
         name => match table_by_name(name) {
             Some(t) => (Some(t), t.order),
             None => {
@@ -889,7 +892,7 @@ fn choose_scheme(
                     SceneErrorKind::Value,
                     path.key("scheme"),
                     format!(
-                        "unknown scheme '{name}' (auto, strang, triple-jump, suzuki4, yoshida6, kahan-li6, suzuki-umeno8, kahan-li8)"
+                        "unknown scheme '{name}' (auto, strang, discrete-gradient, triple-jump, suzuki4, yoshida6, kahan-li6, suzuki-umeno8, kahan-li8)"
                     ),
                 ));
             }
@@ -1106,7 +1109,33 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
     let mut projection = None;
     let mut solver = None;
     let scheme_name;
-    let flow: Box<dyn Flow<Col<f64>>> = if m == 0 {
+    let discrete_gradient = file.integrator.scheme == "discrete-gradient";
+    let flow: Box<dyn Flow<Col<f64>>> = if discrete_gradient {
+        let setup = |e: SetupError| setup_error(&model, e);
+        let newton = NewtonOptions::default();
+        if m == 0 {
+            scheme_name = "discrete gradient (Gonzalez)";
+            Box::new(
+                DiscreteGradient::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
+                    model.clone(),
+                    model.clone(),
+                    &x0,
+                    newton,
+                )
+                .map_err(setup)?,
+            )
+        } else {
+            scheme_name =
+                "constrained discrete gradient (Gonzalez) with hidden-constraint projection";
+            let system = System::new(model.clone(), model.clone(), model.clone());
+            let options = projection_options(&model, &x0);
+            case = Some("degenerate".to_owned());
+            Box::new(
+                ConstrainedDiscreteGradient::<Col<f64>, _, _, _>::try_new(system, &x0, options)
+                    .map_err(setup)?,
+            )
+        }
+    } else if m == 0 {
         scheme_name = if has_potential {
             "free flight ∘ kick ∘ free flight (Strang)"
         } else {
@@ -1279,11 +1308,11 @@ fn projection_options(model: &SceneModel, x0: &Col<f64>) -> ProjectionOptions<f6
         ell = extent.max(1.0);
     }
     let big = extent.max(ell).max(1.0);
-    let ftol = 16.0 * f64::EPSILON * ell.min(1.0).max(ell) * big;
+    let ftol = 16.0 * f64::EPSILON * ell * big;
     ProjectionOptions::default()
         .with_case(Case::Degenerate)
         .with_coupling(Coupling::Decoupled)
-        .with_newton(NewtonOptions::default().with_ftol(ftol.max(2.0 * f64::EPSILON)))
+        .with_newton(NewtonOptions::default().with_ftol(ftol))
 }
 
 /// `Some((value, row, "position"|"velocity"))` when the initial state violates `g = 0` or
@@ -1449,6 +1478,13 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
     let path = FieldPath::root().key("builtin");
     let (steps, energy, residuals, _) = plan(&file.integrator, &file.flags)?;
     let (table, order) = choose_scheme(&file.integrator, false)?;
+    if file.integrator.scheme == "discrete-gradient" {
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            FieldPath::root().key("integrator").key("scheme"),
+            "the built-in models run the projection schemes; the discrete gradient is for scenes of bodies",
+        ));
+    }
     let dt = file.integrator.dt;
     let setup = |e: SetupError| err(SceneErrorKind::Setup, path.clone(), e.to_string());
     let compose = |t: Option<&'static CompositionTable>, name: &str| match t {

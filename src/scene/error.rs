@@ -170,15 +170,16 @@ pub(crate) fn location_of(file: &str, text: &str, offset: usize) -> Location {
     }
 }
 
-/// For serde's "unknown field `k`" inside the table spanning `span` (tagged tables are buffered,
-/// so the parser's span is the whole table): the offset of the line that sets `k`.
+/// For serde's "unknown field `k`" reported at `span` (for a buffered, tagged table the parser
+/// reports the header of the array's first table): the offset of the first line at or after
+/// `span` that sets `k`.
 pub(crate) fn unknown_key_offset(
     message: &str,
     text: &str,
     span: std::ops::Range<usize>,
 ) -> Option<usize> {
     let key = message.strip_prefix("unknown field `")?.split('`').next()?;
-    let region = text.get(span.clone())?;
+    let region = text.get(span.start..)?;
     let mut offset = span.start;
     for line in region.split_inclusive('\n') {
         let trimmed = line.trim_start();

@@ -1,0 +1,107 @@
+//! What each effect costs: ns/step of `scenes/all_effects.toml` (19 bodies, 11 constraint rows)
+//! as its effects are switched on one by one, from the bare constrained bodies (kinetic term and
+//! constraints only) to the full scene; and the same chain as a scene and as the built-in
+//! `PendulumChain` (the generic scene model against the hand-specialized one, same process).
+//! A switched-off effect has no term and no sub-flow, so each row adds only its own work.
+//!
+//! ```text
+//! cargo bench --bench scene_effects
+//! ```
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use faer::Col;
+use lieflow::Flow;
+use lieflow::flow::FlowExt;
+use lieflow::models::pendulum_chain::PendulumChain;
+use lieflow::scene::Scene;
+use std::time::{Duration, Instant};
+
+const ALL_EFFECTS: &str = include_str!("../scenes/all_effects.toml");
+
+/// The kinds in the order they are switched on.
+const ORDER: [&str; 6] = ["gravity", "springs", "pair", "trap", "magnetic", "damping"];
+
+fn scene_with(on: usize) -> Scene {
+    let mut s = Scene::from_toml(ALL_EFFECTS, "all_effects.toml").expect("parses");
+    for (i, flag) in ORDER.iter().enumerate() {
+        s.file.flags.set(flag, i < on).expect("a flag");
+    }
+    s
+}
+
+/// Times `iters` steps, recompiling (untimed) every `chunk` steps so that the state stays within
+/// the scene's first seconds whatever criterion's iteration count.
+fn time_steps(scene: &Scene, iters: u64, chunk: u64) -> Duration {
+    let mut total = Duration::ZERO;
+    let mut done = 0;
+    while done < iters {
+        let mut sim = scene.compile().expect("compiles").simulation;
+        let n = chunk.min(iters - done);
+        let start = Instant::now();
+        for _ in 0..n {
+            sim.step().expect("a step");
+        }
+        total += start.elapsed();
+        done += n;
+    }
+    total
+}
+
+fn bench(c: &mut Criterion) {
+    let mut group = c.benchmark_group("scene_effects");
+    group.measurement_time(Duration::from_secs(3));
+    for on in 0..=ORDER.len() {
+        let scene = scene_with(on);
+        let name = if on == 0 {
+            "bodies+constraints".to_owned()
+        } else {
+            format!("+{}", ORDER[on - 1])
+        };
+        group.bench_function(name, |b| {
+            b.iter_custom(|iters| time_steps(&scene, iters, 2000))
+        });
+    }
+    group.finish();
+
+    // The same 64-link chain under gravity, RATTLE, h = 1e-3: scene against built-in model.
+    let links = 64;
+    let angle = 0.5f64;
+    let text = format!(
+        "version = 1\ndim = 2\n[[chains]]\nname = \"c\"\nlinks = {links}\ndirection = [{}, {}]\nlength = {}\nmass = 1.0\n[[effects]]\ntype = \"gravity\"\ng = [0.0, -1.0]\n[integrator]\ndt = 1e-3\nt_end = 1.0\ndiagnostics = []\n",
+        angle.sin(),
+        -angle.cos(),
+        1.0 / links as f64
+    );
+    let scene = Scene::from_toml(&text, "chain.toml").expect("parses");
+    let mut group = c.benchmark_group("chain64_step");
+    group.bench_function("scene", |b| {
+        b.iter_custom(|iters| time_steps(&scene, iters, 1000))
+    });
+    let chain = PendulumChain::<f64>::uniform(2, links).expect("a chain");
+    group.bench_function("built_in_model", |b| {
+        b.iter_custom(|iters| {
+            let mut total = Duration::ZERO;
+            let mut done = 0;
+            while done < iters {
+                let mut x: Col<f64> = chain.at_rest(|_| angle);
+                let mut flow = chain
+                    .kick()
+                    .strang(chain.drift())
+                    .projected(chain.system(), &x, chain.projection_options())
+                    .expect("a projection");
+                let n = 1000.min(iters - done);
+                let start = Instant::now();
+                for _ in 0..n {
+                    flow.step(1e-3, &mut x).expect("a step");
+                }
+                total += start.elapsed();
+                done += n;
+            }
+            total
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,247 @@
+//! The `lieflow` command as a user runs it: flags, exit codes, the JSON line, CSV and SVG.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn lieflow(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lieflow"))
+        .args(args)
+        .output()
+        .expect("runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8(o.stdout.clone()).unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8(o.stderr.clone()).unwrap()
+}
+
+/// The last line of stdout as JSON.
+fn summary(o: &Output) -> serde_json::Value {
+    let out = stdout(o);
+    let last = out.lines().last().expect("output");
+    serde_json::from_str(last).unwrap_or_else(|e| panic!("{e}: {last}"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lieflow-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn repo(path: &str) -> String {
+    format!("{}/../{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn run_without_a_scene_runs_the_default_and_ends_with_json() {
+    let o = lieflow(&["run", "--t-end", "0.5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = summary(&o);
+    assert_eq!(j["steps"], 5000);
+    assert!((j["t"].as_f64().unwrap() - 0.5).abs() < 1e-12);
+    assert!(j["max_abs_g"].as_f64().unwrap() < 1e-13);
+    assert!(j["ns_per_step"].as_f64().unwrap() > 0.0);
+    assert!(j["max_energy_increase"].as_f64().unwrap() <= 0.0);
+    let names: Vec<&str> = j["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "kinetic",
+            "gravity",
+            "coupling",
+            "right damper",
+            "constraints"
+        ]
+    );
+    assert!(j["error"].is_null());
+}
+
+#[test]
+fn scene_prints_a_scene_that_check_accepts() {
+    let o = lieflow(&["scene"]);
+    assert!(o.status.success());
+    let path = scratch("default.toml");
+    std::fs::write(&path, stdout(&o)).unwrap();
+    let c = lieflow(&["check", path.to_str().unwrap()]);
+    assert!(c.status.success(), "{}", stderr(&c));
+    let text = stdout(&c);
+    for what in [
+        "6 rod",
+        "coupling (spring)",
+        "degenerate",
+        "Strang",
+        "order 2",
+        "dissipative",
+    ] {
+        assert!(text.contains(what), "`{what}` missing from:\n{text}");
+    }
+    let j = lieflow(&["check", "--json", path.to_str().unwrap()]);
+    let j: serde_json::Value = serde_json::from_str(stdout(&j).trim()).unwrap();
+    assert_eq!(j["constraint_rows"], 6);
+}
+
+#[test]
+fn a_bad_scene_exits_2_with_file_line_and_field() {
+    let text = lieflow::scene::DEFAULT_SCENE.replace("coefficient = 0.3", "coefficient = -0.3");
+    let path = scratch("bad.toml");
+    std::fs::write(&path, text).unwrap();
+    let o = lieflow(&["run", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(err.contains("bad.toml:"), "{err}");
+    assert!(err.contains("effects[2].coefficient"), "{err}");
+    assert!(o.stdout.is_empty());
+    let o = lieflow(&["run", "--off", "gravitation"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("unknown flag"));
+    let o = lieflow(&["run", "--dt", "-1"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = lieflow(&["run", "--bogus"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn csv_and_plot_are_written_and_flags_switch_effects_off() {
+    let csv = scratch("run.csv");
+    let svg = scratch("run.svg");
+    let o = lieflow(&[
+        "run",
+        &repo("scenes/all_effects.toml"),
+        "--t-end",
+        "0.2",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--every",
+        "10",
+        "--plot",
+        svg.to_str().unwrap(),
+        "--off",
+        "pair",
+        "--off",
+        "magnetic",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = summary(&o);
+    let kinds: Vec<&str> = j["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["kind"].as_str().unwrap())
+        .collect();
+    assert!(
+        !kinds.contains(&"pair") && !kinds.contains(&"magnetic"),
+        "{kinds:?}"
+    );
+    assert!(kinds.contains(&"trap") && kinds.contains(&"damping"));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    // step, t, 2·2·19 state entries, energy, max_abs_g, max_abs_phi.
+    assert_eq!(header.len(), 2 + 76 + 3);
+    assert_eq!(header[..2], ["step", "t"]);
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 200 / 10 + 1);
+    for r in &rows {
+        assert_eq!(r.split(',').count(), header.len());
+        for v in r.split(',') {
+            v.parse::<f64>().unwrap();
+        }
+    }
+    let svg = std::fs::read_to_string(&svg).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("constraint residual"));
+}
+
+#[test]
+fn a_failing_run_exits_1_and_keeps_what_it_computed() {
+    // A pendulum whirling at h = 0.5: in the second step the rod's multiplier equation
+    // g(x_{k+1}) = 0 has no solution near the iterates (the drift overshoots the circle by more
+    // than a half-step force can pull back), Newton stops, and the run ends there with the typed
+    // error; the CSV holds every step up to it, the JSON says what failed.
+    let text = r#"
+        version = 1
+        dim = 2
+        [[bodies]]
+        name = "bob"
+        mass = 1.0
+        position = [1.0, 0.0]
+        velocity = [0.0, 3.0]
+        [[constraints]]
+        type = "rod"
+        bodies = ["bob"]
+        point = [0.0, 0.0]
+        [[effects]]
+        type = "gravity"
+        g = [0.0, -9.81]
+        [integrator]
+        dt = 0.5
+        t_end = 20.0
+    "#;
+    let path = scratch("failing.toml");
+    std::fs::write(&path, text).unwrap();
+    let csv = scratch("failing.csv");
+    let o = lieflow(&[
+        "run",
+        path.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+        "--every",
+        "1",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("Newton did not converge"),
+        "{}",
+        stderr(&o)
+    );
+    let j = summary(&o);
+    let steps = j["steps"].as_u64().unwrap();
+    assert!(steps < 40, "{steps}");
+    assert_eq!(j["error"]["kind"], "Newton");
+    assert_eq!(j["error"]["step"].as_u64().unwrap(), steps);
+    // The state is the last good one: on the circle.
+    let x: Vec<f64> = j["x"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(((x[0] * x[0] + x[1] * x[1]).sqrt() - 1.0).abs() < 1e-14);
+    let rows = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .count();
+    // The header and steps 0 … steps.
+    assert_eq!(rows as u64, 1 + steps + 1);
+}
+
+#[test]
+fn help_lists_the_subcommands() {
+    let o = lieflow(&["--help"]);
+    assert!(o.status.success());
+    let text = stdout(&o);
+    for sub in ["run", "check", "scene"] {
+        assert!(text.contains(sub));
+    }
+    let o = lieflow(&["run", "--help"]);
+    let text = stdout(&o);
+    for flag in [
+        "--csv",
+        "--plot",
+        "--every",
+        "--off",
+        "--dt",
+        "--t-end",
+        "--profile",
+    ] {
+        assert!(text.contains(flag), "{flag}");
+    }
+}

@@ -1,0 +1,699 @@
+//! Scenes: only what is declared is assembled and evaluated; the assembled sub-flows are exact
+//! and compose to the promised orders; errors are typed and located.
+
+use faer::Col;
+use lieflow::flow::FlowExt;
+use lieflow::models::pendulum_chain::PendulumChain;
+use lieflow::scene::{
+    DEFAULT_SCENE, EffectReport, RunSummary, Scene, SceneErrorKind, SceneFile, run,
+};
+use lieflow::{Flow, Hamiltonian, HolonomicConstraint, Vector};
+
+const ALL_EFFECTS: &str = include_str!("../scenes/all_effects.toml");
+
+fn parse(text: &str) -> Scene {
+    Scene::from_toml(text, "test.toml").unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn run_scene(scene: &Scene) -> RunSummary {
+    let mut c = scene.compile().unwrap_or_else(|e| panic!("{e}"));
+    run(c.simulation.as_mut(), &c.plan, &mut |_| {})
+}
+
+/// Replaces the `[integrator]` table's `key = …` line.
+fn set(text: &str, key: &str, value: &str) -> String {
+    let mut out = String::new();
+    let mut done = false;
+    for line in text.lines() {
+        if !done && line.starts_with(&format!("{key} =")) {
+            out.push_str(&format!("{key} = {value}\n"));
+            done = true;
+        } else {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    assert!(done, "no line `{key} = …`");
+    out
+}
+
+fn counts(effects: &[EffectReport]) -> Vec<(String, u64)> {
+    effects
+        .iter()
+        .map(|e| (e.name.clone(), e.evaluations))
+        .collect()
+}
+
+/// Removes every `[[effects]]` block of type `kind`.
+fn without_effects_of(text: &str, kind: &str) -> String {
+    let blocks: Vec<&str> = text.split("\n[[").collect();
+    let kept: Vec<&str> = blocks
+        .into_iter()
+        .filter(|b| !(b.starts_with("effects]]") && b.contains(&format!("type = \"{kind}\""))))
+        .collect();
+    kept.join("\n[[")
+}
+
+#[test]
+fn a_switched_off_effect_is_never_evaluated_and_the_run_equals_the_run_without_it() {
+    let short = set(ALL_EFFECTS, "t_end", "0.2");
+    for (flag, effect, kind) in [
+        ("springs", "arm-slider", "spring"),
+        ("pair", "coulomb", "pair"),
+        ("magnetic", "magnetic", "magnetic"),
+    ] {
+        // The flag switches off every effect of its kind; the file without them is the
+        // reference.
+        let off = short.replace("[flags]", &format!("[flags]\n{flag} = false"));
+        let removed = without_effects_of(&short, kind);
+        assert!(!removed.contains(&format!("type = \"{kind}\"")));
+        assert!(short.contains(&format!("type = \"{kind}\"")));
+        let a = run_scene(&parse(&off));
+        let b = run_scene(&parse(&removed));
+        assert_eq!(a.steps, 40 * 5);
+        assert_eq!(a.error, None);
+        // Bit for bit: the same terms in the same order.
+        assert_eq!(a.x.len(), b.x.len());
+        for (u, v) in a.x.iter().zip(&b.x) {
+            assert_eq!(u.to_bits(), v.to_bits(), "{flag}: {u} vs {v}");
+        }
+        assert_eq!(counts(&a.effects), counts(&b.effects), "{flag}");
+        assert!(
+            a.effects.iter().all(|e| e.kind != kind),
+            "{flag}: an effect of kind {kind} was assembled: {:?}",
+            a.effects
+        );
+        // And with it on, it is evaluated.
+        let on = run_scene(&parse(&short));
+        let n = on.effects.iter().find(|e| e.name == effect).unwrap();
+        assert!(n.evaluations > 0);
+    }
+}
+
+#[test]
+fn every_declared_effect_is_evaluated_and_constraints_hold_at_round_off() {
+    let s = run_scene(&parse(&set(ALL_EFFECTS, "t_end", "0.5")));
+    assert_eq!(s.error, None);
+    assert_eq!(s.steps, 500);
+    for e in &s.effects {
+        assert!(e.evaluations > 0, "{} never evaluated", e.name);
+    }
+    // Rods of length 0.4 and spheres of radius 0.5 at positions of size ~3: |g| is a few ulps
+    // of |q|².
+    assert!(
+        s.max_abs_g.unwrap() < 64.0 * f64::EPSILON * 9.0,
+        "{:?}",
+        s.max_abs_g
+    );
+    assert!(s.max_abs_phi.unwrap() < 1e-12, "{:?}", s.max_abs_phi);
+}
+
+/// The chain of the built-in model and the same chain as a scene: the same equations, the same
+/// RATTLE splitting; they agree to the Newton tolerance accumulated over the run.
+#[test]
+fn a_chain_scene_runs_the_built_in_chain() {
+    let links = 8;
+    let angle = 0.5f64;
+    let text = format!(
+        r#"
+        version = 1
+        dim = 2
+        [[chains]]
+        name = "c"
+        links = {links}
+        direction = [{}, {}]
+        length = {}
+        mass = 1.0
+        [[effects]]
+        type = "gravity"
+        g = [0.0, -1.0]
+        [integrator]
+        dt = 0.01
+        t_end = 2.0
+        "#,
+        angle.sin(),
+        -angle.cos(),
+        1.0 / links as f64
+    );
+    let s = run_scene(&parse(&text));
+    let chain = PendulumChain::<f64>::uniform(2, links).unwrap();
+    let mut x: Col<f64> = chain.at_rest(|_| angle);
+    let mut flow = chain
+        .kick()
+        .strang(chain.drift())
+        .projected(chain.system(), &x, chain.projection_options())
+        .unwrap();
+    for _ in 0..200 {
+        flow.step(0.01, &mut x).unwrap();
+    }
+    let diff =
+        s.x.iter()
+            .zip(x.as_slice())
+            .fold(0.0f64, |a, (u, v)| a.max((u - v).abs()));
+    // Both solve the same multiplier equations to a tolerance of ~16 ε l L per step.
+    assert!(diff < 1e-11, "scene vs built-in chain: {diff:e}");
+    // The energies agree too.
+    let e_builtin = chain.energy(&x);
+    assert!((s.energy_final.unwrap() - e_builtin).abs() < 1e-11);
+}
+
+/// A charged particle in a uniform field with damping: the free flight is exact, so any step
+/// size reproduces the closed form `v(t) = v₀ e^{(−γ − iω) t}` (complex notation, `ω = eB/m`,
+/// `γ = c/m`) to round-off.
+#[test]
+fn the_magnetic_and_damped_free_flight_is_exact() {
+    let (m, e, bz, c) = (2.0, 1.5, 0.7, 0.3);
+    let (vx, vy) = (0.4, -1.1);
+    for damping in [0.0, c] {
+        let text = format!(
+            r#"
+            version = 1
+            dim = 2
+            [[bodies]]
+            name = "ion"
+            mass = {m}
+            charge = {e}
+            position = [0.1, 0.2]
+            velocity = [{vx}, {vy}]
+            [[effects]]
+            type = "magnetic"
+            field = [{bz}]
+            [[effects]]
+            type = "damping"
+            coefficient = {damping}
+            [integrator]
+            dt = 0.37
+            t_end = 37.0
+            "#
+        );
+        let s = run_scene(&parse(&text));
+        let t = s.t;
+        let (w, g) = (e * bz / m, damping / m);
+        // z = −γ − iω; e^{zt} = e^{−γt}(cos ωt − i sin ωt).
+        let (er, ei) = (
+            (-g * t).exp() * (w * t).cos(),
+            -(-g * t).exp() * (w * t).sin(),
+        );
+        let v = (vx * er - vy * ei, vx * ei + vy * er);
+        // (e^{zt} − 1)/z.
+        let (nr, ni) = (er - 1.0, ei);
+        let den = g * g + w * w;
+        let (ar, ai) = ((nr * -g + ni * -w) / den, (ni * -g - nr * -w) / den);
+        let q = (0.1 + vx * ar - vy * ai, 0.2 + vx * ai + vy * ar);
+        let expect = [q.0, q.1, m * v.0, m * v.1];
+        for (a, b) in s.x.iter().zip(expect) {
+            assert!((a - b).abs() < 1e-13, "{:?} vs {expect:?}", s.x);
+        }
+        if damping == 0.0 {
+            assert!(s.max_abs_energy_error.unwrap() < 1e-14);
+        } else {
+            assert!(s.max_energy_increase.unwrap() <= 0.0);
+        }
+    }
+}
+
+/// In 3D with the field along an arbitrary axis, the flight is the 2D one in the plane across
+/// the field, rotated, plus uniform (damped) motion along it.
+#[test]
+fn the_3d_flight_is_the_rotated_planar_one() {
+    let bhat = {
+        let b = [1.0f64, -2.0, 0.5];
+        let n = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+        b.map(|x| x / n)
+    };
+    // An orthonormal frame (u, w, b̂) with u × w = b̂.
+    let u = {
+        let a = [0.0, 0.0, 1.0];
+        let c = cross(a, bhat);
+        let n = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        c.map(|x| x / n)
+    };
+    let w = cross(bhat, u);
+    let (bmag, v2, vpar) = (0.9, [0.3, -0.8], 0.25);
+    let v3: Vec<f64> = (0..3)
+        .map(|k| v2[0] * u[k] + v2[1] * w[k] + vpar * bhat[k])
+        .collect();
+    let scene3 = format!(
+        r#"
+        version = 1
+        dim = 3
+        [[bodies]]
+        name = "ion"
+        mass = 1.0
+        charge = 1.0
+        position = [0.0, 0.0, 0.0]
+        velocity = [{}, {}, {}]
+        [[effects]]
+        type = "magnetic"
+        field = [{}, {}, {}]
+        [[effects]]
+        type = "damping"
+        coefficient = 0.2
+        [integrator]
+        dt = 0.5
+        t_end = 10.0
+        "#,
+        v3[0],
+        v3[1],
+        v3[2],
+        bmag * bhat[0],
+        bmag * bhat[1],
+        bmag * bhat[2]
+    );
+    let scene2 = format!(
+        r#"
+        version = 1
+        dim = 2
+        [[bodies]]
+        name = "ion"
+        mass = 1.0
+        charge = 1.0
+        position = [0.0, 0.0]
+        velocity = [{}, {}]
+        [[effects]]
+        type = "magnetic"
+        field = [{bmag}]
+        [[effects]]
+        type = "damping"
+        coefficient = 0.2
+        [integrator]
+        dt = 0.5
+        t_end = 10.0
+        "#,
+        v2[0], v2[1]
+    );
+    let a = run_scene(&parse(&scene3));
+    let b = run_scene(&parse(&scene2));
+    let t = a.t;
+    let par = vpar * (1.0 - (-0.2 * t).exp()) / 0.2;
+    for k in 0..3 {
+        let q = b.x[0] * u[k] + b.x[1] * w[k] + par * bhat[k];
+        let p = b.x[2] * u[k] + b.x[3] * w[k] + vpar * (-0.2 * t).exp() * bhat[k];
+        assert!((a.x[k] - q).abs() < 1e-13, "q[{k}]");
+        assert!((a.x[3 + k] - p).abs() < 1e-13, "p[{k}]");
+    }
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Every term's gradient is the derivative of its energy, and its Hessian product the derivative
+/// of its gradient (central differences, error `O(δ²)`): the projection's Newton matrices and
+/// the kick rely on them.
+#[test]
+fn gradients_and_hessians_of_every_term_match_finite_differences() {
+    let flags_off_damping = ALL_EFFECTS.replace("[flags]", "[flags]\ndamping = false");
+    let c = parse(&flags_off_damping).compile().unwrap();
+    let model = c.model.unwrap();
+    let x0 = Col::<f64>::from_fn(c.simulation.state().len(), |i| {
+        c.simulation.state()[i] + 0.01 * ((i * 7 % 11) as f64 - 5.0) / 5.0
+    });
+    let n = x0.nrows();
+    let mut grad = Col::<f64>::zeros(n);
+    model.gradient(&x0, &mut grad);
+    let delta = 1e-5;
+    for i in 0..n {
+        let (mut a, mut b) = (x0.clone(), x0.clone());
+        a[i] += delta;
+        b[i] -= delta;
+        let fd = (model.energy(&a) - model.energy(&b)) / (2.0 * delta);
+        assert!(
+            (fd - grad[i]).abs() < 1e-6 * (1.0 + grad[i].abs()),
+            "gradient {i}: {fd} vs {}",
+            grad[i]
+        );
+    }
+    let v = Col::<f64>::from_fn(n, |i| ((i * 5 % 13) as f64 - 6.0) / 6.0);
+    let mut hv = Col::<f64>::zeros(n);
+    assert!(model.hessian_apply(&x0, &v, &mut hv));
+    let (mut a, mut b) = (x0.clone(), x0.clone());
+    for i in 0..n {
+        a[i] += delta * v[i];
+        b[i] -= delta * v[i];
+    }
+    let (mut ga, mut gb) = (Col::<f64>::zeros(n), Col::<f64>::zeros(n));
+    model.gradient(&a, &mut ga);
+    model.gradient(&b, &mut gb);
+    let scale = hv.as_slice().iter().fold(1.0f64, |m, x| m.max(x.abs()));
+    for i in 0..n {
+        let fd = (ga[i] - gb[i]) / (2.0 * delta);
+        assert!(
+            (fd - hv[i]).abs() < 1e-5 * scale,
+            "Hessian {i}: {fd} vs {}",
+            hv[i]
+        );
+    }
+    // ⟨G v, μ⟩ = ⟨v, Gᵀ μ⟩ and G v against differences of g.
+    let m = HolonomicConstraint::<Col<f64>>::dim(&model);
+    let mu: Vec<f64> = (0..m).map(|j| (j as f64 - 3.0) / 4.0).collect();
+    let mut gv = vec![0.0; m];
+    model.jacobian_apply(&x0, &v, &mut gv);
+    let mut gtmu = Col::<f64>::zeros(n);
+    model.jacobian_transpose_apply_add(&x0, &mu, 1.0, &mut gtmu);
+    let lhs: f64 = gv.iter().zip(&mu).map(|(a, b)| a * b).sum();
+    let rhs: f64 = (0..n).map(|i| v[i] * gtmu[i]).sum();
+    assert!((lhs - rhs).abs() < 1e-13 * (1.0 + lhs.abs()));
+    let (mut ra, mut rb) = (vec![0.0; m], vec![0.0; m]);
+    model.residual(&a, &mut ra);
+    model.residual(&b, &mut rb);
+    for j in 0..m {
+        let fd = (ra[j] - rb[j]) / (2.0 * delta);
+        assert!((fd - gv[j]).abs() < 1e-8, "G v row {j}: {fd} vs {}", gv[j]);
+    }
+}
+
+/// Convergence orders of composed scenes: an unconstrained one (springs, pair potential, trap
+/// and a magnetic field) and a constrained one (a spring-coupled double pendulum), each with
+/// Strang and its order-4 composition, against a run at a much smaller step.
+#[test]
+fn composed_scenes_reach_their_orders() {
+    let free = r#"
+        version = 1
+        dim = 2
+        [[grids]]
+        name = "g"
+        spacing = 1.0
+        counts = [2, 2]
+        mass = 1.0
+        charge = 1.0
+        velocity = [0.3, -0.2]
+        [[effects]]
+        type = "pair"
+        law = "inverse-power"
+        strength = 0.5
+        [[effects]]
+        type = "trap"
+        stiffness = 2.0
+        center = [0.5, 0.5]
+        [[effects]]
+        type = "magnetic"
+        field = [1.3]
+        [integrator]
+        order = 2
+        dt = 0.1
+        t_end = 2.0
+    "#;
+    let pendulum = r#"
+        version = 1
+        dim = 2
+        [[chains]]
+        name = "c"
+        links = 2
+        direction = [1.0, -0.3]
+        length = 1.0
+        mass = 1.0
+        [[bodies]]
+        name = "b"
+        mass = 0.5
+        position = [2.5, 0.0]
+        [[effects]]
+        type = "gravity"
+        g = [0.0, -9.81]
+        [[effects]]
+        type = "spring"
+        bodies = ["c.1", "b"]
+        stiffness = 3.0
+        [integrator]
+        order = 2
+        dt = 0.1
+        t_end = 2.0
+    "#;
+    for text in [free, pendulum] {
+        for order in [2u32, 4] {
+            let with_order = set(text.trim_start(), "        order", &order.to_string());
+            let at = |dt: f64| {
+                let mut s = parse(&with_order);
+                s.file.integrator.dt = dt;
+                run_scene(&s).x
+            };
+            let reference = at(1.0 / 1280.0);
+            let hs = [0.1, 0.05, 0.025, 0.0125];
+            let errs: Vec<f64> = hs
+                .iter()
+                .map(|&h| {
+                    at(h)
+                        .iter()
+                        .zip(&reference)
+                        .fold(0.0f64, |a, (u, v)| a.max((u - v).abs()))
+                })
+                .collect();
+            let slope = fit_slope(&hs, &errs);
+            assert!(
+                (slope - order as f64).abs() < 0.3,
+                "order {order}: slope {slope}, errors {errs:?}"
+            );
+        }
+    }
+}
+
+fn fit_slope(h: &[f64], e: &[f64]) -> f64 {
+    let xs: Vec<f64> = h.iter().map(|x| x.ln()).collect();
+    let ys: Vec<f64> = e.iter().map(|x| x.ln()).collect();
+    let n = xs.len() as f64;
+    let (mx, my) = (xs.iter().sum::<f64>() / n, ys.iter().sum::<f64>() / n);
+    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
+    sxy / sxx
+}
+
+#[test]
+fn with_damping_the_energy_never_increases_and_its_budget_closes() {
+    // The default scene: Strang with the exact damping flow, positive sub-steps only. Per step
+    // the energy changes by −h·(dissipated power) + O(h³) splitting error; with this scene's
+    // damping the first dominates, so H decreases at every step, and H + (dissipated energy)
+    // stays at H₀ up to the trapezoidal quadrature's O(h²).
+    let s = run_scene(&parse(&set(DEFAULT_SCENE, "t_end", "2.0")));
+    assert_eq!(s.error, None);
+    assert!(
+        s.max_energy_increase.unwrap() <= 0.0,
+        "{:?}",
+        s.max_energy_increase
+    );
+    assert!(s.dissipated.unwrap() > 1.0);
+    assert!(s.max_energy_balance_error.unwrap() < 1e-5 * s.dissipated.unwrap());
+    // The discrete gradient makes the decrease structural, whatever the splitting error.
+    let dg = set(DEFAULT_SCENE, "scheme", "\"discrete-gradient\"");
+    let s = run_scene(&parse(&set(&dg, "t_end", "0.2")));
+    assert_eq!(s.error, None);
+    assert!(s.max_energy_increase.unwrap() <= 0.0);
+    assert!(s.max_abs_g.unwrap() < 1e-14);
+}
+
+#[test]
+fn refused_combinations_name_the_field() {
+    let e = parse(&set(DEFAULT_SCENE, "order", "8"))
+        .compile()
+        .unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::Unsupported);
+    assert_eq!(e.path.to_string(), "integrator.order");
+    let loc = e.location.unwrap();
+    let line = DEFAULT_SCENE.lines().nth(loc.line - 1).unwrap();
+    assert!(line.starts_with("order"), "{line}");
+    assert!(e.message.contains("order = 2"), "{}", e.message);
+    // Without damping the same order is fine.
+    let ok = set(DEFAULT_SCENE, "order", "8").replace("[flags]", "[flags]\ndamping = false");
+    assert!(parse(&ok).compile().is_ok());
+}
+
+#[test]
+fn bad_scenes_get_located_typed_errors() {
+    // (replace, with, kind, path, text on the line the error points at)
+    let cases: [(&str, &str, SceneErrorKind, &str, &str); 6] = [
+        (
+            "mass = 1.0\n\n[[chains]]",
+            "mass = -2.0\n\n[[chains]]",
+            SceneErrorKind::Value,
+            "chains[0].mass",
+            "mass = -2.0",
+        ),
+        (
+            "stiffness = 20.0",
+            "stifness = 20.0",
+            SceneErrorKind::Syntax,
+            "",
+            "stifness",
+        ),
+        (
+            "\"right.2\"]",
+            "\"right.9\"]",
+            SceneErrorKind::Reference,
+            "effects[1].bodies[1]",
+            "right.9",
+        ),
+        (
+            "dim = 2",
+            "dim = 4",
+            SceneErrorKind::Dimension,
+            "dim",
+            "dim = 4",
+        ),
+        (
+            "dt = 1e-4",
+            "dt = 0.0",
+            SceneErrorKind::Value,
+            "integrator.dt",
+            "dt = 0.0",
+        ),
+        (
+            "length = 0.5\nmass = 1.0\n\n[[effects]]",
+            "length = 0.0\nmass = 1.0\n\n[[effects]]",
+            SceneErrorKind::Value,
+            "chains[1].length",
+            "length = 0.0",
+        ),
+    ];
+    for (from, to, kind, path, on_line) in cases {
+        assert!(DEFAULT_SCENE.contains(from), "{from}");
+        let text = DEFAULT_SCENE.replacen(from, to, 1);
+        let e = Scene::from_toml(&text, "bad.toml")
+            .and_then(|s| s.compile())
+            .unwrap_err();
+        assert_eq!(e.kind, kind, "{e}");
+        assert_eq!(e.path.to_string(), path, "{e}");
+        let loc = e.location.clone().expect("located");
+        assert_eq!(loc.file, "bad.toml");
+        let at = text.lines().nth(loc.line - 1).unwrap();
+        assert!(at.contains(on_line), "{e}: line {} is `{at}`", loc.line);
+        assert!(
+            e.to_string()
+                .starts_with(&format!("bad.toml:{}:", loc.line))
+        );
+    }
+    // Unknown top-level keys and versions.
+    let e = Scene::from_toml(
+        &DEFAULT_SCENE.replace("dim = 2", "dim = 2\ncolour = 3"),
+        "x.toml",
+    )
+    .unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::Syntax);
+    assert!(e.message.contains("colour"));
+    let e = parse(&DEFAULT_SCENE.replace("version = 1", "version = 2"))
+        .compile()
+        .unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::Version);
+}
+
+#[test]
+fn redundant_constraints_are_named() {
+    // A second rod between the anchor and the first body of the left chain repeats link 0.
+    let text = DEFAULT_SCENE.replace(
+        "[[effects]]\ntype = \"gravity\"",
+        "[[constraints]]\ntype = \"rod\"\nbodies = [\"left.0\"]\npoint = [0.0, 0.0]\n\n[[effects]]\ntype = \"gravity\"",
+    );
+    let e = parse(&text).compile().unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::Redundant, "{e}");
+    assert!(
+        e.message.contains("rod") || e.message.contains("link"),
+        "{e}"
+    );
+}
+
+#[test]
+fn an_initial_state_off_the_constraints_is_refused_or_projected() {
+    let text = r#"
+        version = 1
+        dim = 3
+        [[bodies]]
+        name = "bob"
+        mass = 2.0
+        position = [1.01, 0.0, -0.02]
+        velocity = [0.1, 0.5, 0.3]
+        [[constraints]]
+        type = "sphere"
+        bodies = ["bob"]
+        radius = 1.0
+        [[effects]]
+        type = "gravity"
+        g = [0.0, 0.0, -9.81]
+        [integrator]
+        dt = 0.01
+        t_end = 1.0
+    "#;
+    let e = parse(text).compile().unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::OffConstraints);
+    assert!(e.message.contains("project_initial"), "{e}");
+    assert!(e.message.contains("sphere 'bob'"), "{e}");
+    let projected = text.replace("t_end = 1.0", "t_end = 1.0\nproject_initial = true");
+    let c = parse(&projected).compile().unwrap();
+    let (dq, dp) = c.assembly.initial_projection.unwrap();
+    // The position moves radially by |q| − 1 ≈ 0.0102; the velocity loses its radial part.
+    assert!((dq - 0.0102).abs() < 2e-3, "{dq}");
+    assert!(dp > 0.1 && dp < 0.3, "{dp}");
+    let s = run_scene(&parse(&projected));
+    assert!(s.max_abs_g.unwrap() < 1e-14);
+    assert!(s.max_abs_phi.unwrap() < 1e-13);
+}
+
+#[test]
+fn built_in_models_run_from_scenes() {
+    let text = r#"
+        version = 1
+        [builtin]
+        model = "paper"
+        [integrator]
+        dt = 0.1
+        t_end = 100.0
+    "#;
+    let s = run_scene(&parse(text));
+    assert_eq!(s.steps, 1000);
+    // The paper example's own figures (README): |g| at round-off, error vs exact 5.5e-4.
+    assert!(s.max_abs_g.unwrap() < 1e-15);
+    let exact = lieflow::models::paper::exact(100.0, -0.15);
+    let err =
+        s.x.iter()
+            .zip(exact)
+            .fold(0.0f64, |a, (u, v)| a.max((u - v).abs()));
+    assert!((err - 5.549e-4).abs() < 1e-6, "{err}");
+    for model in ["pendulum-chain", "spherical-pendulum"] {
+        let t = text
+            .replace("\"paper\"", &format!("\"{model}\""))
+            .replace("t_end = 100.0", "t_end = 1.0")
+            .replace("dt = 0.1", "dt = 0.01");
+        let s = run_scene(&parse(&t));
+        assert_eq!(s.error, None, "{model}");
+        assert!(s.max_abs_g.unwrap() < 1e-13, "{model}: {:?}", s.max_abs_g);
+    }
+}
+
+#[test]
+fn large_scenes_take_the_sparse_path() {
+    let text = r#"
+        version = 1
+        dim = 2
+        [[chains]]
+        name = "long"
+        links = 400
+        direction = [1.0, 0.0]
+        length = 0.0025
+        mass = 0.0025
+        [[effects]]
+        type = "gravity"
+        g = [0.0, -1.0]
+        [integrator]
+        dt = 1e-4
+        t_end = 0.01
+    "#;
+    let c = parse(text).compile().unwrap();
+    assert_eq!(c.assembly.solver.as_deref(), Some("Banded"));
+    let s = run_scene(&parse(text));
+    assert_eq!(s.error, None);
+    assert!(s.max_abs_g.unwrap() < 1e-15, "{:?}", s.max_abs_g);
+}
+
+#[test]
+fn the_default_scene_parses_and_scene_files_round_trip_through_serde() {
+    let s = Scene::default_scene();
+    assert_eq!(s.file.version, 1);
+    let f: SceneFile = parse(DEFAULT_SCENE).file;
+    assert_eq!(f, s.file);
+    let all = parse(ALL_EFFECTS);
+    let c = all.compile().unwrap();
+    assert_eq!(c.assembly.bodies, 3 + 9 + 5 + 2);
+    assert_eq!(c.assembly.constraint_rows, 3 + 5 + 1 + 2);
+    assert!(!c.assembly.canonical && c.assembly.dissipative);
+}
