@@ -649,6 +649,20 @@ fn built_in_models_run_from_scenes() {
             .zip(exact)
             .fold(0.0f64, |a, (u, v)| a.max((u - v).abs()));
     assert!((err - 5.549e-4).abs() < 1e-6, "{err}");
+    // The rigid body: implicit midpoint, which keeps the quadratic energy to the Newton tolerance.
+    let t = text.replace("\"paper\"", "\"rigid-body\"");
+    let s = run_scene(&parse(&t));
+    assert_eq!(s.error, None);
+    assert_eq!(s.max_abs_g, None);
+    assert!(
+        s.max_abs_energy_error.unwrap() < 1e-12,
+        "{:?}",
+        s.max_abs_energy_error
+    );
+    let e = parse(&t.replace("t_end = 100.0", "t_end = 100.0\norder = 4"))
+        .compile()
+        .unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::Unsupported);
     for model in ["pendulum-chain", "spherical-pendulum"] {
         let t = text
             .replace("\"paper\"", &format!("\"{model}\""))
@@ -696,4 +710,52 @@ fn the_default_scene_parses_and_scene_files_round_trip_through_serde() {
     assert_eq!(c.assembly.bodies, 3 + 9 + 5 + 2);
     assert_eq!(c.assembly.constraint_rows, 3 + 5 + 1 + 2);
     assert!(!c.assembly.canonical && c.assembly.dissipative);
+}
+
+#[test]
+fn oversized_or_inconsistent_generators_are_refused_not_allocated() {
+    let grid = r#"
+        version = 1
+        dim = 2
+        [[grids]]
+        name = "g"
+        spacing = 1.0
+        counts = [100000000000, 100000000000]
+        mass = 1.0
+        [integrator]
+        dt = 0.1
+        t_end = 1.0
+    "#;
+    let e = parse(grid).compile().unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::Unsupported);
+    assert_eq!(e.path.to_string(), "grids[0].counts");
+    let pairs = grid
+        .replace("100000000000, 100000000000", "200, 100")
+        .replace(
+            "[integrator]",
+            "[[effects]]\ntype = \"pair\"\nlaw = \"log\"\nstrength = 1.0\n[integrator]",
+        );
+    let e = parse(&pairs).compile().unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::Unsupported, "{e}");
+    assert_eq!(e.path.to_string(), "effects[0].bodies");
+    let shell = r#"
+        version = 1
+        dim = 3
+        [[shells]]
+        name = "s"
+        radius = 1.0
+        mass = 1.0
+        rings = [3, 3]
+        velocities = [[0.0, 0.0, 1.0]]
+        [integrator]
+        dt = 0.1
+        t_end = 1.0
+    "#;
+    let e = parse(shell).compile().unwrap_err();
+    assert_eq!(e.path.to_string(), "shells[0].velocities");
+    let ok = parse(&shell.replace("velocities = [[0.0, 0.0, 1.0]]\n", ""))
+        .compile()
+        .unwrap();
+    assert_eq!(ok.assembly.bodies, 6);
+    assert_eq!(ok.assembly.constraint_rows, 6);
 }

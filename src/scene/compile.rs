@@ -26,6 +26,12 @@ use std::sync::Arc;
 
 type Result<T> = std::result::Result<T, SceneError>;
 
+/// The most bodies a scene may generate (the state alone is then 2·3·10⁷ doubles, 480 MB).
+pub const MAX_BODIES: usize = 10_000_000;
+
+/// The most pairs a pair potential may visit per evaluation (it has no cut-off).
+pub const MAX_PAIRS: usize = 50_000_000;
+
 /// What a compiled scene assembled: printed by `lieflow check`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Assembly {
@@ -285,6 +291,13 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
                 "a chain needs at least one link",
             ));
         }
+        if c.links > MAX_BODIES {
+            return Err(err(
+                SceneErrorKind::Unsupported,
+                path.key("links"),
+                format!("more than {MAX_BODIES} bodies"),
+            ));
+        }
         let mass = positive(c.mass, &path.key("mass"), "mass")?;
         let length = positive(c.length, &path.key("length"), "length")?;
         let charge = finite(c.charge, &path.key("charge"))?;
@@ -342,6 +355,24 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
         let mut points: Vec<([f64; 3], [f64; 3])> = Vec::new();
         match (&s.rings, &s.positions) {
             (Some(rings), None) => {
+                if s.velocities.is_some() {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("velocities"),
+                        "`velocities` go with explicit `positions`; ring particles start at rest",
+                    ));
+                }
+                if rings
+                    .iter()
+                    .try_fold(0usize, |a, &c| a.checked_add(c))
+                    .is_none_or(|t| t > MAX_BODIES)
+                {
+                    return Err(err(
+                        SceneErrorKind::Unsupported,
+                        path.key("rings"),
+                        format!("more than {MAX_BODIES} bodies"),
+                    ));
+                }
                 let rp = path.key("rings");
                 if dim == 2 && rings.len() != 1 {
                     return Err(err(
@@ -467,7 +498,18 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
                 "at least one particle per axis",
             ));
         }
-        let total: usize = g.counts.iter().product();
+        let total = g
+            .counts
+            .iter()
+            .try_fold(1usize, |a, &c| a.checked_mul(c))
+            .filter(|&t| t <= MAX_BODIES)
+            .ok_or_else(|| {
+                err(
+                    SceneErrorKind::Unsupported,
+                    path.key("counts"),
+                    format!("more than {MAX_BODIES} bodies"),
+                )
+            })?;
         let mut members = Vec::with_capacity(total);
         for j in 0..total {
             let mut rest = j;
@@ -762,7 +804,18 @@ fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effects> {
                         ));
                     }
                 };
-                let mut pairs = Vec::new();
+                let count = group.len() * group.len().saturating_sub(1) / 2;
+                if count > MAX_PAIRS {
+                    return Err(err(
+                        SceneErrorKind::Unsupported,
+                        path.key("bodies"),
+                        format!(
+                            "{} bodies make {count} pairs; a pair potential visits every pair each evaluation (no cut-off), limit {MAX_PAIRS}: use a smaller group",
+                            group.len()
+                        ),
+                    ));
+                }
+                let mut pairs = Vec::with_capacity(count);
                 for (x, &a) in group.iter().enumerate() {
                     for &b in &group[x + 1..] {
                         pairs.push((a, b));
@@ -1517,6 +1570,46 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
                 assembly,
             )
         }
+        "rigid-body" => {
+            use crate::flow::ImplicitMidpoint;
+            use crate::models::RigidBody;
+            type V = SVector<f64, 3>;
+            if table.is_some() {
+                return Err(err(
+                    SceneErrorKind::Unsupported,
+                    FieldPath::root().key("integrator").key("order"),
+                    "the rigid body runs the implicit midpoint rule (order 2) only",
+                ));
+            }
+            let body = RigidBody::<f64>::gni();
+            let y0: V = RigidBody::gni_initial_state();
+            let flow: Box<dyn Flow<V>> = Box::new(
+                ImplicitMidpoint::<V, _, _>::try_new(
+                    body.structure(),
+                    body,
+                    &y0,
+                    NewtonOptions::default(),
+                )
+                .map_err(setup)?,
+            );
+            let mut assembly = builtin_assembly(
+                file,
+                "free rigid body (Lie-Poisson, GNI constants)",
+                3,
+                0,
+                false,
+                "implicit midpoint rule".to_owned(),
+                2,
+                steps,
+            );
+            assembly.constraints.clear();
+            assembly.case = None;
+            let system = System::new(body.structure(), body, Unconstrained);
+            (
+                Box::new(ModelRun::new(flow, system, y0, dt, 0, None)),
+                assembly,
+            )
+        }
         "spherical-pendulum" => {
             type V = SVector<f64, 6>;
             let pend = SphericalPendulum::try_new(1.0, 1.0, 9.81).expect("valid constants");
@@ -1580,7 +1673,7 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
                 SceneErrorKind::Value,
                 path.key("model"),
                 format!(
-                    "unknown built-in model '{other}' (paper, spherical-pendulum, pendulum-chain)"
+                    "unknown built-in model '{other}' (paper, spherical-pendulum, pendulum-chain, rigid-body)"
                 ),
             ));
         }
@@ -1626,5 +1719,18 @@ fn builtin_assembly(
         solver: None,
         steps,
         initial_projection: None,
+    }
+}
+
+/// No constraints (`m = 0`), for the built-in models without any.
+struct Unconstrained;
+
+impl<V: Vector> HolonomicConstraint<V> for Unconstrained {
+    fn dim(&self) -> usize {
+        0
+    }
+    fn residual(&self, _x: &V, _out: &mut [V::Real]) {}
+    fn jacobian_apply(&self, _x: &V, _v: &V, _out: &mut [V::Real]) {}
+    fn jacobian_transpose_apply_add(&self, _x: &V, _mu: &[V::Real], _alpha: V::Real, _out: &mut V) {
     }
 }

@@ -44,7 +44,7 @@ mod model;
 mod run;
 pub mod schema;
 
-pub use compile::{Assembly, Compiled, compile};
+pub use compile::{Assembly, Compiled, MAX_BODIES, MAX_PAIRS, compile};
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
 pub use model::{EffectKind, SceneModel};
 pub use run::{EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation, run};

@@ -57,7 +57,8 @@ pub struct SceneFile {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Builtin {
-    /// `"paper"` (Zhang & Deng §4), `"pendulum-chain"`, `"spherical-pendulum"`.
+    /// `"paper"` (Zhang & Deng §4), `"pendulum-chain"`, `"spherical-pendulum"`, `"rigid-body"`
+    /// (Lie–Poisson, implicit midpoint).
     pub model: String,
     /// Links of a `pendulum-chain` (default 10).
     #[serde(default)]
