@@ -189,40 +189,33 @@ impl Bodies {
     }
 }
 
-fn finite(x: f64, path: &FieldPath) -> Result<f64> {
-    if x.is_finite() {
+/// `x` if `ok(x)`, else a `Value` error at `path` saying what `x` must be.
+fn check(x: f64, path: &FieldPath, ok: bool, must: impl FnOnce() -> String) -> Result<f64> {
+    if ok {
         Ok(x)
     } else {
         Err(err(
             SceneErrorKind::Value,
             path.clone(),
-            format!("{x} is not finite"),
+            format!("{}, not {x}", must()),
         ))
     }
+}
+
+fn finite(x: f64, path: &FieldPath) -> Result<f64> {
+    check(x, path, x.is_finite(), || "the value must be finite".into())
 }
 
 fn positive(x: f64, path: &FieldPath, what: &str) -> Result<f64> {
-    if x.is_finite() && x > 0.0 {
-        Ok(x)
-    } else {
-        Err(err(
-            SceneErrorKind::Value,
-            path.clone(),
-            format!("the {what} must be positive and finite, not {x}"),
-        ))
-    }
+    check(x, path, x.is_finite() && x > 0.0, || {
+        format!("the {what} must be positive and finite")
+    })
 }
 
 fn non_negative(x: f64, path: &FieldPath, what: &str) -> Result<f64> {
-    if x.is_finite() && x >= 0.0 {
-        Ok(x)
-    } else {
-        Err(err(
-            SceneErrorKind::Value,
-            path.clone(),
-            format!("the {what} must be non-negative and finite, not {x}"),
-        ))
-    }
+    check(x, path, x.is_finite() && x >= 0.0, || {
+        format!("the {what} must be non-negative and finite")
+    })
 }
 
 /// A `dim`-vector as `[f64; 3]` (zero-padded).
@@ -1196,8 +1189,7 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
         };
         match (has_potential, table) {
             (false, _) => Box::new(drift),
-            (true, None) => Box::new(drift.strang(kick)),
-            (true, Some(t)) => Box::new(drift.strang(kick).composed(t)),
+            (true, _) => with_table(drift.strang(kick), table),
         }
     } else {
         let system = System::new(model.clone(), model.clone(), model.clone());
@@ -1232,10 +1224,7 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
                 p.uses_small_path(),
                 format!("{:?}", p.newton().linear_solver().kind()),
             );
-            match table {
-                None => (Box::new(p), desc),
-                Some(t) => (Box::new(p.composed(t)), desc),
-            }
+            (with_table(p, table), desc)
         } else {
             scheme_name = "projection around free flight (exact)";
             let p = drift.projected(system, &x0, options).map_err(setup)?;
@@ -1244,10 +1233,7 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
                 p.uses_small_path(),
                 format!("{:?}", p.newton().linear_solver().kind()),
             );
-            match table {
-                None => (Box::new(p), desc),
-                Some(t) => (Box::new(p.composed(t)), desc),
-            }
+            (with_table(p, table), desc)
         };
         case = Some(desc.0.to_owned());
         projection = Some(desc.1.to_owned());
@@ -1551,10 +1537,7 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
             let p = paper::drift()
                 .projected(paper::system(), &x0, ProjectionOptions::default())
                 .map_err(setup)?;
-            let flow: Box<dyn Flow<V>> = match table {
-                None => Box::new(p),
-                Some(t) => Box::new(p.composed(t)),
-            };
+            let flow: Box<dyn Flow<V>> = with_table(p, table);
             let assembly = builtin_assembly(
                 file,
                 "Zhang & Deng (2004) §4",
@@ -1619,10 +1602,7 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
                 .strang(pend.drift())
                 .projected(pend.system(), &x0, ProjectionOptions::default())
                 .map_err(setup)?;
-            let flow: Box<dyn Flow<V>> = match table {
-                None => Box::new(p),
-                Some(t) => Box::new(p.composed(t)),
-            };
+            let flow: Box<dyn Flow<V>> = with_table(p, table);
             let assembly = builtin_assembly(
                 file,
                 "spherical pendulum (RATTLE)",
@@ -1649,10 +1629,7 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
                 .strang(chain.drift())
                 .projected(chain.system(), &x0, chain.projection_options())
                 .map_err(setup)?;
-            let flow: Box<dyn Flow<Col<f64>>> = match table {
-                None => Box::new(p),
-                Some(t) => Box::new(p.composed(t)),
-            };
+            let flow: Box<dyn Flow<Col<f64>>> = with_table(p, table);
             let assembly = builtin_assembly(
                 file,
                 "pendulum chain",
@@ -1732,5 +1709,16 @@ impl<V: Vector> HolonomicConstraint<V> for Unconstrained {
     fn residual(&self, _x: &V, _out: &mut [V::Real]) {}
     fn jacobian_apply(&self, _x: &V, _v: &V, _out: &mut [V::Real]) {}
     fn jacobian_transpose_apply_add(&self, _x: &V, _mu: &[V::Real], _alpha: V::Real, _out: &mut V) {
+    }
+}
+
+/// `flow`, or its composition by `table`, boxed.
+fn with_table<V: Vector + 'static, F: Flow<V> + 'static>(
+    flow: F,
+    table: Option<&'static CompositionTable>,
+) -> Box<dyn Flow<V>> {
+    match table {
+        None => Box::new(flow),
+        Some(t) => Box::new(flow.composed(t)),
     }
 }

@@ -751,81 +751,28 @@ impl<V: Vector<Real = f64>> HolonomicConstraint<V> for Arc<SceneModel> {
     }
 
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [f64]) {
-        let q = x.as_slice();
         let v = v.as_slice();
         let d = self.dim;
         self.timed(&self.constraint_counter, || {
-            for c in &self.constraints {
-                let r = c.row;
-                match &c.kind {
-                    ConstraintKind::Pin { body, .. } => {
-                        out[r..r + d].copy_from_slice(&v[body * d..body * d + d]);
-                    }
-                    ConstraintKind::Rod { a, b, point, .. } => {
-                        let u = self.rod_vector(q, *a, *b, point);
-                        let mut s = 0.0;
-                        for k in 0..d {
-                            let vb = b.map_or(0.0, |b| v[b * d + k]);
-                            s += u[k] * (v[a * d + k] - vb);
-                        }
-                        out[r] = s;
-                    }
-                    ConstraintKind::Sphere { body, center, .. } => {
-                        let u = self.rod_vector(q, *body, None, center);
-                        let mut s = 0.0;
-                        for k in 0..d {
-                            s += u[k] * v[body * d + k];
-                        }
-                        out[r] = s;
-                    }
-                    ConstraintKind::Plane { body, normal, .. } => {
-                        let mut s = 0.0;
-                        for k in 0..d {
-                            s += normal[k] * v[body * d + k];
-                        }
-                        out[r] = s;
-                    }
+            out.fill(0.0);
+            self.for_each_gradient(x.as_slice(), |row, body, coef| {
+                for k in 0..d {
+                    out[row] += coef[k] * v[body * d + k];
                 }
-            }
+            });
         });
     }
 
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[f64], alpha: f64, out: &mut V) {
-        let q = x.as_slice();
         let out = out.as_mut_slice();
         let d = self.dim;
         self.timed(&self.constraint_counter, || {
-            for c in &self.constraints {
-                let r = c.row;
-                match &c.kind {
-                    ConstraintKind::Pin { body, .. } => {
-                        for k in 0..d {
-                            out[body * d + k] += alpha * mu[r + k];
-                        }
-                    }
-                    ConstraintKind::Rod { a, b, point, .. } => {
-                        let u = self.rod_vector(q, *a, *b, point);
-                        let s = alpha * mu[r];
-                        for k in 0..d {
-                            out[a * d + k] += s * u[k];
-                            if let Some(b) = b {
-                                out[b * d + k] -= s * u[k];
-                            }
-                        }
-                    }
-                    ConstraintKind::Sphere { body, center, .. } => {
-                        let u = self.rod_vector(q, *body, None, center);
-                        for k in 0..d {
-                            out[body * d + k] += alpha * mu[r] * u[k];
-                        }
-                    }
-                    ConstraintKind::Plane { body, normal, .. } => {
-                        for k in 0..d {
-                            out[body * d + k] += alpha * mu[r] * normal[k];
-                        }
-                    }
+            self.for_each_gradient(x.as_slice(), |row, body, coef| {
+                let s = alpha * mu[row];
+                for k in 0..d {
+                    out[body * d + k] += s * coef[k];
                 }
-            }
+            });
         });
     }
 
@@ -842,34 +789,40 @@ impl SceneModel {
     /// The structurally non-zero entries of `G(q)` (`x` may be the whole state).
     pub(crate) fn jacobian_entries_always(&self, q: &[f64], sink: &mut dyn Sink<f64>) {
         let d = self.dim;
+        self.for_each_gradient(q, |row, body, coef| {
+            for k in 0..d {
+                sink.add(row, body * d + k, coef[k]);
+            }
+        });
+    }
+
+    /// Calls `f(row, body, c)` for every body a row of `G(q)` touches, with `c` the row's
+    /// gradient with respect to that body's position: a rod `(|u|² − L²)/2` gives `u` and `−u`
+    /// (`u = q_a − q_b`), a sphere `u = q − c`, a plane `n`, a pin the unit vectors. `G v`,
+    /// `Gᵀ μ` and the Jacobian entries are all written through it, so they cannot disagree.
+    #[inline]
+    fn for_each_gradient(&self, q: &[f64], mut f: impl FnMut(usize, usize, [f64; 3])) {
         for c in &self.constraints {
             let r = c.row;
             match &c.kind {
                 ConstraintKind::Pin { body, .. } => {
-                    for k in 0..d {
-                        sink.add(r + k, body * d + k, 1.0);
+                    for k in 0..self.dim {
+                        let mut e = [0.0; 3];
+                        e[k] = 1.0;
+                        f(r + k, *body, e);
                     }
                 }
                 ConstraintKind::Rod { a, b, point, .. } => {
                     let u = self.rod_vector(q, *a, *b, point);
-                    for k in 0..d {
-                        sink.add(r, a * d + k, u[k]);
-                        if let Some(b) = b {
-                            sink.add(r, b * d + k, -u[k]);
-                        }
+                    f(r, *a, u);
+                    if let Some(b) = b {
+                        f(r, *b, u.map(|x| -x));
                     }
                 }
                 ConstraintKind::Sphere { body, center, .. } => {
-                    let u = self.rod_vector(q, *body, None, center);
-                    for k in 0..d {
-                        sink.add(r, body * d + k, u[k]);
-                    }
+                    f(r, *body, self.rod_vector(q, *body, None, center));
                 }
-                ConstraintKind::Plane { body, normal, .. } => {
-                    for k in 0..d {
-                        sink.add(r, body * d + k, normal[k]);
-                    }
-                }
+                ConstraintKind::Plane { body, normal, .. } => f(r, *body, *normal),
             }
         }
     }
