@@ -759,3 +759,198 @@ fn oversized_or_inconsistent_generators_are_refused_not_allocated() {
     assert_eq!(ok.assembly.bodies, 6);
     assert_eq!(ok.assembly.constraint_rows, 6);
 }
+
+/// The initial-state check and the initial projection work at each constraint's own scale,
+/// wherever the scene sits.
+#[test]
+fn constraint_checks_use_each_rows_own_scale() {
+    // A body at x = 1e4, one unit off its plane: refused (an absolute √ε·|q|² test would not).
+    let far = r#"
+        version = 1
+        dim = 2
+        [[bodies]]
+        name = "b"
+        mass = 1.0
+        position = [10000.0, 1.0]
+        [[constraints]]
+        type = "plane"
+        bodies = ["b"]
+        normal = [0.0, 1.0]
+        offset = 0.0
+        [integrator]
+        dt = 0.01
+        t_end = 0.1
+    "#;
+    let e = parse(far).compile().unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::OffConstraints, "{e}");
+    assert_eq!(e.path.to_string(), "constraints[0]");
+    // A short link far from the origin, 1% too long: refused, pointing at the chain.
+    let link = r#"
+        version = 1
+        dim = 2
+        [[bodies]]
+        name = "a"
+        mass = 1.0
+        position = [100.0, 0.0]
+        [[bodies]]
+        name = "b"
+        mass = 1.0
+        position = [100.0101, 0.0]
+        [[constraints]]
+        type = "rod"
+        bodies = ["a", "b"]
+        length = 0.01
+        [integrator]
+        dt = 0.01
+        t_end = 0.1
+    "#;
+    let e = parse(link).compile().unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::OffConstraints, "{e}");
+    // A long rod to a far point: the projection converges to the row's own rounding level.
+    let long = r#"
+        version = 1
+        dim = 2
+        [[bodies]]
+        name = "b"
+        mass = 1.0
+        position = [0.5, 0.1]
+        [[constraints]]
+        type = "rod"
+        bodies = ["b"]
+        point = [1000.0, 0.0]
+        length = 1000.0
+        [integrator]
+        dt = 0.01
+        t_end = 0.1
+        project_initial = true
+    "#;
+    let c = parse(long).compile().unwrap_or_else(|e| panic!("{e}"));
+    let (dq, _) = c.assembly.initial_projection.unwrap();
+    assert!(dq > 0.4 && dq < 0.6, "{dq}");
+}
+
+#[test]
+fn settings_that_would_be_ignored_are_errors() {
+    let with = |law: &str, extra: &str| {
+        format!(
+            "version = 1\ndim = 2\n[[grids]]\nname = \"g\"\nspacing = 1.0\ncounts = [2, 1]\nmass = 1.0\n[[effects]]\ntype = \"pair\"\nlaw = \"{law}\"\n{extra}\n[integrator]\ndt = 0.1\nt_end = 1.0\n"
+        )
+    };
+    let e = parse(&with("log", "strength = 1.0\npower = 2.0"))
+        .compile()
+        .unwrap_err();
+    assert_eq!(e.path.to_string(), "effects[0].power", "{e}");
+    let e = parse(&with(
+        "lennard-jones",
+        "epsilon = 1.0\nsigma = 1.0\nstrength = 1.0",
+    ))
+    .compile()
+    .unwrap_err();
+    assert_eq!(e.path.to_string(), "effects[0].strength", "{e}");
+    assert!(
+        parse(&with("lennard-jones", "epsilon = 1.0\nsigma = 1.0"))
+            .compile()
+            .is_ok()
+    );
+    let builtin =
+        "version = 1\n[builtin]\nmodel = \"paper\"\n[integrator]\ndt = 0.1\nt_end = 1.0\n";
+    assert!(parse(builtin).compile().is_ok());
+    for (extra, path) in [
+        ("[flags]\ngravity = false\n", "flags"),
+        ("", "integrator.project_initial"),
+    ] {
+        let mut text = builtin.to_owned();
+        if extra.is_empty() {
+            text = text.replace("t_end = 1.0", "t_end = 1.0\nproject_initial = true");
+        } else {
+            text.push_str(extra);
+        }
+        let e = parse(&text).compile().unwrap_err();
+        assert_eq!(e.path.to_string(), path, "{e}");
+    }
+    let e = parse(&builtin.replace("\"paper\"", "\"paper\"\nlinks = 3"))
+        .compile()
+        .unwrap_err();
+    assert_eq!(e.path.to_string(), "builtin.links", "{e}");
+    // An unknown key in the second of two effects that both could hold it elsewhere: the error
+    // points at the table it is wrong in.
+    let text = DEFAULT_SCENE.replace("rest_length = 2.0", "rest_length = 2.0\ncoefficient = 1.0");
+    let e = Scene::from_toml(&text, "k.toml").unwrap_err();
+    let line = text.lines().nth(e.location.unwrap().line - 1).unwrap();
+    assert_eq!(line, "coefficient = 1.0");
+}
+
+#[test]
+fn degenerate_parameters_stay_finite_or_assemble_nothing() {
+    // Two bodies at the same point joined by a spring of default (zero) rest length: the
+    // Hessian product is finite (no 0/0) and the run is finite.
+    let text = r#"
+        version = 1
+        dim = 2
+        [[bodies]]
+        name = "a"
+        mass = 1.0
+        position = [0.0, 0.0]
+        velocity = [1.0, 0.0]
+        [[bodies]]
+        name = "b"
+        mass = 1.0
+        position = [0.0, 0.0]
+        [[effects]]
+        type = "spring"
+        bodies = ["a", "b"]
+        stiffness = 4.0
+        [[effects]]
+        type = "magnetic"
+        field = [1e-200]
+        [[effects]]
+        type = "damping"
+        coefficient = 0.0
+        [integrator]
+        order = 4
+        dt = 0.01
+        t_end = 1.0
+    "#;
+    let text = text.replace(
+        "velocity = [1.0, 0.0]",
+        "velocity = [1.0, 0.0]\n        charge = 1.0",
+    );
+    let c = parse(&text).compile().unwrap_or_else(|e| panic!("{e}"));
+    // Zero damping is no damping: order 4 is allowed and the model is conservative.
+    assert!(!c.assembly.dissipative);
+    assert!(
+        c.assembly.disabled.iter().any(|d| d.contains("damping")),
+        "{:?}",
+        c.assembly.disabled
+    );
+    let model = c.model.unwrap();
+    let x = Col::<f64>::from_fn(8, |i| [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0][i]);
+    let v = Col::<f64>::from_fn(8, |i| i as f64);
+    let mut hv = Col::<f64>::zeros(8);
+    model.hessian_apply(&x, &v, &mut hv);
+    assert!(hv.as_slice().iter().all(|x| x.is_finite()), "{hv:?}");
+    let s = run_scene(&parse(&text));
+    assert_eq!(s.error, None);
+    assert!(s.x.iter().all(|x| x.is_finite()));
+    // A 1e-200 field: the free flight is the drift to round-off, not NaN — the run equals the
+    // run without the field.
+    let plain = run_scene(&parse(
+        &text
+            .replace("[flags]", "")
+            .replace("[integrator]", "[flags]\nmagnetic = false\n[integrator]"),
+    ));
+    for (a, b) in s.x.iter().zip(&plain.x) {
+        assert!((a - b).abs() < 1e-14, "{:?} vs {:?}", s.x, plain.x);
+    }
+}
+
+#[test]
+fn time_shares_are_shares_of_the_run() {
+    let text = set(ALL_EFFECTS, "t_end", "0.2").replace(
+        "diagnostics = [\"energy\", \"constraints\"]",
+        "diagnostics = [\"energy\", \"constraints\", \"profile\"]",
+    );
+    let s = run_scene(&parse(&text));
+    let total: f64 = s.effects.iter().filter_map(|e| e.time_share).sum();
+    assert!(total > 0.0 && total <= 1.0, "{total}");
+}

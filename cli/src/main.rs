@@ -213,7 +213,11 @@ fn run_scene(args: &RunArgs) -> ExitCode {
         println!("  initial state projected: max |dq| = {dq:.3e}, max |dp| = {dp:.3e}");
     }
     let steps = compiled.plan.steps;
-    let every = args.every.unwrap_or((steps / 1000).max(1)).max(1);
+    if args.every == Some(0) {
+        eprintln!("error: --every must be at least 1");
+        return ExitCode::from(2);
+    }
+    let every = args.every.unwrap_or((steps / 1000).max(1));
     let mut csv = match &args.csv {
         Some(p) => match std::fs::File::create(p) {
             Ok(f) => Some(std::io::BufWriter::new(f)),
@@ -239,22 +243,47 @@ fn run_scene(args: &RunArgs) -> ExitCode {
             io_error.get_or_insert(e);
         }
     }
+    // The last state seen and whether it was written: a run that stops early still ends its
+    // CSV and plot with its last good state.
+    let mut last = (0usize, 0.0f64, None, None, None);
+    let mut last_written = true;
     let mut observe = |s: &Sample<'_>| {
         if s.step.is_multiple_of(tick) {
             bar.set_position(s.step as u64);
         }
         if args.plot.is_some() {
-            series.push(s);
+            series.push(s, false);
         }
+        last = (s.step, s.t, s.energy, s.g, s.phi);
+        last_written = false;
         if let Some(w) = csv.as_mut()
             && (s.step.is_multiple_of(every) || s.step == steps)
-            && let Err(e) = write_row(w, s)
         {
-            io_error.get_or_insert(e);
+            last_written = true;
+            if let Err(e) = write_row(w, s) {
+                io_error.get_or_insert(e);
+            }
         }
     };
     let summary = run(compiled.simulation.as_mut(), &compiled.plan, &mut observe);
     bar.finish_and_clear();
+    let final_sample = Sample {
+        step: last.0,
+        t: last.1,
+        x: compiled.simulation.state(),
+        energy: last.2,
+        g: last.3,
+        phi: last.4,
+    };
+    if args.plot.is_some() {
+        series.push(&final_sample, true);
+    }
+    if !last_written
+        && let Some(w) = csv.as_mut()
+        && let Err(e) = write_row(w, &final_sample)
+    {
+        io_error.get_or_insert(e);
+    }
     if let Some(mut w) = csv
         && let Err(e) = w.flush()
     {

@@ -39,9 +39,11 @@ impl Series {
         }
     }
 
-    /// Records a sample (every `every`-th).
-    pub fn push(&mut self, s: &Sample<'_>) {
-        if !s.step.is_multiple_of(self.every) {
+    /// Records a sample: every `every`-th, or any with `force` (the last one of a run) unless
+    /// it is already the last recorded.
+    pub fn push(&mut self, s: &Sample<'_>, force: bool) {
+        let due = s.step.is_multiple_of(self.every);
+        if !(due || force) || (force && due) {
             return;
         }
         if let Some(e) = s.energy {

@@ -29,6 +29,9 @@ type Result<T> = std::result::Result<T, SceneError>;
 /// The most bodies a scene may generate (the state alone is then 2·3·10⁷ doubles, 480 MB).
 pub const MAX_BODIES: usize = 10_000_000;
 
+/// The most steps a run may plan (`t_end / dt`).
+pub const MAX_STEPS: usize = 1_000_000_000_000;
+
 /// The most pairs a pair potential may visit per evaluation (it has no cut-off).
 pub const MAX_PAIRS: usize = 50_000_000;
 
@@ -105,6 +108,9 @@ struct Body {
     charge: f64,
 }
 
+/// A constraint term as declared: its geometry, its label, where it is in the file.
+type Declared = (ConstraintKind, String, FieldPath);
+
 /// Bodies, names and selectors.
 struct Bodies {
     dim: usize,
@@ -134,6 +140,19 @@ impl Bodies {
     fn push(&mut self, body: Body) -> usize {
         self.list.push(body);
         self.list.len() - 1
+    }
+
+    /// Refuses `more` bodies at `path` if they would take the scene past [`MAX_BODIES`].
+    fn reserve(&mut self, more: usize, path: &FieldPath) -> Result<()> {
+        if more > MAX_BODIES - self.list.len().min(MAX_BODIES) {
+            return Err(err(
+                SceneErrorKind::Unsupported,
+                path.clone(),
+                format!("the scene would have more than {MAX_BODIES} bodies"),
+            ));
+        }
+        self.list.reserve(more);
+        Ok(())
     }
 
     /// The bodies a selector names.
@@ -168,11 +187,13 @@ impl Bodies {
         ))
     }
 
+    /// The bodies the selectors name, each once, in order of first mention (`O(N)` with a mask).
     fn select_all(&self, sels: &[String], path: &FieldPath) -> Result<Vec<usize>> {
+        let mut seen = vec![false; self.list.len()];
         let mut out = Vec::new();
         for (i, s) in sels.iter().enumerate() {
             for b in self.select(s, &path.index(i))? {
-                if !out.contains(&b) {
+                if !std::mem::replace(&mut seen[b], true) {
                     out.push(b);
                 }
             }
@@ -255,7 +276,7 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 /// Expands bodies and generators; returns the bodies and the generators' own constraints.
-fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(ConstraintKind, String)>)> {
+fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<Declared>)> {
     let mut bodies = Bodies {
         dim,
         list: Vec::new(),
@@ -272,6 +293,7 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
             v: vector_or(&b.velocity, dim, &path.key("velocity"), [0.0; 3])?,
             charge: finite(b.charge, &path.key("charge"))?,
         };
+        bodies.reserve(1, &path)?;
         let idx = bodies.push(body);
         bodies.add_group(&b.name, vec![idx], &path.key("name"))?;
     }
@@ -284,13 +306,7 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
                 "a chain needs at least one link",
             ));
         }
-        if c.links > MAX_BODIES {
-            return Err(err(
-                SceneErrorKind::Unsupported,
-                path.key("links"),
-                format!("more than {MAX_BODIES} bodies"),
-            ));
-        }
+        bodies.reserve(c.links, &path.key("links"))?;
         let mass = positive(c.mass, &path.key("mass"), "mass")?;
         let length = positive(c.length, &path.key("length"), "length")?;
         let charge = finite(c.charge, &path.key("charge"))?;
@@ -334,7 +350,11 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
                     length,
                 },
             };
-            generated.push((kind, format!("chains[{i}] '{}' link {k}", c.name)));
+            generated.push((
+                kind,
+                format!("chains[{i}] '{}' link {k}", c.name),
+                path.key("links"),
+            ));
             members.push(idx);
         }
         bodies.add_group(&c.name, members, &path.key("name"))?;
@@ -355,17 +375,11 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
                         "`velocities` go with explicit `positions`; ring particles start at rest",
                     ));
                 }
-                if rings
+                let total = rings
                     .iter()
                     .try_fold(0usize, |a, &c| a.checked_add(c))
-                    .is_none_or(|t| t > MAX_BODIES)
-                {
-                    return Err(err(
-                        SceneErrorKind::Unsupported,
-                        path.key("rings"),
-                        format!("more than {MAX_BODIES} bodies"),
-                    ));
-                }
+                    .unwrap_or(usize::MAX);
+                bodies.reserve(total, &path.key("rings"))?;
                 let rp = path.key("rings");
                 if dim == 2 && rings.len() != 1 {
                     return Err(err(
@@ -410,6 +424,7 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
             }
             (None, Some(pos)) => {
                 let pp = path.key("positions");
+                bodies.reserve(pos.len(), &pp)?;
                 for (j, p) in pos.iter().enumerate() {
                     let q = vector(p, dim, &pp.index(j))?;
                     let r = norm(sub(q, center));
@@ -462,6 +477,7 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
                     radius,
                 },
                 format!("shells[{i}] '{}' particle {j}", s.name),
+                path.clone(),
             ));
             members.push(idx);
         }
@@ -495,14 +511,8 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
             .counts
             .iter()
             .try_fold(1usize, |a, &c| a.checked_mul(c))
-            .filter(|&t| t <= MAX_BODIES)
-            .ok_or_else(|| {
-                err(
-                    SceneErrorKind::Unsupported,
-                    path.key("counts"),
-                    format!("more than {MAX_BODIES} bodies"),
-                )
-            })?;
+            .unwrap_or(usize::MAX);
+        bodies.reserve(total, &path.key("counts"))?;
         let mut members = Vec::with_capacity(total);
         for j in 0..total {
             let mut rest = j;
@@ -534,8 +544,8 @@ fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<(Constrain
 fn constraint_terms(
     file: &SceneFile,
     bodies: &Bodies,
-    generated: Vec<(ConstraintKind, String)>,
-) -> Result<Vec<(ConstraintKind, String)>> {
+    generated: Vec<Declared>,
+) -> Result<Vec<Declared>> {
     let dim = bodies.dim;
     let mut out = generated;
     let root = FieldPath::root().key("constraints");
@@ -556,6 +566,7 @@ fn constraint_terms(
                     out.push((
                         ConstraintKind::Pin { body: b, point },
                         format!("constraints[{i}] pin '{}'", bodies.list[b].name),
+                        path.clone(),
                     ));
                 }
             }
@@ -585,9 +596,15 @@ fn constraint_terms(
                     (&[a, b], None) if a != b => (a, Some(b), [0.0; 3]),
                     (&[a], Some(p)) => (a, None, vector(p, dim, &path.key("point"))?),
                     _ => {
+                        // Point at the `point` when it is the extra piece.
+                        let at = if point.is_some() && ends.len() != 1 {
+                            path.key("point")
+                        } else {
+                            bp
+                        };
                         return Err(err(
                             SceneErrorKind::Value,
-                            bp,
+                            at,
                             "a rod joins two different bodies, or one body and a fixed `point`",
                         ));
                     }
@@ -614,6 +631,7 @@ fn constraint_terms(
                         length,
                     },
                     format!("constraints[{i}] rod {names}"),
+                    path.clone(),
                 ));
             }
             ConstraintSpec::Sphere {
@@ -622,9 +640,12 @@ fn constraint_terms(
                 radius,
             } => {
                 let center = vector_or(center, dim, &path.key("center"), [0.0; 3])?;
+                let radius = radius
+                    .map(|r| positive(r, &path.key("radius"), "radius"))
+                    .transpose()?;
                 for b in bodies.select_all(sel, &path.key("bodies"))? {
                     let r = match radius {
-                        Some(r) => positive(*r, &path.key("radius"), "radius")?,
+                        Some(r) => r,
                         None => positive(
                             norm(sub(bodies.list[b].q, center)),
                             &path.key("bodies"),
@@ -638,6 +659,7 @@ fn constraint_terms(
                             radius: r,
                         },
                         format!("constraints[{i}] sphere '{}'", bodies.list[b].name),
+                        path.clone(),
                     ));
                 }
             }
@@ -657,17 +679,16 @@ fn constraint_terms(
                 }
                 let n = n.map(|x| x / len);
                 let list = bodies.select_all(sel, &path.key("bodies"))?;
+                let offset = offset.map(|o| finite(o, &path.key("offset"))).transpose()?;
                 for &b in &list {
-                    let q = bodies.list[b].q;
                     let off = match offset {
-                        Some(o) => finite(*o, &path.key("offset"))?,
+                        Some(o) => o,
                         None => {
                             n[0] * bodies.list[list[0]].q[0]
                                 + n[1] * bodies.list[list[0]].q[1]
                                 + n[2] * bodies.list[list[0]].q[2]
                         }
                     };
-                    let _ = q;
                     out.push((
                         ConstraintKind::Plane {
                             body: b,
@@ -675,6 +696,7 @@ fn constraint_terms(
                             offset: off,
                         },
                         format!("constraints[{i}] plane '{}'", bodies.list[b].name),
+                        path.clone(),
                     ));
                 }
             }
@@ -773,6 +795,30 @@ fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effects> {
                         )
                     })
                 };
+                // Parameters of another law are an error, not silently dropped.
+                let used: &[&str] = match law.as_str() {
+                    "inverse-power" => &["strength", "power"],
+                    "log" => &["strength"],
+                    "lennard-jones" => &["epsilon", "sigma"],
+                    _ => &["strength", "power", "epsilon", "sigma"],
+                };
+                for (key, value) in [
+                    ("strength", strength),
+                    ("power", power),
+                    ("epsilon", epsilon),
+                    ("sigma", sigma),
+                ] {
+                    if value.is_some() && !used.contains(&key) {
+                        return Err(err(
+                            SceneErrorKind::Value,
+                            path.key(key),
+                            format!(
+                                "the law '{law}' takes no `{key}` (it takes {})",
+                                used.join(", ")
+                            ),
+                        ));
+                    }
+                }
                 let law = match law.as_str() {
                     "inverse-power" => PairLaw::InversePower {
                         strength: finite(need(strength, "strength")?, &path.key("strength"))?,
@@ -889,6 +935,22 @@ fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effects> {
             });
         }
     }
+    // A damping or field that acts on nothing (zero coefficients, no charge, no bodies) has no
+    // term: the model stays conservative (or canonical) and says so.
+    if !damping_labels.is_empty() && !damping.iter().any(|&c| c > 0.0) {
+        fx.disabled.push(format!(
+            "{} (damping: zero on every body, no term)",
+            damping_labels.join("+")
+        ));
+        damping_labels.clear();
+    }
+    if !magnetic_labels.is_empty() && !magnetic.iter().any(|b| *b != [0.0; 3]) {
+        fx.disabled.push(format!(
+            "{} (magnetic: no charged body, no term)",
+            magnetic_labels.join("+")
+        ));
+        magnetic_labels.clear();
+    }
     if !damping_labels.is_empty() {
         fx.damping = Some(StructureTerm {
             label: damping_labels.join("+"),
@@ -975,6 +1037,13 @@ fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(usize, bool, bool, boo
     let dt = positive(integ.dt, &path.key("dt"), "step size")?;
     let t_end = positive(integ.t_end, &path.key("t_end"), "final time")?;
     let steps = (t_end / dt).round();
+    if steps > MAX_STEPS as f64 {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("dt"),
+            format!("t_end / dt = {steps:.3e} steps, more than {MAX_STEPS:.0e}"),
+        ));
+    }
     if steps < 1.0 {
         return Err(err(
             SceneErrorKind::Value,
@@ -1068,8 +1137,13 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
     let mut row = 0;
     let terms: Vec<ConstraintTerm> = constraints
         .into_iter()
-        .map(|(kind, label)| {
-            let t = ConstraintTerm { kind, row, label };
+        .map(|(kind, label, path)| {
+            let t = ConstraintTerm {
+                kind,
+                row,
+                label,
+                path,
+            };
             row += t.rows(dim);
             t
         })
@@ -1126,12 +1200,15 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
                     )
                 })?);
             } else {
-                let label = constraint_label(&model, row);
+                let (path, label) = constraint_term(&model, row)
+                    .map_or((root.clone(), String::new()), |c| {
+                        (c.path.clone(), c.label.clone())
+                    });
                 return Err(err(
                     SceneErrorKind::OffConstraints,
-                    root.key("integrator"),
+                    path,
                     format!(
-                        "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `project_initial = true` to project them (mass-weighted, reported)"
+                        "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `integrator.project_initial = true` to project them (mass-weighted, reported)"
                     ),
                 ));
             }
@@ -1294,30 +1371,33 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
 }
 
 /// The label of the constraint term that owns row `row`.
-fn constraint_label(model: &SceneModel, row: usize) -> String {
-    model
-        .constraints
-        .iter()
-        .rev()
-        .find(|c| c.row <= row)
-        .map_or_else(|| format!("row {row}"), |c| c.label.clone())
+fn constraint_term(model: &SceneModel, row: usize) -> Option<&ConstraintTerm> {
+    model.constraints.iter().rev().find(|c| c.row <= row)
 }
 
-/// Turns a projection's setup error into a scene error that names the constraint.
+/// Turns a projection's setup error into a scene error that names the constraint and points at
+/// where it is declared.
 fn setup_error(model: &SceneModel, e: SetupError) -> SceneError {
-    let path = FieldPath::root().key("constraints");
+    let at = |row: usize| {
+        constraint_term(model, row).map_or_else(
+            || (FieldPath::root(), format!("row {row}")),
+            |c| (c.path.clone(), c.label.clone()),
+        )
+    };
     match e {
-        SetupError::RankDeficient { constraint, ratio } => err(
-            SceneErrorKind::Redundant,
-            path,
-            format!(
-                "the constraints are redundant: {} depends on the others (pivot ratio {ratio:.1e}); remove it or one of those it repeats",
-                constraint_label(model, constraint)
-            ),
-        ),
+        SetupError::RankDeficient { constraint, ratio } => {
+            let (path, label) = at(constraint);
+            err(
+                SceneErrorKind::Redundant,
+                path,
+                format!(
+                    "the constraints are redundant: {label} depends on the others (pivot ratio {ratio:.1e}); remove it or one of those it repeats"
+                ),
+            )
+        }
         SetupError::SingularMultiplierMatrix { .. } => err(
             SceneErrorKind::Redundant,
-            path,
+            FieldPath::root(),
             format!("the constraints are redundant or singular at the initial state: {e}"),
         ),
         other => err(SceneErrorKind::Setup, FieldPath::root(), other.to_string()),
@@ -1354,33 +1434,72 @@ fn projection_options(model: &SceneModel, x0: &Col<f64>) -> ProjectionOptions<f6
         .with_newton(NewtonOptions::default().with_ftol(ftol))
 }
 
-/// `Some((value, row, "position"|"velocity"))` when the initial state violates `g = 0` or
-/// `G v = 0` beyond `√ε` relative to the scene's scale.
+/// Per constraint row: the size `ρ` of the terms its residual rounds (a rod `(|u|² − L²)/2`
+/// rounds at `ε L (L + |q_a| + |q_b|)`, a plane at `ε (|q| + |offset|)`, …) and its length `ℓ`
+/// (the factor between a velocity and its hidden-constraint residual).
+fn row_scales(model: &SceneModel, q: &[f64]) -> Vec<(f64, f64)> {
+    let d = model.dim;
+    let at = |b: usize| (0..d).fold(0.0f64, |a, k| a.max(q[b * d + k].abs()));
+    let size = |p: &[f64; 3]| p.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let mut out = vec![(1.0, 1.0); model.m];
+    for c in &model.constraints {
+        match &c.kind {
+            ConstraintKind::Pin { body, point } => {
+                for k in 0..d {
+                    out[c.row + k] = (1.0 + at(*body) + size(point), 1.0);
+                }
+            }
+            ConstraintKind::Rod {
+                a,
+                b,
+                point,
+                length,
+            } => {
+                let far = at(*a) + b.map_or_else(|| size(point), at);
+                out[c.row] = (length * (length + far), *length);
+            }
+            ConstraintKind::Sphere {
+                body,
+                center,
+                radius,
+            } => out[c.row] = (radius * (radius + at(*body) + size(center)), *radius),
+            ConstraintKind::Plane { body, offset, .. } => {
+                out[c.row] = (1.0 + at(*body) + offset.abs(), 1.0)
+            }
+        }
+    }
+    out
+}
+
+/// `Some((value, row, "position"|"velocity"))` for the row that violates `g = 0` or `G v = 0`
+/// most beyond `√ε` relative to its own scale ([`row_scales`]).
 fn off_constraints(model: &Arc<SceneModel>, x: &Col<f64>) -> Option<(f64, usize, &'static str)> {
     let m = model.m;
+    let nq = model.state_len() / 2;
+    let scales = row_scales(model, &x.as_slice()[..nq]);
+    let tol = f64::EPSILON.sqrt();
     let mut g = vec![0.0; m];
     HolonomicConstraint::<Col<f64>>::residual(model, x, &mut g);
-    let nq = model.state_len() / 2;
-    let scale = x.as_slice()[..nq]
-        .iter()
-        .fold(1.0f64, |a, &b| a.max(b.abs()));
-    let tol = f64::EPSILON.sqrt() * scale * scale;
-    let worst = |g: &[f64]| {
+    let worst = |g: &[f64], scale: &dyn Fn(usize) -> f64| {
         g.iter()
             .enumerate()
-            .fold((0.0f64, 0usize), |(v, r), (i, &x)| {
-                if x.abs() > v { (x.abs(), i) } else { (v, r) }
-            })
+            .map(|(i, v)| (v.abs() / scale(i), v.abs(), i))
+            .fold((0.0f64, 0.0, 0usize), |a, b| if b.0 > a.0 { b } else { a })
     };
-    let (v, r) = worst(&g);
-    if v > tol {
+    let (ratio, v, r) = worst(&g, &|i| scales[i].0);
+    if ratio > tol {
         return Some((v, r, "position"));
     }
     let vel = velocity_state(model, x);
+    let vscale = vel.as_slice()[..nq]
+        .iter()
+        .fold(0.0f64, |a, &b| a.max(b.abs()));
+    if vscale == 0.0 {
+        return None;
+    }
     HolonomicConstraint::<Col<f64>>::jacobian_apply(model, x, &vel, &mut g);
-    let (v, r) = worst(&g);
-    let vscale = vel.as_slice().iter().fold(1.0f64, |a, &b| a.max(b.abs()));
-    (v > tol * vscale).then_some((v, r, "velocity"))
+    let (ratio, v, r) = worst(&g, &|i| scales[i].1 * vscale);
+    (ratio > tol).then_some((v, r, "velocity"))
 }
 
 /// `(v, 0)` as a state-sized vector whose first half holds the velocities `p/m`.
@@ -1446,14 +1565,13 @@ fn project_initial(
         }
         Ok(delta)
     };
-    let nq_scale = x.as_slice()[..nq]
-        .iter()
-        .fold(1.0f64, |a, &b| a.max(b.abs()));
     let mut converged = false;
     for _ in 0..50 {
         HolonomicConstraint::<Col<f64>>::residual(model, x, &mut g);
+        let scales = row_scales(model, &x.as_slice()[..nq]);
         if g.iter()
-            .all(|v| v.abs() <= 4.0 * f64::EPSILON * nq_scale * nq_scale)
+            .zip(&scales)
+            .all(|(v, s)| v.abs() <= 8.0 * f64::EPSILON * s.0)
         {
             converged = true;
             break;
@@ -1515,7 +1633,41 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
     };
     use nalgebra::SVector;
     let path = FieldPath::root().key("builtin");
-    let (steps, energy, residuals, _) = plan(&file.integrator, &file.flags)?;
+    let (steps, energy, residuals, profile) = plan(&file.integrator, &file.flags)?;
+    // What a built-in model does not use is an error, not silently ignored.
+    let unused = |what: &str, at: FieldPath| {
+        Err(err(
+            SceneErrorKind::Unsupported,
+            at,
+            format!("{what} does not apply to a built-in model"),
+        ))
+    };
+    let root = FieldPath::root();
+    if file.dim.is_some() {
+        return unused("`dim` (use `builtin.dim` for the chain)", root.key("dim"));
+    }
+    if file.integrator.project_initial {
+        return unused(
+            "`project_initial`",
+            root.key("integrator").key("project_initial"),
+        );
+    }
+    if profile {
+        return unused(
+            "the `profile` diagnostic",
+            root.key("integrator").key("diagnostics"),
+        );
+    }
+    let f = &file.flags;
+    if !(f.gravity && f.springs && f.pair && f.trap && f.damping && f.magnetic && f.constraints) {
+        return unused("switching effects or constraints off", root.key("flags"));
+    }
+    if b.model != "pendulum-chain" && (b.links.is_some() || b.dim.is_some()) {
+        return unused(
+            "`links` and `dim` (only the chain has them)",
+            path.key("links"),
+        );
+    }
     let (table, order) = choose_scheme(&file.integrator, false)?;
     if file.integrator.scheme == "discrete-gradient" {
         return Err(err(
@@ -1558,9 +1710,14 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
             use crate::models::RigidBody;
             type V = SVector<f64, 3>;
             if table.is_some() {
+                let field = if file.integrator.scheme == "auto" {
+                    "order"
+                } else {
+                    "scheme"
+                };
                 return Err(err(
                     SceneErrorKind::Unsupported,
-                    FieldPath::root().key("integrator").key("order"),
+                    FieldPath::root().key("integrator").key(field),
                     "the rigid body runs the implicit midpoint rule (order 2) only",
                 ));
             }
@@ -1620,6 +1777,13 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
         }
         "pendulum-chain" => {
             let links = b.links.unwrap_or(10);
+            if links > MAX_BODIES {
+                return Err(err(
+                    SceneErrorKind::Unsupported,
+                    path.key("links"),
+                    format!("more than {MAX_BODIES} links"),
+                ));
+            }
             let dim = b.dim.unwrap_or(2);
             let chain = PendulumChain::<f64>::uniform(dim, links)
                 .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))?;

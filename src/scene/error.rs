@@ -170,25 +170,53 @@ pub(crate) fn location_of(file: &str, text: &str, offset: usize) -> Location {
     }
 }
 
-/// For serde's "unknown field `k`" reported at `span` (for a buffered, tagged table the parser
-/// reports the header of the array's first table): the offset of the first line at or after
-/// `span` that sets `k`.
+/// For serde's "unknown field `k`, expected one of `a`, `b`, …" reported at `span` (for a
+/// buffered, tagged table the parser reports the header of the array's first table): the offset
+/// of the line that sets `k` in the first table after `span` whose other keys are all among the
+/// expected ones (the table the message is about), else of the first line that sets `k`.
 pub(crate) fn unknown_key_offset(
     message: &str,
     text: &str,
     span: std::ops::Range<usize>,
 ) -> Option<usize> {
     let key = message.strip_prefix("unknown field `")?.split('`').next()?;
+    let expected: Vec<&str> = message
+        .split_once("expected")
+        .map(|(_, rest)| rest.split('`').skip(1).step_by(2).collect())
+        .unwrap_or_default();
     let region = text.get(span.start..)?;
+    // Lines with their offsets, split into tables at `[` headers.
+    let mut tables: Vec<Vec<(usize, &str)>> = vec![Vec::new()];
     let mut offset = span.start;
     for line in region.split_inclusive('\n') {
         let trimmed = line.trim_start();
-        if let Some(rest) = trimmed.strip_prefix(key)
-            && rest.trim_start().starts_with('=')
-        {
-            return Some(offset + (line.len() - trimmed.len()));
+        if trimmed.starts_with('[') && !tables.last().is_some_and(|t| t.is_empty()) {
+            tables.push(Vec::new());
         }
+        tables
+            .last_mut()
+            .expect("one table at least")
+            .push((offset + (line.len() - trimmed.len()), trimmed));
         offset += line.len();
     }
-    None
+    let key_of = |line: &str| -> Option<String> {
+        let (k, _) = line.split_once('=')?;
+        let k = k.trim();
+        (!k.is_empty() && !k.starts_with('#') && !k.starts_with('[')).then(|| k.to_owned())
+    };
+    let sets_key = |t: &[(usize, &str)]| {
+        t.iter()
+            .find(|(_, l)| key_of(l).as_deref() == Some(key))
+            .map(|p| p.0)
+    };
+    let fits = |t: &[(usize, &str)]| {
+        t.iter().filter_map(|(_, l)| key_of(l)).all(|k| {
+            k == key || k == "type" || expected.is_empty() || expected.contains(&k.as_str())
+        })
+    };
+    tables
+        .iter()
+        .find(|t| sets_key(t).is_some() && fits(t))
+        .or_else(|| tables.iter().find(|t| sets_key(t).is_some()))
+        .and_then(|t| sets_key(t))
 }

@@ -10,7 +10,7 @@
 //!
 //! A scene's potential terms depend on `q` only, so their flows commute and merge into one kick
 //! `p ← p − h ∇V(q)` (exact). The kinetic term's flow under `M` is the free flight of each
-//! body, `q' = p/m`, `p' = (e B× − c) p/m`, linear and solved exactly: a drift, rotated about
+//! body, `q' = v = p/m`, `p' = e v × B − c v`, linear and solved exactly: a drift, rotated about
 //! `B` and damped by `e^{−c t/m}` only for the bodies that have a field or damping (see
 //! [`SceneModel::free_flight`]). Undeclared effects have no term: no evaluation, no cost.
 
@@ -84,6 +84,10 @@ impl Counter {
     }
     pub(crate) fn nanos(&self) -> u64 {
         self.nanos.load(Ordering::Relaxed)
+    }
+    fn reset(&self) {
+        self.evaluations.store(0, Ordering::Relaxed);
+        self.nanos.store(0, Ordering::Relaxed);
     }
 }
 
@@ -210,6 +214,8 @@ pub(crate) struct ConstraintTerm {
     pub(crate) kind: ConstraintKind,
     pub(crate) row: usize,
     pub(crate) label: String,
+    /// Where the scene declares it (for errors).
+    pub(crate) path: super::error::FieldPath,
 }
 
 impl ConstraintTerm {
@@ -320,6 +326,21 @@ impl SceneModel {
     pub fn state_len(&self) -> usize {
         2 * self.dim * self.masses.len()
     }
+    /// Zeroes every term's evaluation counter and clock.
+    pub fn reset_counters(&self) {
+        self.kinetic.reset();
+        self.constraint_counter.reset();
+        for t in &self.potentials {
+            t.counter.reset();
+        }
+        if let Some(t) = &self.damping {
+            t.counter.reset();
+        }
+        if let Some(t) = &self.magnetic {
+            t.counter.reset();
+        }
+    }
+
     /// `true` if a damping term is assembled (`M` has a dissipative part).
     pub fn is_dissipative(&self) -> bool {
         self.damping.is_some()
@@ -436,7 +457,12 @@ impl SceneModel {
                         for k in 0..d {
                             ru += (q[a * d + k] - q[b * d + k]) * (v[a * d + k] - v[b * d + k]);
                         }
-                        let s = (d2 - d1) * ru / (r * r);
+                        // A zero-length spring has d2 = d1: no radial term (and no 0/0 at r = 0).
+                        let s = if d2 == d1 {
+                            0.0
+                        } else {
+                            (d2 - d1) * ru / (r * r)
+                        };
                         for k in 0..d {
                             let z = d1 * (v[a * d + k] - v[b * d + k])
                                 + s * (q[a * d + k] - q[b * d + k]);
@@ -470,8 +496,8 @@ impl SceneModel {
         }
     }
 
-    /// The exact flow of the kinetic term under `M` for time `t`: per body, `q' = p/m`,
-    /// `p' = (e B × − c) p/m`. With `γ = c/m`, `ω⃗ = e B/m = ω b̂`, `p = p∥ + p⊥` along and
+    /// The exact flow of the kinetic term under `M` for time `t`: per body, `q' = v = p/m`,
+    /// `p' = e v × B − c v`. With `γ = c/m`, `ω⃗ = e B/m = ω b̂`, `p = p∥ + p⊥` along and
     /// across `b̂`, `w = b̂ × p⊥` and `z = −γ + iω`:
     ///
     /// ```text
@@ -538,9 +564,13 @@ fn exact_flight(gamma: f64, omega: [f64; 3], t: f64, p: [f64; 3]) -> ([f64; 3], 
     // e^{zt} − 1 = (e^{−γt} cos ωt − 1) + i e^{−γt} sin ωt, the real part without cancellation.
     let nr = (-gamma * t).exp_m1() * c - 2.0 * half * half;
     let ni = decay * s;
-    let den = gamma * gamma + om * om;
-    let a = (-gamma * nr + om * ni) / den;
-    let bb = (-gamma * ni - om * nr) / den;
+    // (nr + i ni) / z with z scaled by s = max(γ, ω) first, so that a field so weak that
+    // γ² + ω² underflows still divides correctly.
+    let scale = gamma.max(om);
+    let (zr, zi) = (-gamma / scale, om / scale);
+    let den = (zr * zr + zi * zi) * scale;
+    let a = (zr * nr + zi * ni) / den;
+    let bb = (zr * ni - zi * nr) / den;
     let mut dq = [0.0; 3];
     let mut pn = [0.0; 3];
     for k in 0..3 {
