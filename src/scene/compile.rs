@@ -14,7 +14,7 @@ use crate::error::SetupError;
 use crate::flow::coefficients::table_by_name;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
-    ProjectionOptions, Scheme, from_fn,
+    ImplicitMidpoint, ProjectionOptions, Scheme, from_fn,
 };
 use crate::linalg::{LinearSolver, Sink, SolverChoice, Structure};
 use crate::nonlinear::NewtonOptions;
@@ -992,7 +992,7 @@ fn choose_scheme(
             };
             (table, order)
         }
-        "strang" | "discrete-gradient" => (None, 2),
+        "strang" | "discrete-gradient" | "midpoint" | "modified" => (None, 2),
         name => match table_by_name(name) {
             Some(t) => (Some(t), t.order),
             None => {
@@ -1000,7 +1000,7 @@ fn choose_scheme(
                     SceneErrorKind::Value,
                     path.key("scheme"),
                     format!(
-                        "unknown scheme '{name}' (auto, strang, discrete-gradient, triple-jump, suzuki4, yoshida6, kahan-li6, suzuki-umeno8, kahan-li8)"
+                        "unknown scheme '{name}' (auto, strang, discrete-gradient, midpoint, modified, triple-jump, suzuki4, yoshida6, kahan-li6, suzuki-umeno8, kahan-li8)"
                     ),
                 ));
             }
@@ -1258,6 +1258,33 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
                     .map_err(setup)?,
             )
         }
+    } else if file.integrator.scheme == "midpoint" {
+        // The implicit midpoint rule for all of H under M (dense Newton on n unknowns), projected
+        // when there are constraints: the §3 scheme with a general inner flow.
+        let setup = |e: SetupError| setup_error(&model, e);
+        let mid = ImplicitMidpoint::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
+            model.clone(),
+            model.clone(),
+            &x0,
+            NewtonOptions::default(),
+        )
+        .map_err(setup)?;
+        if m == 0 {
+            scheme_name = "implicit midpoint rule";
+            with_table(mid, table)
+        } else {
+            scheme_name = "projection around the implicit midpoint rule";
+            let system = System::new(model.clone(), model.clone(), model.clone());
+            let options = projection_options(&model, &x0);
+            case = Some("degenerate".to_owned());
+            with_table(mid.projected(system, &x0, options).map_err(setup)?, table)
+        }
+    } else if file.integrator.scheme == "modified" {
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            root.key("integrator").key("scheme"),
+            "the §2 scheme (`modified`) is offered for the built-in paper model only",
+        ));
     } else if m == 0 {
         scheme_name = if has_potential {
             "free flight ∘ kick ∘ free flight (Strang)"
@@ -1669,11 +1696,17 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
         );
     }
     let (table, order) = choose_scheme(&file.integrator, false)?;
-    if file.integrator.scheme == "discrete-gradient" {
+    let scheme = file.integrator.scheme.as_str();
+    if scheme == "discrete-gradient"
+        || (b.model != "paper" && matches!(scheme, "midpoint" | "modified"))
+    {
         return Err(err(
             SceneErrorKind::Unsupported,
             FieldPath::root().key("integrator").key("scheme"),
-            "the built-in models run the projection schemes; the discrete gradient is for scenes of bodies",
+            format!(
+                "the built-in model '{}' does not offer the scheme '{scheme}'",
+                b.model
+            ),
         ));
     }
     let dt = file.integrator.dt;
@@ -1686,17 +1719,55 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
         "paper" => {
             type V = SVector<f64, 4>;
             let x0: V = paper::initial_state();
-            let p = paper::drift()
-                .projected(paper::system(), &x0, ProjectionOptions::default())
-                .map_err(setup)?;
-            let flow: Box<dyn Flow<V>> = with_table(p, table);
+            let (flow, inner): (Box<dyn Flow<V>>, &str) = match file.integrator.scheme.as_str() {
+                // The paper's §2 scheme: projection around the flow of H_N1 = H + μ g by the
+                // implicit midpoint rule.
+                "modified" => {
+                    let inner = ImplicitMidpoint::<V, _, _>::try_new(
+                        paper::Structure,
+                        paper::modified_hamiltonian::<V>(),
+                        &x0,
+                        NewtonOptions::default(),
+                    )
+                    .map_err(setup)?;
+                    let p = inner
+                        .projected(paper::system(), &x0, ProjectionOptions::default())
+                        .map_err(setup)?;
+                    (
+                        with_table(p, table),
+                        "§2: projection around the implicit midpoint rule for H + μ g",
+                    )
+                }
+                "midpoint" => {
+                    let inner = ImplicitMidpoint::<V, _, _>::try_new(
+                        paper::Structure,
+                        paper::Energy,
+                        &x0,
+                        NewtonOptions::default(),
+                    )
+                    .map_err(setup)?;
+                    let p = inner
+                        .projected(paper::system(), &x0, ProjectionOptions::default())
+                        .map_err(setup)?;
+                    (
+                        with_table(p, table),
+                        "projection around the implicit midpoint rule",
+                    )
+                }
+                _ => {
+                    let p = paper::drift()
+                        .projected(paper::system(), &x0, ProjectionOptions::default())
+                        .map_err(setup)?;
+                    (with_table(p, table), "projection around the drift (exact)")
+                }
+            };
             let assembly = builtin_assembly(
                 file,
                 "Zhang & Deng (2004) §4",
                 4,
                 1,
                 false,
-                compose(table, "projection around the drift (exact)"),
+                compose(table, inner),
                 order,
                 steps,
             );
@@ -1706,7 +1777,6 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
             )
         }
         "rigid-body" => {
-            use crate::flow::ImplicitMidpoint;
             use crate::models::RigidBody;
             type V = SVector<f64, 3>;
             if table.is_some() {

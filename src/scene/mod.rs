@@ -41,6 +41,9 @@
 mod compile;
 mod error;
 mod model;
+#[cfg(feature = "peers")]
+mod peers;
+pub mod precision;
 mod run;
 pub mod schema;
 

@@ -831,7 +831,7 @@ impl SceneModel {
     /// (`u = q_a − q_b`), a sphere `u = q − c`, a plane `n`, a pin the unit vectors. `G v`,
     /// `Gᵀ μ` and the Jacobian entries are all written through it, so they cannot disagree.
     #[inline]
-    fn for_each_gradient(&self, q: &[f64], mut f: impl FnMut(usize, usize, [f64; 3])) {
+    pub(crate) fn for_each_gradient(&self, q: &[f64], mut f: impl FnMut(usize, usize, [f64; 3])) {
         for c in &self.constraints {
             let r = c.row;
             match &c.kind {

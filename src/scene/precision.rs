@@ -1,0 +1,497 @@
+//! Work–precision: what accuracy costs in time, over step sizes and orders, against a
+//! reference and (feature `peers`) against solvers a user would otherwise take.
+//!
+//! [`work_precision`] runs a scene with every scheme of a [`PrecisionPlan`] at every step size
+//! (and the peers at every tolerance) and returns one [`PrecisionRow`] per run: the error at the
+//! final time against a [`Reference`], `max |g|` and `max |φ|` over the run, the energy error
+//! (the energy budget's error with damping), the work counters, and the time — one warm-up run
+//! (which also observes the diagnostics), then the minimum and median of `repeats` timed runs
+//! with nothing observed, as DiffEqDevTools' `WorkPrecisionSet` does. A run that fails is a row
+//! with its error kind, never a panic.
+
+use super::run::{RunPlan, run};
+use super::{Scene, SceneError};
+use crate::models::paper;
+use serde::Serialize;
+
+/// The largest state the implicit schemes (dense Newton on `n` or `n + m` unknowns) are run on.
+pub const DENSE_MAX_DIM: usize = 400;
+
+/// What to run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrecisionPlan {
+    /// Step sizes for every lieflow scheme.
+    pub dts: Vec<f64>,
+    /// Composition orders of the projected splitting (2 = Strang; 4, 6, 8 = Suzuki 4,
+    /// Kahan–Li 6, Kahan–Li 8). Orders above 2 are skipped (with a row saying so) for scenes
+    /// with damping.
+    pub orders: Vec<u32>,
+    /// Also run the discrete gradient (scenes of bodies).
+    pub discrete_gradient: bool,
+    /// Also run the projection around the implicit midpoint rule (scenes with a state of at
+    /// most [`DENSE_MAX_DIM`], the paper's model).
+    pub midpoint: bool,
+    /// Also run the paper's §2 scheme (the built-in paper model only).
+    pub modified: bool,
+    /// Tolerances (`rtol = atol`) for the peers.
+    pub tolerances: Vec<f64>,
+    /// Run the peers (needs the `peers` feature; otherwise no peer rows).
+    pub peers: bool,
+    /// Timed runs after the warm-up.
+    pub repeats: usize,
+}
+
+impl PrecisionPlan {
+    /// Step sizes `dt · {8, 4, 2, 1}`, orders 2, 4, 6, 8, the discrete gradient, peer
+    /// tolerances `1e-4 … 1e-14` (every second decade), three timed runs.
+    pub fn around(dt: f64) -> Self {
+        Self {
+            dts: vec![8.0 * dt, 4.0 * dt, 2.0 * dt, dt],
+            orders: vec![2, 4, 6, 8],
+            discrete_gradient: true,
+            midpoint: true,
+            modified: true,
+            tolerances: vec![1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-14],
+            peers: true,
+            repeats: 3,
+        }
+    }
+}
+
+/// The reference solution at the final time.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Reference {
+    /// The state at `t`.
+    pub x: Vec<f64>,
+    /// The time.
+    pub t: f64,
+    /// Where it comes from, e.g. `closed form` or `kahan-li8 at h = …, Richardson-checked`.
+    pub source: String,
+    /// Its own error estimate (max-norm), `None` for a closed form.
+    pub error_estimate: Option<f64>,
+}
+
+/// One run of a work–precision set.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PrecisionRow {
+    /// `projection order 2`, `projection order 8`, `discrete gradient`, `DOP853 (index-1 ODE)`, …
+    pub method: String,
+    /// The step size (lieflow) …
+    pub dt: Option<f64>,
+    /// … or the tolerance (peers).
+    pub tol: Option<f64>,
+    /// `ok`, or the error's kind (`Newton`, `NonFinite`, `Setup`, `Skipped`, …).
+    pub status: String,
+    /// What failed, if anything.
+    pub message: String,
+    /// Max-norm error of the final state against the reference.
+    pub error: Option<f64>,
+    /// `max |g|` over the run (at the peers' accepted steps).
+    pub max_abs_g: Option<f64>,
+    /// `max |φ|` over the run.
+    pub max_abs_phi: Option<f64>,
+    /// `max |H − H₀|`, or with damping `max |H − H₀ + dissipated|`.
+    pub energy_error: Option<f64>,
+    /// Steps (accepted steps for the peers).
+    pub steps: u64,
+    /// Multiplier-residual evaluations (lieflow) or right-hand-side evaluations (peers).
+    pub evaluations: u64,
+    /// Newton iterations.
+    pub newton_iterations: u64,
+    /// Factorizations of Newton matrices (peers: LU decompositions).
+    pub factorizations: u64,
+    /// Minimum wall time of the timed runs, seconds.
+    pub time_min: Option<f64>,
+    /// Median wall time of the timed runs, seconds.
+    pub time_median: Option<f64>,
+}
+
+impl PrecisionRow {
+    pub(crate) fn failed(
+        method: &str,
+        dt: Option<f64>,
+        tol: Option<f64>,
+        status: &str,
+        message: String,
+    ) -> Self {
+        Self {
+            method: method.to_owned(),
+            dt,
+            tol,
+            status: status.to_owned(),
+            message,
+            error: None,
+            max_abs_g: None,
+            max_abs_phi: None,
+            energy_error: None,
+            steps: 0,
+            evaluations: 0,
+            newton_iterations: 0,
+            factorizations: 0,
+            time_min: None,
+            time_median: None,
+        }
+    }
+}
+
+/// Max-norm distance.
+pub(crate) fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+}
+
+/// `(min, median)` of the times.
+pub(crate) fn min_median(mut times: Vec<f64>) -> (Option<f64>, Option<f64>) {
+    if times.is_empty() {
+        return (None, None);
+    }
+    times.sort_by(f64::total_cmp);
+    (Some(times[0]), Some(times[times.len() / 2]))
+}
+
+fn with_scheme(scene: &Scene, scheme: &str, order: Option<u32>, dt: f64) -> Scene {
+    let mut s = scene.clone();
+    s.file.integrator.scheme = scheme.to_owned();
+    s.file.integrator.order = order;
+    s.file.integrator.dt = dt;
+    s
+}
+
+/// The final time of the scene: `round(t_end/dt) · dt` is what a run reaches; the plan's step
+/// sizes must all divide `t_end` (checked by [`work_precision`]).
+fn final_time(scene: &Scene) -> f64 {
+    scene.file.integrator.t_end
+}
+
+/// The reference: the closed form for the paper's example; otherwise a run of the scene's most
+/// accurate admissible scheme at a step `factor` times below the plan's smallest (Kahan–Li 8
+/// without damping, Strang with damping, extrapolated by Richardson from `h` and `h/2`), whose
+/// own error is estimated from the same two runs.
+pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, SceneError> {
+    let t = final_time(scene);
+    if scene
+        .file
+        .builtin
+        .as_ref()
+        .is_some_and(|b| b.model == "paper")
+    {
+        return Ok(Reference {
+            x: paper::exact(t, -0.15).to_vec(),
+            t,
+            source: "closed form (models::paper::exact)".into(),
+            error_estimate: None,
+        });
+    }
+    let dissipative = scene.compile()?.assembly.dissipative;
+    let h_min = plan.dts.iter().copied().fold(f64::INFINITY, f64::min);
+    let (scheme, order, p, divide) = if dissipative {
+        ("strang", None, 2.0, 64.0)
+    } else {
+        ("kahan-li8", None, 8.0, 8.0)
+    };
+    let h = h_min / divide;
+    let at = |h: f64| -> Result<Vec<f64>, SceneError> {
+        let mut c = with_scheme(scene, scheme, order, h).compile()?;
+        let quiet = RunPlan {
+            steps: c.plan.steps,
+            energy: false,
+            residuals: false,
+        };
+        let s = run(c.simulation.as_mut(), &quiet, &mut |_| {});
+        match s.error {
+            None => Ok(s.x),
+            Some(f) => Err(SceneError::new(
+                super::SceneErrorKind::Setup,
+                super::FieldPath::root(),
+                format!(
+                    "the reference run ({scheme}, h = {h:e}) failed at step {}: {}",
+                    f.step, f.message
+                ),
+            )),
+        }
+    };
+    let coarse = at(h)?;
+    let fine = at(h / 2.0)?;
+    let diff = distance(&coarse, &fine);
+    let factor = 2f64.powf(p) - 1.0;
+    let (x, source) = if dissipative {
+        // Richardson: x(h/2) + (x(h/2) − x(h))/3 removes the h² term.
+        let x: Vec<f64> = fine
+            .iter()
+            .zip(&coarse)
+            .map(|(f, c)| f + (f - c) / factor)
+            .collect();
+        (
+            x,
+            format!("strang at h = {:.3e} and h/2, Richardson-extrapolated", h),
+        )
+    } else {
+        (
+            fine,
+            format!("kahan-li8 at h = {:.3e} (checked against h·2)", h / 2.0),
+        )
+    };
+    Ok(Reference {
+        x,
+        t,
+        source,
+        // The finer run's error ≈ |x(h) − x(h/2)|/(2^p − 1); the extrapolated one is smaller
+        // still, so this bounds it up to the next term.
+        error_estimate: Some(diff / factor),
+    })
+}
+
+/// Runs the whole set (see the module docs). `progress` sees every row as it is done.
+pub fn work_precision(
+    scene: &Scene,
+    plan: &PrecisionPlan,
+    reference: &Reference,
+    progress: &mut dyn FnMut(&PrecisionRow),
+) -> Vec<PrecisionRow> {
+    let mut rows = Vec::new();
+    let mut push = |row: PrecisionRow, rows: &mut Vec<PrecisionRow>| {
+        progress(&row);
+        rows.push(row);
+    };
+    let dissipative = scene
+        .compile()
+        .map(|c| c.assembly.dissipative)
+        .unwrap_or(false);
+    let is_builtin = scene.file.builtin.is_some();
+    let mut methods: Vec<(String, &str, Option<u32>)> = Vec::new();
+    for &o in &plan.orders {
+        methods.push((format!("lieflow order {o}"), "auto", Some(o)));
+    }
+    let is_paper = scene
+        .file
+        .builtin
+        .as_ref()
+        .is_some_and(|b| b.model == "paper");
+    let n = scene.compile().map(|c| c.assembly.state_len).unwrap_or(0);
+    let mut implicit: Vec<(String, &str)> = Vec::new();
+    if plan.discrete_gradient && !is_builtin {
+        implicit.push(("lieflow discrete gradient".into(), "discrete-gradient"));
+    }
+    if plan.midpoint && (!is_builtin || is_paper) {
+        implicit.push(("lieflow implicit midpoint".into(), "midpoint"));
+    }
+    if plan.modified && is_paper {
+        implicit.push(("lieflow §2 scheme".into(), "modified"));
+    }
+    for (name, scheme) in implicit {
+        if n > DENSE_MAX_DIM {
+            push(
+                PrecisionRow::failed(
+                    &name,
+                    None,
+                    None,
+                    "Skipped",
+                    format!("state of {n} > {DENSE_MAX_DIM}: dense Newton matrices"),
+                ),
+                &mut rows,
+            );
+        } else {
+            methods.push((name, scheme, None));
+        }
+    }
+    for (name, scheme, order) in &methods {
+        for &dt in &plan.dts {
+            if dissipative && order.is_some_and(|o| o > 2) {
+                push(
+                    PrecisionRow::failed(
+                        name,
+                        Some(dt),
+                        None,
+                        "Skipped",
+                        "negative sub-steps would run the damping backwards".into(),
+                    ),
+                    &mut rows,
+                );
+                continue;
+            }
+            let row = lieflow_row(scene, name, scheme, *order, dt, plan.repeats, reference);
+            push(row, &mut rows);
+        }
+    }
+    #[cfg(feature = "peers")]
+    if plan.peers {
+        for row in super::peers::peer_rows(scene, plan, reference) {
+            push(row, &mut rows);
+        }
+    }
+    rows
+}
+
+/// One lieflow run: warm-up with diagnostics, then timed runs.
+fn lieflow_row(
+    scene: &Scene,
+    name: &str,
+    scheme: &str,
+    order: Option<u32>,
+    dt: f64,
+    repeats: usize,
+    reference: &Reference,
+) -> PrecisionRow {
+    let s = with_scheme(scene, scheme, order, dt);
+    let steps_f = final_time(scene) / dt;
+    if (steps_f - steps_f.round()).abs() > 1e-9 * steps_f.max(1.0) {
+        return PrecisionRow::failed(
+            name,
+            Some(dt),
+            None,
+            "Setup",
+            format!("dt = {dt} does not divide t_end"),
+        );
+    }
+    let compile = || s.compile();
+    let mut c = match compile() {
+        Ok(c) => c,
+        Err(e) => return PrecisionRow::failed(name, Some(dt), None, "Setup", e.to_string()),
+    };
+    let observed = RunPlan {
+        steps: c.plan.steps,
+        energy: true,
+        residuals: true,
+    };
+    let summary = run(c.simulation.as_mut(), &observed, &mut |_| {});
+    if let Some(f) = &summary.error {
+        let mut row = PrecisionRow::failed(
+            name,
+            Some(dt),
+            None,
+            &f.kind,
+            format!("step {} at t = {}: {}", f.step, f.t, f.message),
+        );
+        row.steps = summary.steps as u64;
+        return row;
+    }
+    let stats = c.simulation.stats();
+    let mut times = Vec::with_capacity(repeats);
+    for _ in 0..repeats {
+        let Ok(mut c) = compile() else { break };
+        let quiet = RunPlan {
+            steps: c.plan.steps,
+            energy: false,
+            residuals: false,
+        };
+        let s = run(c.simulation.as_mut(), &quiet, &mut |_| {});
+        times.push(s.ns_per_step * s.steps as f64 * 1e-9);
+    }
+    let (time_min, time_median) = min_median(times);
+    PrecisionRow {
+        method: name.to_owned(),
+        dt: Some(dt),
+        tol: None,
+        status: "ok".into(),
+        message: String::new(),
+        error: Some(distance(&summary.x, &reference.x)),
+        max_abs_g: summary.max_abs_g,
+        max_abs_phi: summary.max_abs_phi,
+        energy_error: summary
+            .max_energy_balance_error
+            .or(summary.max_abs_energy_error),
+        steps: summary.steps as u64,
+        evaluations: stats.residual_evaluations,
+        newton_iterations: stats.newton_iterations,
+        factorizations: stats.factorizations,
+        time_min,
+        time_median,
+    }
+}
+
+/// The least-squares slope of `log(error)` against `log(dt)` per lieflow method, over its rows
+/// with an error above `floor` (the reference's error, times a margin): the fitted order.
+pub fn fitted_slopes(rows: &[PrecisionRow], floor: f64) -> Vec<(String, f64)> {
+    let mut out: Vec<(String, f64)> = Vec::new();
+    let mut names: Vec<&str> = rows
+        .iter()
+        .filter(|r| r.dt.is_some())
+        .map(|r| r.method.as_str())
+        .collect();
+    names.dedup();
+    for name in names {
+        let pts: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| r.method == name && r.status == "ok")
+            .filter_map(|r| Some((r.dt?, r.error?)))
+            .filter(|&(_, e)| e > floor)
+            .map(|(h, e)| (h.ln(), e.ln()))
+            .collect();
+        if pts.len() < 2 {
+            continue;
+        }
+        let n = pts.len() as f64;
+        let (mx, my) = (
+            pts.iter().map(|p| p.0).sum::<f64>() / n,
+            pts.iter().map(|p| p.1).sum::<f64>() / n,
+        );
+        let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+        let sxx: f64 = pts.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
+        if sxx > 0.0 {
+            out.push((name.to_owned(), sxy / sxx));
+        }
+    }
+    out
+}
+
+/// The CSV columns, in order.
+pub const CSV_COLUMNS: [&str; 16] = [
+    "method",
+    "dt",
+    "tol",
+    "status",
+    "error",
+    "max_abs_g",
+    "max_abs_phi",
+    "energy_error",
+    "steps",
+    "evaluations",
+    "newton_iterations",
+    "factorizations",
+    "time_min_s",
+    "time_median_s",
+    "fitted_order",
+    "message",
+];
+
+/// Writes the rows as long-format CSV: `# key: value` comment lines first (`comments`, e.g.
+/// the machine, the revision and the reference), then the header [`CSV_COLUMNS`] and one line
+/// per row. Empty fields are values that do not apply.
+pub fn write_csv(
+    w: &mut dyn std::io::Write,
+    comments: &[(&str, String)],
+    rows: &[PrecisionRow],
+    slopes: &[(String, f64)],
+) -> std::io::Result<()> {
+    for (k, v) in comments {
+        writeln!(w, "# {k}: {}", v.replace('\n', " "))?;
+    }
+    writeln!(w, "{}", CSV_COLUMNS.join(","))?;
+    let f = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{v:e}"));
+    for r in rows {
+        let slope = slopes.iter().find(|s| s.0 == r.method).map(|s| s.1);
+        let message = r.message.replace('"', "'");
+        writeln!(
+            w,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},\"{}\"",
+            r.method,
+            f(r.dt),
+            f(r.tol),
+            r.status,
+            f(r.error),
+            f(r.max_abs_g),
+            f(r.max_abs_phi),
+            f(r.energy_error),
+            r.steps,
+            r.evaluations,
+            r.newton_iterations,
+            r.factorizations,
+            f(r.time_min),
+            f(r.time_median),
+            f(slope),
+            message
+        )?;
+    }
+    Ok(())
+}
