@@ -434,7 +434,7 @@ fn precision(args: &PrecisionArgs) -> ExitCode {
         }
         scene.file.integrator.t_end = t;
     }
-    let mut plan = PrecisionPlan::around(scene.file.integrator.dt);
+    let mut plan = PrecisionPlan::around(scene.file.integrator.dt, scene.file.integrator.t_end);
     if !args.dt.is_empty() {
         plan.dts = args.dt.clone();
     }
@@ -513,7 +513,10 @@ fn precision(args: &PrecisionArgs) -> ExitCode {
         });
     });
     bar.finish_and_clear();
-    let floor = 10.0 * reference.error_estimate.unwrap_or(0.0) + 1e-14;
+    // Fit only errors well above the reference's own and above the round-off a long run
+    // accumulates (1e-11 of the state's size).
+    let scale = reference.x.iter().fold(1.0f64, |a, x| a.max(x.abs()));
+    let floor = (10.0 * reference.error_estimate.unwrap_or(0.0)).max(1e-11 * scale);
     let slopes = fitted_slopes(&rows, floor);
     for (m, s) in &slopes {
         println!("fitted order {m}: {s:.2}");

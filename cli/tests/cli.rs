@@ -249,3 +249,39 @@ fn help_lists_the_subcommands() {
         assert!(text.contains(flag), "{flag}");
     }
 }
+
+#[test]
+fn precision_writes_a_table_a_csv_and_figures() {
+    let dir = scratch("wp");
+    let o = lieflow(&[
+        "precision",
+        &repo("scenes/paper.toml"),
+        "--dt",
+        "0.2,0.1",
+        "--orders",
+        "2,4",
+        "--tols",
+        "1e-6,1e-8",
+        "--repeats",
+        "1",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = summary(&o);
+    assert_eq!(j["failed"], 0);
+    assert!(j["reference"].as_str().unwrap().contains("closed form"));
+    // 2 orders × 2 steps, midpoint and §2 × 2 steps, 2 peers × 2 tolerances.
+    assert_eq!(j["rows"], 4 + 4 + 4);
+    let csv = std::fs::read_to_string(dir.join("work_precision.csv")).unwrap();
+    assert!(csv.lines().any(|l| l.starts_with("# machine: ")));
+    assert!(csv.lines().any(|l| l.starts_with("# revision: ")));
+    let header = csv.lines().find(|l| !l.starts_with('#')).unwrap();
+    assert_eq!(header, lieflow::scene::precision::CSV_COLUMNS.join(","));
+    for stem in ["time", "dt", "g"] {
+        let svg = std::fs::read_to_string(dir.join(format!("work_precision_{stem}.svg"))).unwrap();
+        assert!(svg.starts_with("<svg"));
+    }
+    let text = stdout(&o);
+    assert!(text.contains("DOP853 (index-1 ODE)") && text.contains("fitted order lieflow order 4"));
+}

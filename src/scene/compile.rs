@@ -1076,6 +1076,17 @@ fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(usize, bool, bool, boo
 
 /// Compiles a parsed scene (no source text: errors carry paths but no line numbers).
 pub fn compile(file: &SceneFile) -> Result<Compiled> {
+    compile_impl(file, false)
+}
+
+/// As [`compile`], but a composition of order above 2 may run damping backwards: for reference
+/// runs of mildly damped scenes only, where an order-8 composition's accuracy matters more than
+/// the damping's sign in its backward sub-steps.
+pub(crate) fn compile_reference(file: &SceneFile) -> Result<Compiled> {
+    compile_impl(file, true)
+}
+
+fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     let root = FieldPath::root();
     if file.version != SCENE_VERSION {
         return Err(err(
@@ -1185,7 +1196,7 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
             x0[nq + b * dim + k] = body.mass * body.v[k];
         }
     }
-    let (table, order) = choose_scheme(&file.integrator, model.is_dissipative())?;
+    let (table, order) = choose_scheme(&file.integrator, model.is_dissipative() && !backward)?;
     let m = model.m;
     let mut initial_projection = None;
     if m > 0 {
@@ -1271,13 +1282,17 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
         .map_err(setup)?;
         if m == 0 {
             scheme_name = "implicit midpoint rule";
-            with_table(mid, table)
+            with_table_backward(mid, table, backward)
         } else {
             scheme_name = "projection around the implicit midpoint rule";
             let system = System::new(model.clone(), model.clone(), model.clone());
             let options = projection_options(&model, &x0);
             case = Some("degenerate".to_owned());
-            with_table(mid.projected(system, &x0, options).map_err(setup)?, table)
+            with_table_backward(
+                mid.projected(system, &x0, options).map_err(setup)?,
+                table,
+                backward,
+            )
         }
     } else if file.integrator.scheme == "modified" {
         return Err(err(
@@ -1293,7 +1308,7 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
         };
         match (has_potential, table) {
             (false, _) => Box::new(drift),
-            (true, _) => with_table(drift.strang(kick), table),
+            (true, _) => with_table_backward(drift.strang(kick), table, backward),
         }
     } else {
         let system = System::new(model.clone(), model.clone(), model.clone());
@@ -1328,7 +1343,7 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
                 p.uses_small_path(),
                 format!("{:?}", p.newton().linear_solver().kind()),
             );
-            (with_table(p, table), desc)
+            (with_table_backward(p, table, backward), desc)
         } else {
             scheme_name = "projection around free flight (exact)";
             let p = drift.projected(system, &x0, options).map_err(setup)?;
@@ -1337,7 +1352,7 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
                 p.uses_small_path(),
                 format!("{:?}", p.newton().linear_solver().kind()),
             );
-            (with_table(p, table), desc)
+            (with_table_backward(p, table, backward), desc)
         };
         case = Some(desc.0.to_owned());
         projection = Some(desc.1.to_owned());
@@ -1951,8 +1966,19 @@ fn with_table<V: Vector + 'static, F: Flow<V> + 'static>(
     flow: F,
     table: Option<&'static CompositionTable>,
 ) -> Box<dyn Flow<V>> {
-    match table {
-        None => Box::new(flow),
-        Some(t) => Box::new(flow.composed(t)),
+    with_table_backward(flow, table, false)
+}
+
+/// As [`with_table`], the composition allowed to run dissipation backwards when `backward`
+/// (reference runs only: [`compile_reference`]).
+fn with_table_backward<V: Vector + 'static, F: Flow<V> + 'static>(
+    flow: F,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+) -> Box<dyn Flow<V>> {
+    match (table, backward) {
+        (None, _) => Box::new(flow),
+        (Some(t), false) => Box::new(flow.composed(t)),
+        (Some(t), true) => Box::new(flow.composed(t).allow_backward_dissipation()),
     }
 }

@@ -1,0 +1,174 @@
+//! Work–precision: the fitted slopes are the schemes' orders, the peers' rows are honest, the
+//! CSV has its documented columns, and a failing run is a row.
+
+use lieflow::scene::Scene;
+use lieflow::scene::precision::{
+    CSV_COLUMNS, PrecisionPlan, PrecisionRow, fitted_slopes, reference, work_precision, write_csv,
+};
+
+const PAPER: &str = include_str!("../scenes/paper.toml");
+
+fn paper(t_end: f64) -> Scene {
+    let mut s = Scene::from_toml(PAPER, "paper.toml").unwrap();
+    s.file.integrator.t_end = t_end;
+    s
+}
+
+fn plan(dts: &[f64], orders: &[u32]) -> PrecisionPlan {
+    let mut p = PrecisionPlan::around(0.1, 100.0);
+    p.dts = dts.to_vec();
+    p.orders = orders.to_vec();
+    p.discrete_gradient = false;
+    p.midpoint = false;
+    p.modified = false;
+    p.peers = false;
+    p.repeats = 1;
+    p
+}
+
+fn slopes_of(scene: &Scene, plan: &PrecisionPlan) -> Vec<(String, f64)> {
+    let r = reference(scene, plan).unwrap();
+    let rows = work_precision(scene, plan, &r, &mut |_| {});
+    assert!(rows.iter().all(|r| r.status == "ok"), "{rows:?}");
+    // Errors above 1e-11 only: below, the accumulated round-off of 10⁴ steps competes.
+    fitted_slopes(&rows, 1e-11)
+}
+
+/// Against the closed-form solution, step sizes in each scheme's asymptotic range (the order-8
+/// composition needs the long horizon to lift its errors above round-off).
+#[test]
+fn fitted_slopes_are_the_orders_on_the_paper_example() {
+    let cases: [(f64, &[f64], u32); 4] = [
+        (100.0, &[0.4, 0.2, 0.1, 0.05], 2),
+        (100.0, &[0.4, 0.2, 0.1, 0.05], 4),
+        (100.0, &[1.25, 0.625, 0.3125, 0.15625], 6),
+        (10000.0, &[2.0, 1.0, 0.5], 8),
+    ];
+    for (t_end, dts, order) in cases {
+        let slopes = slopes_of(&paper(t_end), &plan(dts, &[order]));
+        assert_eq!(slopes.len(), 1);
+        let (name, slope) = &slopes[0];
+        assert_eq!(name, &format!("lieflow order {order}"));
+        assert!(
+            (slope - order as f64).abs() < 0.3,
+            "order {order}: slope {slope}"
+        );
+    }
+    // The implicit schemes of the paper's model are second order too.
+    let mut p = plan(&[0.4, 0.2, 0.1, 0.05], &[]);
+    p.midpoint = true;
+    p.modified = true;
+    for (name, slope) in slopes_of(&paper(100.0), &p) {
+        assert!((slope - 2.0).abs() < 0.1, "{name}: {slope}");
+    }
+}
+
+/// DOP853 on the index-1 ODE converges with its tolerance but drifts off the constraint; the
+/// projection keeps |g| at round-off whatever its error.
+#[test]
+fn peers_converge_and_drift() {
+    let scene = paper(100.0);
+    let mut p = plan(&[0.1], &[2]);
+    p.peers = true;
+    p.tolerances = vec![1e-6, 1e-10];
+    let r = reference(&scene, &p).unwrap();
+    let rows = work_precision(&scene, &p, &r, &mut |_| {});
+    let dop: Vec<&PrecisionRow> = rows
+        .iter()
+        .filter(|r| r.method.starts_with("DOP853"))
+        .collect();
+    assert_eq!(dop.len(), 2);
+    assert!(dop.iter().all(|r| r.status == "ok"));
+    assert!(dop[1].error.unwrap() < 1e-3 * dop[0].error.unwrap());
+    assert!(dop[0].max_abs_g.unwrap() > 1e-8, "{:?}", dop[0].max_abs_g);
+    let radau: Vec<&PrecisionRow> = rows
+        .iter()
+        .filter(|r| r.method.starts_with("Radau5"))
+        .collect();
+    assert_eq!(radau.len(), 2);
+    assert!(
+        radau
+            .iter()
+            .all(|r| r.status == "ok" && r.error.unwrap() < 1e-2),
+        "{radau:?}"
+    );
+    let lieflow = rows.iter().find(|r| r.method == "lieflow order 2").unwrap();
+    assert!(lieflow.max_abs_g.unwrap() < 1e-15);
+}
+
+#[test]
+fn the_csv_has_the_documented_columns() {
+    let scene = paper(10.0);
+    let p = plan(&[0.1, 0.05], &[2, 4]);
+    let r = reference(&scene, &p).unwrap();
+    let rows = work_precision(&scene, &p, &r, &mut |_| {});
+    let slopes = fitted_slopes(&rows, 0.0);
+    let mut out = Vec::new();
+    write_csv(
+        &mut out,
+        &[("reference", r.source.clone()), ("machine", "test".into())],
+        &rows,
+        &slopes,
+    )
+    .unwrap();
+    let text = String::from_utf8(out).unwrap();
+    let mut lines = text.lines();
+    assert!(
+        lines
+            .next()
+            .unwrap()
+            .starts_with("# reference: closed form")
+    );
+    assert_eq!(lines.next().unwrap(), "# machine: test");
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header, CSV_COLUMNS);
+    let data: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(data.len(), 4);
+    let col = |name: &str| CSV_COLUMNS.iter().position(|c| *c == name).unwrap();
+    for row in &data {
+        assert_eq!(row.len(), CSV_COLUMNS.len());
+        assert_eq!(row[col("status")], "ok");
+        let e: f64 = row[col("error")].parse().unwrap();
+        assert!(e > 0.0 && e < 1e-2);
+        let _: f64 = row[col("time_min_s")].parse().unwrap();
+        let _: u64 = row[col("evaluations")].parse().unwrap();
+        let slope: f64 = row[col("fitted_order")].parse().unwrap();
+        assert!(slope > 1.5);
+    }
+}
+
+/// A step so large that the multiplier equation has no solution near the iterates, and a step
+/// that does not divide the horizon: rows with their error kinds, not panics.
+#[test]
+fn a_failing_setup_is_a_row() {
+    let text = r#"
+        version = 1
+        dim = 2
+        [[bodies]]
+        name = "bob"
+        mass = 1.0
+        position = [1.0, 0.0]
+        velocity = [0.0, 3.0]
+        [[constraints]]
+        type = "rod"
+        bodies = ["bob"]
+        point = [0.0, 0.0]
+        [[effects]]
+        type = "gravity"
+        g = [0.0, -9.81]
+        [integrator]
+        dt = 0.01
+        t_end = 2.0
+    "#;
+    let scene = Scene::from_toml(text, "whirl.toml").unwrap();
+    let p = plan(&[0.5, 0.3, 0.01], &[2]);
+    let r = reference(&scene, &plan(&[0.01], &[2])).unwrap();
+    let rows = work_precision(&scene, &p, &r, &mut |_| {});
+    assert_eq!(rows.len(), 3);
+    assert_eq!(rows[0].status, "Newton", "{:?}", rows[0]);
+    assert!(rows[0].message.contains("step 1"), "{}", rows[0].message);
+    assert_eq!(rows[1].status, "Setup");
+    assert!(rows[1].message.contains("does not divide"));
+    assert_eq!(rows[2].status, "ok");
+    assert!(rows[2].error.unwrap() < 1e-2);
+}
