@@ -31,7 +31,7 @@ fn slopes_of(scene: &Scene, plan: &PrecisionPlan) -> Vec<(String, f64)> {
     let rows = work_precision(scene, plan, &r, &mut |_| {});
     assert!(rows.iter().all(|r| r.status == "ok"), "{rows:?}");
     // Errors above 1e-11 only: below, the accumulated round-off of 10⁴ steps competes.
-    fitted_slopes(&rows, 1e-11)
+    fitted_slopes(&rows, 1e-11, 1e-2)
 }
 
 /// Against the closed-form solution, step sizes in each scheme's asymptotic range (the order-8
@@ -102,7 +102,7 @@ fn the_csv_has_the_documented_columns() {
     let p = plan(&[0.1, 0.05], &[2, 4]);
     let r = reference(&scene, &p).unwrap();
     let rows = work_precision(&scene, &p, &r, &mut |_| {});
-    let slopes = fitted_slopes(&rows, 0.0);
+    let slopes = fitted_slopes(&rows, 0.0, f64::INFINITY);
     let mut out = Vec::new();
     write_csv(
         &mut out,

@@ -421,7 +421,7 @@ fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
 
 fn precision(args: &PrecisionArgs) -> ExitCode {
     use lieflow::scene::precision::{
-        PrecisionPlan, fitted_slopes, reference, work_precision, write_csv,
+        PrecisionPlan, fitted_slopes, fitting_window, reference, work_precision, write_csv,
     };
     let mut scene = match load(args.scene.as_ref()) {
         Ok(s) => s,
@@ -513,11 +513,9 @@ fn precision(args: &PrecisionArgs) -> ExitCode {
         });
     });
     bar.finish_and_clear();
-    // Fit only errors well above the reference's own and above the round-off a long run
-    // accumulates (1e-11 of the state's size).
-    let scale = reference.x.iter().fold(1.0f64, |a, x| a.max(x.abs()));
-    let floor = (10.0 * reference.error_estimate.unwrap_or(0.0)).max(1e-11 * scale);
-    let slopes = fitted_slopes(&rows, floor);
+    let h_min = plan.dts.iter().copied().fold(f64::INFINITY, f64::min);
+    let (floor, ceiling) = fitting_window(&reference, h_min);
+    let slopes = fitted_slopes(&rows, floor, ceiling);
     for (m, s) in &slopes {
         println!("fitted order {m}: {s:.2}");
     }

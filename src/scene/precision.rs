@@ -407,8 +407,9 @@ fn lieflow_row(
 }
 
 /// The least-squares slope of `log(error)` against `log(dt)` per lieflow method, over its rows
-/// with an error above `floor` (the reference's error, times a margin): the fitted order.
-pub fn fitted_slopes(rows: &[PrecisionRow], floor: f64) -> Vec<(String, f64)> {
+/// with an error in `(floor, ceiling)`: above the reference's error and the round-off a run
+/// accumulates, below the saturated, pre-asymptotic range. The fitted order.
+pub fn fitted_slopes(rows: &[PrecisionRow], floor: f64, ceiling: f64) -> Vec<(String, f64)> {
     let mut out: Vec<(String, f64)> = Vec::new();
     let mut names: Vec<&str> = rows
         .iter()
@@ -421,7 +422,7 @@ pub fn fitted_slopes(rows: &[PrecisionRow], floor: f64) -> Vec<(String, f64)> {
             .iter()
             .filter(|r| r.method == name && r.status == "ok")
             .filter_map(|r| Some((r.dt?, r.error?)))
-            .filter(|&(_, e)| e > floor)
+            .filter(|&(_, e)| e > floor && e < ceiling)
             .map(|(h, e)| (h.ln(), e.ln()))
             .collect();
         if pts.len() < 2 {
@@ -500,4 +501,16 @@ pub fn write_csv(
         )?;
     }
     Ok(())
+}
+
+/// The fitting window of [`fitted_slopes`] for a reference and the smallest step: errors above
+/// ten times the reference's own error and ten times the round-off `ε · T/h_min · |x|` a run
+/// accumulates, and below `10⁻² |x|` (beyond that the error has saturated, e.g. a phase error of
+/// order one at a long horizon).
+pub fn fitting_window(reference: &Reference, h_min: f64) -> (f64, f64) {
+    let scale = reference.x.iter().fold(1.0f64, |a, x| a.max(x.abs()));
+    let steps = (reference.t / h_min).max(1.0);
+    let floor =
+        (10.0 * reference.error_estimate.unwrap_or(0.0)).max(10.0 * f64::EPSILON * steps * scale);
+    (floor, 1e-2 * scale)
 }
