@@ -108,6 +108,34 @@ where
     }
 }
 
+/// Heap vectors for any [`Real`] scalar (extended precision included): nalgebra's `DVector`,
+/// with the pure-Rust [`BandedLu`](crate::linalg::BandedLu) as its solver (a full band when
+/// nothing narrower is known). For scalars faer does not support, e.g. double-double
+/// reference runs of scenes; `faer::Col` is the fast heap storage for `f64`.
+impl<T> Vector for nalgebra::DVector<T>
+where
+    T: Real + nalgebra::Scalar,
+{
+    type Real = T;
+    type Solver = crate::linalg::BandedLu<T>;
+
+    fn zeros(len: usize) -> Self {
+        nalgebra::DVector::from_element(len, T::zero())
+    }
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.nrows()
+    }
+    #[inline(always)]
+    fn as_slice(&self) -> &[T] {
+        nalgebra::Matrix::as_slice(self)
+    }
+    #[inline(always)]
+    fn as_mut_slice(&mut self) -> &mut [T] {
+        nalgebra::Matrix::as_mut_slice(self)
+    }
+}
+
 /// Slice kernels shared by every storage.
 pub mod ops {
     use crate::real::Real;

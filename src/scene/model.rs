@@ -18,6 +18,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::linalg::Sink;
+use crate::real::Real;
 use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::Vector;
 use std::sync::Arc;
@@ -93,31 +94,31 @@ impl Counter {
 
 /// A radial law `φ(r)` of a pair potential.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum PairLaw {
+pub(crate) enum PairLaw<T = f64> {
     /// `s / rⁿ`.
-    InversePower { strength: f64, power: f64 },
+    InversePower { strength: T, power: T },
     /// `−s ln r`.
-    Log { strength: f64 },
+    Log { strength: T },
     /// `4ε ((σ/r)¹² − (σ/r)⁶)`.
-    LennardJones { epsilon: f64, sigma: f64 },
+    LennardJones { epsilon: T, sigma: T },
     /// `k/2 (r − L)²` (a spring).
-    Spring { stiffness: f64, rest: f64 },
+    Spring { stiffness: T, rest: T },
 }
 
-impl PairLaw {
+impl<T: Real> PairLaw<T> {
     /// `(φ(r), φ'(r)/r, φ''(r))`.
     #[inline]
-    fn eval(self, r: f64) -> (f64, f64, f64) {
+    fn eval(self, r: T) -> (T, T, T) {
         // One division per pair: everything in powers of 1/r.
-        let inv_r = 1.0 / r;
+        let inv_r = T::lit(1.0) / r;
         let inv_r2 = inv_r * inv_r;
         match self {
             PairLaw::InversePower { strength, power } => {
                 // Integer powers (Coulomb, dipoles) by multiplication: powf costs ~10x more.
-                let rn = if power == 1.0 {
+                let rn = if power == T::lit(1.0) {
                     inv_r
-                } else if power.fract() == 0.0 && power <= 32.0 {
-                    inv_r.powi(power as i32)
+                } else if power.fract() == T::lit(0.0) && power <= T::lit(32.0) {
+                    inv_r.powi(num_traits::ToPrimitive::to_i32(&power).unwrap_or(1))
                 } else {
                     r.powf(-power)
                 };
@@ -125,7 +126,7 @@ impl PairLaw {
                 (
                     phi,
                     -power * phi * inv_r2,
-                    power * (power + 1.0) * phi * inv_r2,
+                    power * (power + T::lit(1.0)) * phi * inv_r2,
                 )
             }
             PairLaw::Log { strength } => {
@@ -136,20 +137,20 @@ impl PairLaw {
                 let s6 = s2 * s2 * s2;
                 let s12 = s6 * s6;
                 (
-                    4.0 * epsilon * (s12 - s6),
-                    4.0 * epsilon * (-12.0 * s12 + 6.0 * s6) * inv_r2,
-                    4.0 * epsilon * (156.0 * s12 - 42.0 * s6) * inv_r2,
+                    T::lit(4.0) * epsilon * (s12 - s6),
+                    T::lit(4.0) * epsilon * (-T::lit(12.0) * s12 + T::lit(6.0) * s6) * inv_r2,
+                    T::lit(4.0) * epsilon * (T::lit(156.0) * s12 - T::lit(42.0) * s6) * inv_r2,
                 )
             }
             PairLaw::Spring { stiffness, rest } => {
                 let e = r - rest;
                 // φ'/r = k (1 − L/r): exact at L = 0 (a zero-length spring is linear).
-                let dr = if rest == 0.0 {
+                let dr = if rest == T::lit(0.0) {
                     stiffness
                 } else {
                     stiffness * e * inv_r
                 };
-                (0.5 * stiffness * e * e, dr, stiffness)
+                (T::lit(0.5) * stiffness * e * e, dr, stiffness)
             }
         }
     }
@@ -157,68 +158,68 @@ impl PairLaw {
 
 /// A position-dependent potential term.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Potential {
+pub(crate) enum Potential<T = f64> {
     /// `V = −Σ_b m_b g · q_b`: per body, the force `m_b g`.
-    Gravity { forces: Vec<(usize, [f64; 3])> },
+    Gravity { forces: Vec<(usize, [T; 3])> },
     /// `Σ φ(|q_a − q_b|)` over the listed pairs.
     Pairs {
         pairs: Vec<(usize, usize)>,
-        law: PairLaw,
+        law: PairLaw<T>,
     },
     /// `k/2 Σ_b |q_b − c|²`.
     Trap {
-        stiffness: f64,
-        center: [f64; 3],
+        stiffness: T,
+        center: [T; 3],
         bodies: Vec<usize>,
     },
 }
 
 /// A declared term of `V` with its label and counter.
 #[derive(Debug)]
-pub(crate) struct PotentialTerm {
+pub(crate) struct PotentialTerm<T = f64> {
     pub(crate) label: String,
     pub(crate) kind: EffectKind,
-    pub(crate) potential: Potential,
+    pub(crate) potential: Potential<T>,
     pub(crate) counter: Counter,
 }
 
 /// A holonomic constraint term.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) enum ConstraintKind {
+pub(crate) enum ConstraintKind<T = f64> {
     /// `q_b − point = 0` (`d` rows).
-    Pin { body: usize, point: [f64; 3] },
+    Pin { body: usize, point: [T; 3] },
     /// `(|q_a − r|² − L²)/2 = 0` with `r = q_b`, or the fixed `point` when `b` is `None`.
     Rod {
         a: usize,
         b: Option<usize>,
-        point: [f64; 3],
-        length: f64,
+        point: [T; 3],
+        length: T,
     },
     /// `(|q_b − c|² − r²)/2 = 0`.
     Sphere {
         body: usize,
-        center: [f64; 3],
-        radius: f64,
+        center: [T; 3],
+        radius: T,
     },
     /// `n · q_b − offset = 0`, `|n| = 1`.
     Plane {
         body: usize,
-        normal: [f64; 3],
-        offset: f64,
+        normal: [T; 3],
+        offset: T,
     },
 }
 
 /// A constraint term, its first row in `g`, and a label naming where it came from.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct ConstraintTerm {
-    pub(crate) kind: ConstraintKind,
+pub(crate) struct ConstraintTerm<T = f64> {
+    pub(crate) kind: ConstraintKind<T>,
     pub(crate) row: usize,
     pub(crate) label: String,
     /// Where the scene declares it (for errors).
     pub(crate) path: super::error::FieldPath,
 }
 
-impl ConstraintTerm {
+impl<T> ConstraintTerm<T> {
     /// Number of rows (`d` for a pin, 1 otherwise).
     pub(crate) fn rows(&self, d: usize) -> usize {
         match self.kind {
@@ -238,26 +239,26 @@ pub(crate) struct StructureTerm<P> {
 
 /// The free flight of one body under `M`: what its kinetic flow has to do.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Flight {
+enum Flight<T> {
     /// `q += t p/m`.
     Drift,
     /// The closed form with `γ = c/m` and `ω⃗ = e B/m`.
-    Exact { gamma: f64, omega: [f64; 3] },
+    Exact { gamma: T, omega: [T; 3] },
 }
 
 /// A scene's assembled model. It implements [`Hamiltonian`], [`StructureMatrix`] and
 /// [`HolonomicConstraint`] with only the declared terms, and provides the exact sub-flows
 /// ([`kick`](Self::kick), [`free_flight`](Self::free_flight)).
 #[derive(Debug)]
-pub struct SceneModel {
+pub struct SceneModel<T = f64> {
     pub(crate) dim: usize,
-    pub(crate) masses: Vec<f64>,
-    pub(crate) inv_masses: Vec<f64>,
-    pub(crate) potentials: Vec<PotentialTerm>,
-    pub(crate) constraints: Vec<ConstraintTerm>,
+    pub(crate) masses: Vec<T>,
+    pub(crate) inv_masses: Vec<T>,
+    pub(crate) potentials: Vec<PotentialTerm<T>>,
+    pub(crate) constraints: Vec<ConstraintTerm<T>>,
     pub(crate) m: usize,
-    pub(crate) damping: Option<StructureTerm<f64>>,
-    pub(crate) magnetic: Option<StructureTerm<[f64; 3]>>,
+    pub(crate) damping: Option<StructureTerm<T>>,
+    pub(crate) magnetic: Option<StructureTerm<[T; 3]>>,
     pub(crate) kinetic: Counter,
     pub(crate) constraint_counter: Counter,
     /// Time each evaluation (the `profile` diagnostic).
@@ -265,28 +266,30 @@ pub struct SceneModel {
     /// Provide `jacobian_entries` (sparse multiplier systems); off for `m ≤ 4`, where the
     /// projection's small dense path is faster.
     pub(crate) sparse: bool,
-    flights: Vec<Flight>,
+    flights: Vec<Flight<T>>,
 }
 
-impl SceneModel {
+impl<T: Real> SceneModel<T> {
     /// Builds the model from its parts (the compiler has validated them).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         dim: usize,
-        masses: Vec<f64>,
-        potentials: Vec<PotentialTerm>,
-        constraints: Vec<ConstraintTerm>,
-        damping: Option<StructureTerm<f64>>,
-        magnetic: Option<StructureTerm<[f64; 3]>>,
+        masses: Vec<T>,
+        potentials: Vec<PotentialTerm<T>>,
+        constraints: Vec<ConstraintTerm<T>>,
+        damping: Option<StructureTerm<T>>,
+        magnetic: Option<StructureTerm<[T; 3]>>,
         profile: bool,
     ) -> Self {
-        let inv_masses: Vec<f64> = masses.iter().map(|m| 1.0 / m).collect();
+        let inv_masses: Vec<T> = masses.iter().map(|&m| T::one() / m).collect();
         let m = constraints.iter().map(|c| c.rows(dim)).sum();
         let flights = (0..masses.len())
             .map(|b| {
-                let c = damping.as_ref().map_or(0.0, |t| t.per_body[b]);
-                let eb = magnetic.as_ref().map_or([0.0; 3], |t| t.per_body[b]);
-                if c == 0.0 && eb == [0.0; 3] {
+                let c = damping.as_ref().map_or(T::lit(0.0), |t| t.per_body[b]);
+                let eb = magnetic
+                    .as_ref()
+                    .map_or([T::lit(0.0); 3], |t| t.per_body[b]);
+                if c == T::lit(0.0) && eb == [T::lit(0.0); 3] {
                     Flight::Drift
                 } else {
                     let w = inv_masses[b];
@@ -364,24 +367,24 @@ impl SceneModel {
     }
 
     /// `V(q)`, the sum of the potential terms.
-    pub(crate) fn potential_energy(&self, q: &[f64]) -> f64 {
+    pub(crate) fn potential_energy(&self, q: &[T]) -> T {
         let d = self.dim;
-        let mut v = 0.0;
+        let mut v = T::lit(0.0);
         for term in &self.potentials {
-            v += self.timed(&term.counter, || match &term.potential {
+            v = v + self.timed(&term.counter, || match &term.potential {
                 Potential::Gravity { forces } => {
-                    let mut e = 0.0;
+                    let mut e = T::lit(0.0);
                     for (b, f) in forces {
                         for k in 0..d {
-                            e -= f[k] * q[b * d + k];
+                            e = e - (f[k] * q[b * d + k]);
                         }
                     }
                     e
                 }
                 Potential::Pairs { pairs, law } => {
-                    let mut e = 0.0;
+                    let mut e = T::lit(0.0);
                     for &(a, b) in pairs {
-                        e += law.eval(distance(q, d, a, b)).0;
+                        e = e + (law.eval(distance(q, d, a, b)).0);
                     }
                     e
                 }
@@ -390,14 +393,14 @@ impl SceneModel {
                     center,
                     bodies,
                 } => {
-                    let mut e = 0.0;
+                    let mut e = T::lit(0.0);
                     for &b in bodies {
                         for k in 0..d {
                             let z = q[b * d + k] - center[k];
-                            e += z * z;
+                            e = e + (z * z);
                         }
                     }
-                    0.5 * stiffness * e
+                    T::lit(0.5) * *stiffness * e
                 }
             });
         }
@@ -405,14 +408,14 @@ impl SceneModel {
     }
 
     /// `out += α ∇V(q)`.
-    pub(crate) fn potential_gradient_add(&self, q: &[f64], alpha: f64, out: &mut [f64]) {
+    pub(crate) fn potential_gradient_add(&self, q: &[T], alpha: T, out: &mut [T]) {
         let d = self.dim;
         for term in &self.potentials {
             self.timed(&term.counter, || match &term.potential {
                 Potential::Gravity { forces } => {
                     for (b, f) in forces {
                         for k in 0..d {
-                            out[b * d + k] -= alpha * f[k];
+                            out[b * d + k] = out[b * d + k] - (alpha * f[k]);
                         }
                     }
                 }
@@ -422,8 +425,8 @@ impl SceneModel {
                         let s = alpha * law.eval(r).1;
                         for k in 0..d {
                             let z = s * (q[a * d + k] - q[b * d + k]);
-                            out[a * d + k] += z;
-                            out[b * d + k] -= z;
+                            out[a * d + k] = out[a * d + k] + (z);
+                            out[b * d + k] = out[b * d + k] - (z);
                         }
                     }
                 }
@@ -434,7 +437,8 @@ impl SceneModel {
                 } => {
                     for &b in bodies {
                         for k in 0..d {
-                            out[b * d + k] += alpha * stiffness * (q[b * d + k] - center[k]);
+                            out[b * d + k] =
+                                out[b * d + k] + (alpha * *stiffness * (q[b * d + k] - center[k]));
                         }
                     }
                 }
@@ -443,7 +447,7 @@ impl SceneModel {
     }
 
     /// `out += ∇²V(q) v`.
-    fn potential_hessian_apply_add(&self, q: &[f64], v: &[f64], out: &mut [f64]) {
+    fn potential_hessian_apply_add(&self, q: &[T], v: &[T], out: &mut [T]) {
         let d = self.dim;
         for term in &self.potentials {
             self.timed(&term.counter, || match &term.potential {
@@ -453,21 +457,22 @@ impl SceneModel {
                         let r = distance(q, d, a, b);
                         let (_, d1, d2) = law.eval(r);
                         // ∇²φ u = (φ'/r) u + (φ'' − φ'/r) (r̂·u) r̂, u = v_a − v_b.
-                        let mut ru = 0.0;
+                        let mut ru = T::lit(0.0);
                         for k in 0..d {
-                            ru += (q[a * d + k] - q[b * d + k]) * (v[a * d + k] - v[b * d + k]);
+                            ru = ru
+                                + ((q[a * d + k] - q[b * d + k]) * (v[a * d + k] - v[b * d + k]));
                         }
                         // A zero-length spring has d2 = d1: no radial term (and no 0/0 at r = 0).
                         let s = if d2 == d1 {
-                            0.0
+                            T::lit(0.0)
                         } else {
                             (d2 - d1) * ru / (r * r)
                         };
                         for k in 0..d {
                             let z = d1 * (v[a * d + k] - v[b * d + k])
                                 + s * (q[a * d + k] - q[b * d + k]);
-                            out[a * d + k] += z;
-                            out[b * d + k] -= z;
+                            out[a * d + k] = out[a * d + k] + (z);
+                            out[b * d + k] = out[b * d + k] - (z);
                         }
                     }
                 }
@@ -476,7 +481,7 @@ impl SceneModel {
                 } => {
                     for &b in bodies {
                         for k in 0..d {
-                            out[b * d + k] += stiffness * v[b * d + k];
+                            out[b * d + k] = out[b * d + k] + (*stiffness * v[b * d + k]);
                         }
                     }
                 }
@@ -486,13 +491,13 @@ impl SceneModel {
 
     /// The kick `p ← p − t ∇V(q)`: the exact flow of all potential terms together. `scratch`
     /// holds `dN` entries.
-    pub fn kick(&self, t: f64, x: &mut [f64], scratch: &mut [f64]) {
+    pub fn kick(&self, t: T, x: &mut [T], scratch: &mut [T]) {
         let nq = self.dim * self.masses.len();
         let (q, p) = x.split_at_mut(nq);
-        scratch.fill(0.0);
-        self.potential_gradient_add(q, 1.0, scratch);
+        scratch.fill(T::lit(0.0));
+        self.potential_gradient_add(q, T::lit(1.0), scratch);
         for (pi, gi) in p.iter_mut().zip(scratch.iter()) {
-            *pi -= t * gi;
+            *pi = *pi - (t * *gi);
         }
     }
 
@@ -507,7 +512,7 @@ impl SceneModel {
     ///
     /// evaluated without cancellation (`expm1`, `1 − cos = 2 sin²`). Bodies without field and
     /// damping take the plain drift `q += t p/m`.
-    pub fn free_flight(&self, t: f64, x: &mut [f64]) {
+    pub fn free_flight(&self, t: T, x: &mut [T]) {
         let d = self.dim;
         let nq = d * self.masses.len();
         let (q, p) = x.split_at_mut(nq);
@@ -524,15 +529,15 @@ impl SceneModel {
             match *flight {
                 Flight::Drift => {
                     for k in 0..d {
-                        qb[k] += t * w * pb[k];
+                        qb[k] = qb[k] + (t * w * pb[k]);
                     }
                 }
                 Flight::Exact { gamma, omega } => {
-                    let mut p3 = [0.0; 3];
+                    let mut p3 = [T::lit(0.0); 3];
                     p3[..d].copy_from_slice(pb);
                     let (dq, pn) = exact_flight(gamma, omega, t, p3);
                     for k in 0..d {
-                        qb[k] += w * dq[k];
+                        qb[k] = qb[k] + (w * dq[k]);
                     }
                     pb.copy_from_slice(&pn[..d]);
                 }
@@ -542,16 +547,16 @@ impl SceneModel {
 }
 
 /// The free flight of one body with `γ`, `ω⃗` for time `t` from momentum `p`: `(∫₀ᵗ p(s) ds, p(t))`.
-fn exact_flight(gamma: f64, omega: [f64; 3], t: f64, p: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+fn exact_flight<T: Real>(gamma: T, omega: [T; 3], t: T, p: [T; 3]) -> ([T; 3], [T; 3]) {
     let decay = (-gamma * t).exp();
     // φ∥ = ∫₀ᵗ e^{−γs} ds.
-    let phi_par = if gamma == 0.0 {
+    let phi_par = if gamma == T::lit(0.0) {
         t
     } else {
         -(-gamma * t).exp_m1() / gamma
     };
     let om = (omega[0] * omega[0] + omega[1] * omega[1] + omega[2] * omega[2]).sqrt();
-    if om == 0.0 {
+    if om == T::lit(0.0) {
         return (p.map(|pk| phi_par * pk), p.map(|pk| decay * pk));
     }
     let bh = omega.map(|o| o / om);
@@ -560,9 +565,9 @@ fn exact_flight(gamma: f64, omega: [f64; 3], t: f64, p: [f64; 3]) -> ([f64; 3], 
     let perp = [p[0] - par[0], p[1] - par[1], p[2] - par[2]];
     let w = cross(bh, perp);
     let (s, c) = (om * t).sin_cos();
-    let half = (0.5 * om * t).sin();
+    let half = (T::lit(0.5) * om * t).sin();
     // e^{zt} − 1 = (e^{−γt} cos ωt − 1) + i e^{−γt} sin ωt, the real part without cancellation.
-    let nr = (-gamma * t).exp_m1() * c - 2.0 * half * half;
+    let nr = (-gamma * t).exp_m1() * c - T::lit(2.0) * half * half;
     let ni = decay * s;
     // (nr + i ni) / z with z scaled by s = max(γ, ω) first, so that a field so weak that
     // γ² + ω² underflows still divides correctly.
@@ -571,8 +576,8 @@ fn exact_flight(gamma: f64, omega: [f64; 3], t: f64, p: [f64; 3]) -> ([f64; 3], 
     let den = (zr * zr + zi * zi) * scale;
     let a = (zr * nr + zi * ni) / den;
     let bb = (zr * ni - zi * nr) / den;
-    let mut dq = [0.0; 3];
-    let mut pn = [0.0; 3];
+    let mut dq = [T::lit(0.0); 3];
+    let mut pn = [T::lit(0.0); 3];
     for k in 0..3 {
         dq[k] = phi_par * par[k] + a * perp[k] - bb * w[k];
         pn[k] = decay * (par[k] + c * perp[k] - s * w[k]);
@@ -581,7 +586,7 @@ fn exact_flight(gamma: f64, omega: [f64; 3], t: f64, p: [f64; 3]) -> ([f64; 3], 
 }
 
 #[inline]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -590,22 +595,22 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 #[inline]
-fn distance(q: &[f64], d: usize, a: usize, b: usize) -> f64 {
-    let mut s = 0.0;
+fn distance<T: Real>(q: &[T], d: usize, a: usize, b: usize) -> T {
+    let mut s = T::lit(0.0);
     for k in 0..d {
         let z = q[a * d + k] - q[b * d + k];
-        s += z * z;
+        s = s + (z * z);
     }
     s.sqrt()
 }
 
 /// A constraint's geometry at `q`: the vector `u` such that the row's gradient is `u` at the
 /// first body and `−u` at the second (if any), or for a pin the unit rows.
-impl SceneModel {
+impl<T: Real> SceneModel<T> {
     #[inline]
-    fn rod_vector(&self, q: &[f64], a: usize, b: Option<usize>, point: &[f64; 3]) -> [f64; 3] {
+    fn rod_vector(&self, q: &[T], a: usize, b: Option<usize>, point: &[T; 3]) -> [T; 3] {
         let d = self.dim;
-        let mut u = [0.0; 3];
+        let mut u = [T::lit(0.0); 3];
         for k in 0..d {
             let r = match b {
                 Some(b) => q[b * d + k],
@@ -617,20 +622,20 @@ impl SceneModel {
     }
 }
 
-impl<V: Vector<Real = f64>> Hamiltonian<V> for Arc<SceneModel> {
-    fn energy(&self, x: &V) -> f64 {
+impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
+    fn energy(&self, x: &V) -> T {
         let x = x.as_slice();
         let nq = self.dim * self.masses.len();
         let (q, p) = x.split_at(nq);
         let d = self.dim;
-        let mut t = 0.0;
+        let mut t = T::lit(0.0);
         self.kinetic.hit();
         for (b, w) in self.inv_masses.iter().enumerate() {
-            let mut s = 0.0;
+            let mut s = T::lit(0.0);
             for k in 0..d {
-                s += p[b * d + k] * p[b * d + k];
+                s = s + (p[b * d + k] * p[b * d + k]);
             }
-            t += 0.5 * w * s;
+            t = t + (T::lit(0.5) * *w * s);
         }
         t + self.potential_energy(q)
     }
@@ -641,13 +646,13 @@ impl<V: Vector<Real = f64>> Hamiltonian<V> for Arc<SceneModel> {
         let (q, p) = x.split_at(nq);
         let out = out.as_mut_slice();
         let (oq, op) = out.split_at_mut(nq);
-        oq.fill(0.0);
-        self.potential_gradient_add(q, 1.0, oq);
+        oq.fill(T::lit(0.0));
+        self.potential_gradient_add(q, T::lit(1.0), oq);
         self.kinetic.hit();
         let d = self.dim;
         for (b, w) in self.inv_masses.iter().enumerate() {
             for k in 0..d {
-                op[b * d + k] = w * p[b * d + k];
+                op[b * d + k] = *w * p[b * d + k];
             }
         }
     }
@@ -658,12 +663,12 @@ impl<V: Vector<Real = f64>> Hamiltonian<V> for Arc<SceneModel> {
         let v = v.as_slice();
         let out = out.as_mut_slice();
         let (oq, op) = out.split_at_mut(nq);
-        oq.fill(0.0);
+        oq.fill(T::lit(0.0));
         self.potential_hessian_apply_add(q, &v[..nq], oq);
         let d = self.dim;
         for (b, w) in self.inv_masses.iter().enumerate() {
             for k in 0..d {
-                op[b * d + k] = w * v[nq + b * d + k];
+                op[b * d + k] = *w * v[nq + b * d + k];
             }
         }
         true
@@ -679,25 +684,25 @@ impl<V: Vector<Real = f64>> Hamiltonian<V> for Arc<SceneModel> {
     }
 }
 
-impl<V: Vector<Real = f64>> StructureMatrix<V> for Arc<SceneModel> {
-    fn apply_add(&self, _x: &V, v: &V, alpha: f64, out: &mut V) {
+impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
+    fn apply_add(&self, _x: &V, v: &V, alpha: T, out: &mut V) {
         let v = v.as_slice();
         let out = out.as_mut_slice();
         let nq = v.len() / 2;
         let (oq, op) = out.split_at_mut(nq);
         let (vq, vp) = v.split_at(nq);
         for (o, x) in oq.iter_mut().zip(vp) {
-            *o += alpha * x;
+            *o = *o + (alpha * *x);
         }
         for (o, x) in op.iter_mut().zip(vq) {
-            *o -= alpha * x;
+            *o = *o - (alpha * *x);
         }
         let d = self.dim;
         if let Some(damping) = &self.damping {
             damping.counter.hit();
             for (b, c) in damping.per_body.iter().enumerate() {
                 for k in 0..d {
-                    op[b * d + k] -= alpha * c * vp[b * d + k];
+                    op[b * d + k] = op[b * d + k] - (alpha * *c * vp[b * d + k]);
                 }
             }
         }
@@ -708,13 +713,13 @@ impl<V: Vector<Real = f64>> StructureMatrix<V> for Arc<SceneModel> {
             for (b, eb) in magnetic.per_body.iter().enumerate() {
                 let i = b * d;
                 if d == 2 {
-                    op[i] += alpha * vp[i + 1] * eb[2];
-                    op[i + 1] -= alpha * vp[i] * eb[2];
+                    op[i] = op[i] + (alpha * vp[i + 1] * eb[2]);
+                    op[i + 1] = op[i + 1] - (alpha * vp[i] * eb[2]);
                 } else {
                     let (vx, vy, vz) = (vp[i], vp[i + 1], vp[i + 2]);
-                    op[i] += alpha * (vy * eb[2] - vz * eb[1]);
-                    op[i + 1] += alpha * (vz * eb[0] - vx * eb[2]);
-                    op[i + 2] += alpha * (vx * eb[1] - vy * eb[0]);
+                    op[i] = op[i] + (alpha * (vy * eb[2] - vz * eb[1]));
+                    op[i + 1] = op[i + 1] + (alpha * (vz * eb[0] - vx * eb[2]));
+                    op[i + 2] = op[i + 2] + (alpha * (vx * eb[1] - vy * eb[0]));
                 }
             }
         }
@@ -730,12 +735,12 @@ impl<V: Vector<Real = f64>> StructureMatrix<V> for Arc<SceneModel> {
 }
 
 #[allow(clippy::misnamed_getters)] // `dim` is the number of constraints `m`.
-impl<V: Vector<Real = f64>> HolonomicConstraint<V> for Arc<SceneModel> {
+impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>> {
     fn dim(&self) -> usize {
         self.m
     }
 
-    fn residual(&self, x: &V, out: &mut [f64]) {
+    fn residual(&self, x: &V, out: &mut [T]) {
         let q = x.as_slice();
         let d = self.dim;
         self.timed(&self.constraint_counter, || {
@@ -754,7 +759,7 @@ impl<V: Vector<Real = f64>> HolonomicConstraint<V> for Arc<SceneModel> {
                         length,
                     } => {
                         let u = self.rod_vector(q, *a, *b, point);
-                        out[r] = 0.5 * (dot3(u, u) - length * length);
+                        out[r] = T::lit(0.5) * (dot3(u, u) - *length * *length);
                     }
                     ConstraintKind::Sphere {
                         body,
@@ -762,51 +767,51 @@ impl<V: Vector<Real = f64>> HolonomicConstraint<V> for Arc<SceneModel> {
                         radius,
                     } => {
                         let u = self.rod_vector(q, *body, None, center);
-                        out[r] = 0.5 * (dot3(u, u) - radius * radius);
+                        out[r] = T::lit(0.5) * (dot3(u, u) - *radius * *radius);
                     }
                     ConstraintKind::Plane {
                         body,
                         normal,
                         offset,
                     } => {
-                        let mut s = 0.0;
+                        let mut s = T::lit(0.0);
                         for k in 0..d {
-                            s += normal[k] * q[body * d + k];
+                            s = s + (normal[k] * q[body * d + k]);
                         }
-                        out[r] = s - offset;
+                        out[r] = s - *offset;
                     }
                 }
             }
         });
     }
 
-    fn jacobian_apply(&self, x: &V, v: &V, out: &mut [f64]) {
+    fn jacobian_apply(&self, x: &V, v: &V, out: &mut [T]) {
         let v = v.as_slice();
         let d = self.dim;
         self.timed(&self.constraint_counter, || {
-            out.fill(0.0);
+            out.fill(T::lit(0.0));
             self.for_each_gradient(x.as_slice(), |row, body, coef| {
                 for k in 0..d {
-                    out[row] += coef[k] * v[body * d + k];
+                    out[row] = out[row] + (coef[k] * v[body * d + k]);
                 }
             });
         });
     }
 
-    fn jacobian_transpose_apply_add(&self, x: &V, mu: &[f64], alpha: f64, out: &mut V) {
+    fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
         let out = out.as_mut_slice();
         let d = self.dim;
         self.timed(&self.constraint_counter, || {
             self.for_each_gradient(x.as_slice(), |row, body, coef| {
                 let s = alpha * mu[row];
                 for k in 0..d {
-                    out[body * d + k] += s * coef[k];
+                    out[body * d + k] = out[body * d + k] + (s * coef[k]);
                 }
             });
         });
     }
 
-    fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<f64>) -> bool {
+    fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<T>) -> bool {
         if !self.sparse {
             return false;
         }
@@ -815,9 +820,9 @@ impl<V: Vector<Real = f64>> HolonomicConstraint<V> for Arc<SceneModel> {
     }
 }
 
-impl SceneModel {
+impl<T: Real> SceneModel<T> {
     /// The structurally non-zero entries of `G(q)` (`x` may be the whole state).
-    pub(crate) fn jacobian_entries_always(&self, q: &[f64], sink: &mut dyn Sink<f64>) {
+    pub(crate) fn jacobian_entries_always(&self, q: &[T], sink: &mut dyn Sink<T>) {
         let d = self.dim;
         self.for_each_gradient(q, |row, body, coef| {
             for k in 0..d {
@@ -831,14 +836,14 @@ impl SceneModel {
     /// (`u = q_a − q_b`), a sphere `u = q − c`, a plane `n`, a pin the unit vectors. `G v`,
     /// `Gᵀ μ` and the Jacobian entries are all written through it, so they cannot disagree.
     #[inline]
-    pub(crate) fn for_each_gradient(&self, q: &[f64], mut f: impl FnMut(usize, usize, [f64; 3])) {
+    pub(crate) fn for_each_gradient(&self, q: &[T], mut f: impl FnMut(usize, usize, [T; 3])) {
         for c in &self.constraints {
             let r = c.row;
             match &c.kind {
                 ConstraintKind::Pin { body, .. } => {
                     for k in 0..self.dim {
-                        let mut e = [0.0; 3];
-                        e[k] = 1.0;
+                        let mut e = [T::lit(0.0); 3];
+                        e[k] = T::lit(1.0);
                         f(r + k, *body, e);
                     }
                 }
@@ -859,6 +864,6 @@ impl SceneModel {
 }
 
 #[inline]
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
