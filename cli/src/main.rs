@@ -71,6 +71,10 @@ struct PrecisionArgs {
     /// Leave out the implicit schemes (discrete gradient, implicit midpoint, §2).
     #[arg(long)]
     no_implicit: bool,
+    /// Compute the reference in double precision even for small scenes (the double-double
+    /// reference costs ~20× a double-precision run).
+    #[arg(long)]
+    f64_reference: bool,
     /// Write `<stem>.csv` and `<stem>_{time,dt,g}.svg` into this directory.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
@@ -454,6 +458,7 @@ fn precision(args: &PrecisionArgs) -> ExitCode {
         return ExitCode::from(2);
     }
     plan.repeats = args.repeats;
+    plan.double_double = !args.f64_reference;
     plan.peers = !args.no_peers;
     if args.no_implicit {
         plan.discrete_gradient = false;

@@ -16,11 +16,13 @@ use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
     ImplicitMidpoint, ProjectionOptions, Scheme, from_fn,
 };
-use crate::linalg::{LinearSolver, Sink, SolverChoice, Structure};
+use crate::linalg::{LinearSolver, Sink, SolverChoice, SolverKind, Structure};
 use crate::nonlinear::NewtonOptions;
+use crate::real::Real;
 use crate::system::{Case, HolonomicConstraint, System};
 use crate::vector::Vector;
 use faer::Col;
+use num_traits::Zero as _;
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -1228,17 +1230,6 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     let dt = file.integrator.dt;
     let dissipative = model.is_dissipative();
     let shared = model.clone();
-    let mut scratch = vec![0.0; nq];
-    let kick = {
-        let model = model.clone();
-        from_fn(move |t: f64, x: &mut Col<f64>| model.kick(t, x.as_mut_slice(), &mut scratch))
-    };
-    let drift = {
-        let model = model.clone();
-        from_fn(move |t: f64, x: &mut Col<f64>| model.free_flight(t, x.as_mut_slice()))
-            .dissipative_if(dissipative)
-    };
-    let has_potential = !model.potentials.is_empty();
     let mut case = None;
     let mut projection = None;
     let mut solver = None;
@@ -1262,7 +1253,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             scheme_name =
                 "constrained discrete gradient (Gonzalez) with hidden-constraint projection";
             let system = System::new(model.clone(), model.clone(), model.clone());
-            let options = projection_options(&model, &x0);
+            let options = projection_options(&model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
             Box::new(
                 ConstrainedDiscreteGradient::<Col<f64>, _, _, _>::try_new(system, &x0, options)
@@ -1286,7 +1277,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         } else {
             scheme_name = "projection around the implicit midpoint rule";
             let system = System::new(model.clone(), model.clone(), model.clone());
-            let options = projection_options(&model, &x0);
+            let options = projection_options(&model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
             with_table_backward(
                 mid.projected(system, &x0, options).map_err(setup)?,
@@ -1300,63 +1291,32 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             root.key("integrator").key("scheme"),
             "the §2 scheme (`modified`) is offered for the built-in paper model only",
         ));
-    } else if m == 0 {
-        scheme_name = if has_potential {
-            "free flight ∘ kick ∘ free flight (Strang)"
-        } else {
-            "free flight (exact)"
-        };
-        match (has_potential, table) {
-            (false, _) => Box::new(drift),
-            (true, _) => with_table_backward(drift.strang(kick), table, backward),
-        }
     } else {
-        let system = System::new(model.clone(), model.clone(), model.clone());
-        let options = projection_options(&model, &x0);
-        let setup = |e: SetupError| setup_error(&model, e);
-        let p_desc = |scheme: Scheme, small: bool, kind: String| {
-            (
+        let (flow, name, desc) = splitting_flow(&model, &x0, table, backward, f64::EPSILON)
+            .map_err(|e| setup_error(&model, e))?;
+        scheme_name = name;
+        if let Some((scheme, small, kind)) = desc {
+            case = Some(
                 match scheme {
                     Scheme::Symmetric => "non-degenerate",
                     _ => "degenerate",
-                },
+                }
+                .to_owned(),
+            );
+            projection = Some(
                 match scheme {
                     Scheme::Decoupled => "decoupled",
                     Scheme::Coupled => "coupled",
                     Scheme::Symmetric => "symmetric",
-                },
-                if small {
-                    "small (stack, closed-form Jacobians)".to_owned()
-                } else {
-                    kind
-                },
-            )
-        };
-        let (flow, desc): (Box<dyn Flow<Col<f64>>>, _) = if has_potential {
-            scheme_name = "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)";
-            let p = kick
-                .strang(drift)
-                .projected(system, &x0, options)
-                .map_err(setup)?;
-            let desc = p_desc(
-                p.scheme(),
-                p.uses_small_path(),
-                format!("{:?}", p.newton().linear_solver().kind()),
+                }
+                .to_owned(),
             );
-            (with_table_backward(p, table, backward), desc)
-        } else {
-            scheme_name = "projection around free flight (exact)";
-            let p = drift.projected(system, &x0, options).map_err(setup)?;
-            let desc = p_desc(
-                p.scheme(),
-                p.uses_small_path(),
-                format!("{:?}", p.newton().linear_solver().kind()),
-            );
-            (with_table_backward(p, table, backward), desc)
-        };
-        case = Some(desc.0.to_owned());
-        projection = Some(desc.1.to_owned());
-        solver = Some(desc.2);
+            solver = Some(if small {
+                "small (stack, closed-form Jacobians)".to_owned()
+            } else {
+                kind
+            });
+        }
         flow
     };
     let scheme = match table {
@@ -1451,12 +1411,10 @@ fn setup_error(model: &SceneModel, e: SetupError) -> SceneError {
 /// decoupled variant hold by construction; naming them skips the dense bracket analysis. The
 /// residual tolerance is scaled like the chain's (`16 ε ℓ L`: `ℓ` the smallest constraint
 /// length, `L` the scene's extent), the rounding level of `g = (|u|² − ℓ²)/2`.
-fn projection_options(model: &SceneModel, x0: &Col<f64>) -> ProjectionOptions<f64> {
+fn projection_options<T: Real>(model: &SceneModel<T>, x0: &[T], eps: T) -> ProjectionOptions<T> {
     let nq = model.state_len() / 2;
-    let extent = x0.as_slice()[..nq]
-        .iter()
-        .fold(0.0f64, |a, &b| a.max(b.abs()));
-    let mut ell = f64::INFINITY;
+    let extent = x0[..nq].iter().fold(T::zero(), |a, &b| a.max(b.abs()));
+    let mut ell = T::infinity();
     for c in &model.constraints {
         let l = match c.kind {
             ConstraintKind::Rod { length, .. } => length,
@@ -1466,14 +1424,103 @@ fn projection_options(model: &SceneModel, x0: &Col<f64>) -> ProjectionOptions<f6
         ell = ell.min(l);
     }
     if !ell.is_finite() {
-        ell = extent.max(1.0);
+        ell = extent.max(T::one());
     }
-    let big = extent.max(ell).max(1.0);
-    let ftol = 16.0 * f64::EPSILON * ell * big;
-    ProjectionOptions::default()
+    let big = extent.max(ell).max(T::one());
+    let ftol = T::lit(16.0) * eps * ell * big;
+    // `eps` is the scalar's unit round-off: f64's, or ~1e-32 for double-double (whose
+    // `epsilon()` is not its round-off), and the defaults' tolerances are rebuilt from it.
+    let newton = NewtonOptions::default()
+        .with_ftol(ftol)
+        .with_xtol(T::lit(16.0) * eps)
+        .with_fd_step(eps.sqrt());
+    let options = ProjectionOptions::default()
         .with_case(Case::Degenerate)
         .with_coupling(Coupling::Decoupled)
-        .with_newton(NewtonOptions::default().with_ftol(ftol))
+        .with_newton(newton);
+    if eps > T::epsilon() {
+        // An extended-precision run starts from the f64 state, on the constraints to f64
+        // round-off only: the first step projects it (the scene has checked it already).
+        options.with_manifold_tol(None)
+    } else {
+        options
+    }
+}
+
+/// The splitting of a scene's terms (see the module docs of `scene`): the free flight alone, or
+/// `free flight(h/2) ∘ kick(h) ∘ free flight(h/2)` without constraints; with constraints the
+/// projection around `kick(h/2) ∘ free flight(h) ∘ kick(h/2)`; composed by `table`. For any
+/// storage and scalar (`eps` its unit round-off): `Col<f64>` for runs, `DVector` of a
+/// double-double scalar for references. Returns the flow, its description and, when projected,
+/// the projection variant, whether it takes the small path, and its linear solver.
+#[allow(clippy::type_complexity)]
+pub(crate) fn splitting_flow<V: Vector + 'static>(
+    model: &Arc<SceneModel<V::Real>>,
+    x0: &V,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+    eps: V::Real,
+) -> std::result::Result<
+    (
+        Box<dyn Flow<V>>,
+        &'static str,
+        Option<(Scheme, bool, String)>,
+    ),
+    SetupError,
+> {
+    let nq = model.state_len() / 2;
+    let mut scratch = vec![V::Real::zero(); nq];
+    let kick = {
+        let model = model.clone();
+        from_fn(move |t: V::Real, x: &mut V| model.kick(t, x.as_mut_slice(), &mut scratch))
+    };
+    let dissipative = model.is_dissipative();
+    let drift = {
+        let model = model.clone();
+        from_fn(move |t: V::Real, x: &mut V| model.free_flight(t, x.as_mut_slice()))
+            .dissipative_if(dissipative)
+    };
+    let has_potential = !model.potentials.is_empty();
+    if model.m == 0 {
+        return Ok(if has_potential {
+            (
+                with_table_backward(drift.strang(kick), table, backward),
+                "free flight ∘ kick ∘ free flight (Strang)",
+                None,
+            )
+        } else {
+            (Box::new(drift), "free flight (exact)", None)
+        });
+    }
+    let system = System::new(model.clone(), model.clone(), model.clone());
+    let options = projection_options(model, x0.as_slice(), eps);
+    let describe =
+        |scheme: Scheme, small: bool, kind: SolverKind| Some((scheme, small, format!("{kind:?}")));
+    if has_potential {
+        let p = kick.strang(drift).projected(system, x0, options)?;
+        let desc = describe(
+            p.scheme(),
+            p.uses_small_path(),
+            p.newton().linear_solver().kind(),
+        );
+        Ok((
+            with_table_backward(p, table, backward),
+            "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)",
+            desc,
+        ))
+    } else {
+        let p = drift.projected(system, x0, options)?;
+        let desc = describe(
+            p.scheme(),
+            p.uses_small_path(),
+            p.newton().linear_solver().kind(),
+        );
+        Ok((
+            with_table_backward(p, table, backward),
+            "projection around free flight (exact)",
+            desc,
+        ))
+    }
 }
 
 /// Per constraint row: the size `ρ` of the terms its residual rounds (a rod `(|u|² − L²)/2`

@@ -39,6 +39,9 @@ pub struct PrecisionPlan {
     pub peers: bool,
     /// Timed runs after the warm-up.
     pub repeats: usize,
+    /// Compute the reference in double-double for scenes of at most [`DD_MAX_DIM`] (else in
+    /// double precision).
+    pub double_double: bool,
 }
 
 impl PrecisionPlan {
@@ -68,6 +71,7 @@ impl PrecisionPlan {
             tolerances: vec![1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-14],
             peers: true,
             repeats: 3,
+            double_double: true,
         }
     }
 }
@@ -218,9 +222,84 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
             )),
         }
     };
-    // Kahan–Li 8 at h and h/2 (with damping its backward sub-steps are allowed here: the
-    // reference only needs accuracy, and mild damping is harmless backwards); if that fails
-    // (stiff damping), Strang at a much smaller step, Richardson-extrapolated.
+    // A scene of bodies small enough: Kahan–Li 8 in double-double at h_min/4 and h_min/8 (with
+    // damping its backward sub-steps are allowed here: the reference needs accuracy only, and
+    // mild damping is harmless backwards).
+    if scene.file.builtin.is_none() {
+        let compiled = scene.compile()?;
+        if plan.double_double && compiled.assembly.state_len <= DD_MAX_DIM {
+            let model = compiled.model.expect("a scene of bodies has a model");
+            let x0 = compiled.simulation.state().to_vec();
+            let dd = |h: f64| double_double_run(&model, &x0, t, h);
+            let h = h_min / 4.0;
+            match (dd(h), dd(h / 2.0)) {
+                (Ok(coarse), Ok(fine)) => {
+                    use crate::real::Real as _;
+                    // The estimate in double-double: the two runs agree far below f64's
+                    // resolution, which rounding them first would hide.
+                    let diff = coarse
+                        .iter()
+                        .zip(&fine)
+                        .fold(0.0f64, |m, (c, f)| m.max((*c - *f).abs().to_f64_lossy()));
+                    return Ok(Reference {
+                        error_estimate: Some(diff / 255.0),
+                        x: fine.iter().map(|v| v.to_f64_lossy()).collect(),
+                        t,
+                        source: format!(
+                            "kahan-li8 in double-double (twofloat) at h = {:.3e} (checked against 2h)",
+                            h / 2.0
+                        ),
+                    });
+                }
+                (Err(e), _) | (_, Err(e)) => {
+                    // Fall through to double precision, saying why in the source.
+                    let mut r = f64_reference(h_min, t, &at)?;
+                    r.source = format!("{} (double-double run failed: {e})", r.source);
+                    return Ok(r);
+                }
+            }
+        }
+    }
+    f64_reference(h_min, t, &at)
+}
+
+/// The largest scene state given a double-double reference (its arithmetic costs ~20× f64).
+pub const DD_MAX_DIM: usize = 400;
+
+/// Kahan–Li 8 around the scene's splitting in double-double from `x0` to `t` in steps of about
+/// `h` (exactly `t / round(t/h)` in double-double); the final state.
+fn double_double_run(
+    model: &std::sync::Arc<super::SceneModel>,
+    x0: &[f64],
+    t: f64,
+    h: f64,
+) -> Result<Vec<twofloat::TwoFloat>, String> {
+    use crate::Flow as _;
+    use crate::real::Real;
+    use twofloat::TwoFloat;
+    type V = nalgebra::DVector<TwoFloat>;
+    let dd = std::sync::Arc::new(model.with_scalar::<TwoFloat>());
+    let mut x = V::from_iterator(x0.len(), x0.iter().map(|&v| TwoFloat::lit(v)));
+    // twofloat's `epsilon()` is f64::MIN_POSITIVE; its unit round-off is ~2^-106.
+    let eps = TwoFloat::lit(1e-31);
+    let table = crate::flow::coefficients::table_by_name("kahan-li8");
+    let (mut flow, _, _) =
+        super::compile::splitting_flow(&dd, &x, table, true, eps).map_err(|e| e.to_string())?;
+    let steps = (t / h).round().max(1.0);
+    let step = TwoFloat::lit(t) / TwoFloat::lit(steps);
+    for k in 0..steps as usize {
+        flow.step(step, &mut x)
+            .map_err(|e| format!("step {k}: {e}"))?;
+    }
+    Ok(x.iter().copied().collect())
+}
+
+/// A reference run: the final state of the scene with the named scheme at a step size.
+type RunAt<'a> = dyn Fn(&str, f64) -> Result<Vec<f64>, SceneError> + 'a;
+
+/// The double-precision reference: Kahan–Li 8 at `h_min/8` and `/16`, or, if that fails (stiff
+/// damping), Strang at `h_min/64` and `/128`, Richardson-extrapolated.
+fn f64_reference(h_min: f64, t: f64, at: &RunAt<'_>) -> Result<Reference, SceneError> {
     let h = h_min / 8.0;
     if let (Ok(coarse), Ok(fine)) = (at("kahan-li8", h), at("kahan-li8", h / 2.0)) {
         return Ok(Reference {
