@@ -14,9 +14,9 @@ use crate::error::SetupError;
 use crate::flow::coefficients::table_by_name;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
-    ImplicitMidpoint, ProjectionOptions, Scheme, from_fn,
+    ImplicitMidpoint, Projected, ProjectionOptions, Scheme, from_fn,
 };
-use crate::linalg::{LinearSolver, Sink, SolverChoice, SolverKind, Structure};
+use crate::linalg::{LinearSolver, Sink, SolverChoice, Structure};
 use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
 use crate::system::{Case, HolonomicConstraint, System};
@@ -1494,33 +1494,53 @@ pub(crate) fn splitting_flow<V: Vector + 'static>(
     }
     let system = System::new(model.clone(), model.clone(), model.clone());
     let options = projection_options(model, x0.as_slice(), eps);
-    let describe =
-        |scheme: Scheme, small: bool, kind: SolverKind| Some((scheme, small, format!("{kind:?}")));
     if has_potential {
         let p = kick.strang(drift).projected(system, x0, options)?;
-        let desc = describe(
-            p.scheme(),
-            p.uses_small_path(),
-            p.newton().linear_solver().kind(),
-        );
-        Ok((
-            with_table_backward(p, table, backward),
+        Ok(boxed_projection(
+            p,
+            table,
+            backward,
             "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)",
-            desc,
         ))
     } else {
         let p = drift.projected(system, x0, options)?;
-        let desc = describe(
-            p.scheme(),
-            p.uses_small_path(),
-            p.newton().linear_solver().kind(),
-        );
-        Ok((
-            with_table_backward(p, table, backward),
+        Ok(boxed_projection(
+            p,
+            table,
+            backward,
             "projection around free flight (exact)",
-            desc,
         ))
     }
+}
+
+/// A scene's projected flow, composed and boxed, with its description and what it assembled.
+#[allow(clippy::type_complexity)]
+fn boxed_projection<V, F>(
+    p: Projected<
+        V,
+        F,
+        Arc<SceneModel<V::Real>>,
+        Arc<SceneModel<V::Real>>,
+        Arc<SceneModel<V::Real>>,
+    >,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+    name: &'static str,
+) -> (
+    Box<dyn Flow<V>>,
+    &'static str,
+    Option<(Scheme, bool, String)>,
+)
+where
+    V: Vector + 'static,
+    F: Flow<V> + 'static,
+{
+    let desc = (
+        p.scheme(),
+        p.uses_small_path(),
+        format!("{:?}", p.newton().linear_solver().kind()),
+    );
+    (with_table_backward(p, table, backward), name, Some(desc))
 }
 
 /// Per constraint row: the size `ρ` of the terms its residual rounds (a rod `(|u|² − L²)/2`
