@@ -49,8 +49,9 @@ enum Command {
 struct PrecisionArgs {
     /// The scene file (default: the embedded default scene).
     scene: Option<PathBuf>,
-    /// Step sizes, comma-separated (default: the scene's dt times 8, 4, 2, 1); each must
-    /// divide the final time.
+    /// Step sizes, comma-separated (default: four of the scene's dt times 8, 4, 2, 1, ½, ¼, ⅛
+    /// that divide the final time, largest first); a step that does not divide it is a `Setup`
+    /// row.
     #[arg(long, value_name = "H,H,…", value_delimiter = ',')]
     dt: Vec<f64>,
     /// Composition orders (default 2,4,6,8; only 2 with damping).
@@ -581,9 +582,25 @@ fn precision(args: &PrecisionArgs) -> ExitCode {
         .iter()
         .map(|(m, s)| (m.clone(), (*s).into()))
         .collect();
+    // The DESIGN §6 fields: the reference state as `x`, all steps taken, the worst constraint
+    // residual of the lieflow runs, and the cheapest lieflow step.
+    let lieflow_rows = || {
+        rows.iter()
+            .filter(|r| r.status == "ok" && r.method.starts_with("lieflow"))
+    };
+    let max_g = lieflow_rows()
+        .filter_map(|r| r.max_abs_g)
+        .fold(0.0f64, f64::max);
+    let ns_per_step = lieflow_rows()
+        .filter_map(|r| Some(r.time_min? * 1e9 / r.steps.max(1) as f64))
+        .fold(f64::INFINITY, f64::min);
     let json = serde_json::json!({
         "scene": name,
         "t": reference.t,
+        "x": reference.x,
+        "steps": rows.iter().map(|r| r.steps).sum::<u64>(),
+        "max_abs_g": max_g,
+        "ns_per_step": ns_per_step.is_finite().then_some(ns_per_step),
         "reference": reference.source,
         "reference_error": reference.error_estimate,
         "rows": rows.len(),
