@@ -303,9 +303,11 @@ pub enum EffectSpec {
 pub struct IntegratorSpec {
     /// `"auto"` (default: the splitting of the declared effects, composed to `order`), a
     /// composition by name: `"strang"`, `"triple-jump"`, `"suzuki4"`, `"yoshida6"`,
-    /// `"kahan-li6"`, `"suzuki-umeno8"`, `"kahan-li8"`; or `"discrete-gradient"` (Gonzalez,
+    /// `"kahan-li6"`, `"suzuki-umeno8"`, `"kahan-li8"`; `"discrete-gradient"` (Gonzalez,
     /// order 2, implicit: energy exactly conserved, or decreasing with damping, up to the
-    /// Newton tolerance; dense Newton on `n + m` unknowns, for small scenes).
+    /// Newton tolerance; dense Newton on `n + m` unknowns, for small scenes); `"midpoint"` (the
+    /// implicit midpoint rule, projected); `"modified"` (the paper's §2 scheme, built-in paper
+    /// model only).
     #[serde(default = "default_scheme")]
     pub scheme: String,
     /// The order for `auto`: 2, 4, 6 or 8 (default 2). With damping only 2.
