@@ -122,8 +122,21 @@ fn stiff_spring(k: f64, scheme: &str) -> String {
 
 #[test]
 fn stiff_springs_need_an_a_stable_scheme_and_the_explicit_one_fails_cleanly() {
-    // ω h = 1 (k = 1e4): the implicit midpoint rule and the discrete gradient conserve the
-    // energy to their Newton tolerance; so does Störmer–Verlet up to its O(h²) oscillation.
+    // The implicit midpoint rule and the discrete gradient (A-stable) conserve the energy to
+    // their Newton tolerance up to ω h = 100 (k = 1e8); Störmer–Verlet only where ω h < 2
+    // (k = 1e4: ω h = 1), up to its O(h²) oscillation.
+    for k in [1e6, 1e8] {
+        for scheme in ["midpoint", "discrete-gradient"] {
+            let s = run_to_end(&stiff_spring(k, scheme));
+            assert_eq!(s.error, None, "k = {k:e}, {scheme}");
+            let e0 = s.energy_initial.unwrap();
+            assert!(
+                s.max_abs_energy_error.unwrap() <= 1e-6 * e0,
+                "k = {k:e}, {scheme}: energy error {:?} of {e0:e}",
+                s.max_abs_energy_error
+            );
+        }
+    }
     for scheme in ["midpoint", "discrete-gradient", "auto"] {
         let s = run_to_end(&stiff_spring(1e4, scheme));
         assert_eq!(s.error, None, "{scheme}");

@@ -102,6 +102,8 @@ pub struct ConstrainedDiscreteGradient<
     after_step: V,
     last_h: V::Real,
     have_step: bool,
+    /// The rounding floor of `h M ∇H` at the step's start (see `IncrementFlow::step`).
+    base_noise: V::Real,
     stats: FlowStats,
 }
 
@@ -173,6 +175,7 @@ where
             after_step: x0.zeros_like(),
             last_h: V::Real::zero(),
             have_step: false,
+            base_noise: V::Real::zero(),
             stats: FlowStats::default(),
             system,
         })
@@ -225,6 +228,7 @@ macro_rules! problem {
         Problem {
             h: $h,
             noise: V::Real::zero(),
+            base_noise: $s.base_noise,
             x: &$s.start,
             xm: &mut $s.xm,
             xe: &mut $s.xe,
@@ -247,6 +251,7 @@ use problem;
 struct Problem<'a, V: Vector, Ms, H, C> {
     h: V::Real,
     noise: V::Real,
+    base_noise: V::Real,
     x: &'a V,
     xm: &'a mut V,
     xe: &'a mut V,
@@ -292,7 +297,7 @@ where
     }
 
     fn noise_floor(&self) -> V::Real {
-        self.noise
+        self.noise.max(self.base_noise)
     }
 
     fn noisy_rows(&self) -> usize {
@@ -635,6 +640,19 @@ where
         self.have_step = false;
         self.start.copy_from(x);
         self.system.constraint.residual(&self.start, &mut self.g0);
+        // The rounding floor of h M ∇H itself (a stiff term's gradient rounds at its Hessian
+        // times the state's rounding): ε |h M ∇²H(x) x|∞ when the model has a Hessian.
+        self.base_noise = V::Real::zero();
+        if self
+            .system
+            .hamiltonian
+            .hessian_apply(&self.start, &self.start, &mut self.tmp)
+        {
+            self.system
+                .structure
+                .apply(&self.start, &self.tmp, &mut self.f);
+            self.base_noise = V::Real::epsilon() * h.abs() * ops::norm_inf(self.f.as_slice());
+        }
         // Predictor: δ = M(x)(h ∇H(x) + G(x)ᵀ ℓ), ℓ = h λ_prev.
         {
             let (zd, zl) = self.z.as_mut_slice().split_at_mut(n);

@@ -208,6 +208,8 @@ struct Increment<'a, V: Vector, Ms, H, R> {
     rule: core::marker::PhantomData<R>,
     h: V::Real,
     noise: V::Real,
+    /// The rounding floor of `h M ∇H` at the step's start (see `IncrementFlow::step`).
+    base_noise: V::Real,
     x: &'a V,
     xm: &'a mut V,
     grad: &'a mut V,
@@ -290,7 +292,7 @@ where
     }
 
     fn noise_floor(&self) -> V::Real {
-        self.noise
+        self.noise.max(self.base_noise)
     }
 
     /// `∂F/∂δ_j = e_j − (h/2) (DM(x̄)[e_j] ∇H(x̄) + M(x̄) ∇²H(x̄) e_j)` from the model's
@@ -348,6 +350,18 @@ where
             return Ok(());
         }
         self.start.copy_from(x);
+        // The rounding floor of h M ∇H itself: the gradient of a stiff term rounds at its
+        // Hessian times the state's rounding (a spring k (r − L) at ε k |q|, far above ε |∇H|
+        // when r ≈ L), estimated once per step as ε |h M ∇²H(x) x|∞ when the model has a
+        // Hessian. Without it Newton cannot tell that floor from slow convergence.
+        let mut base_noise = V::Real::zero();
+        if self
+            .hamiltonian
+            .hessian_apply(&self.start, &self.start, &mut self.tmp)
+        {
+            self.structure.apply(&self.start, &self.tmp, &mut self.f);
+            base_noise = V::Real::epsilon() * h.abs() * ops::norm_inf(self.f.as_slice());
+        }
         // Explicit Euler predictor δ = h M(x) ∇H(x).
         self.hamiltonian.gradient(&self.start, &mut self.grad);
         self.structure.apply(&self.start, &self.grad, &mut self.f);
@@ -358,6 +372,7 @@ where
             rule: core::marker::PhantomData::<R>,
             h,
             noise: V::Real::zero(),
+            base_noise,
             x: &self.start,
             xm: &mut self.xm,
             grad: &mut self.grad,
