@@ -1426,7 +1426,9 @@ fn projection_options<T: Real>(model: &SceneModel<T>, x0: &[T], eps: T) -> Proje
     if !ell.is_finite() {
         ell = extent.max(T::one());
     }
-    let big = extent.max(ell).max(T::one());
+    // The scene's own scale, not clamped to 1: a micrometre chain rounds at ε ℓ L with L ~ 1e-5.
+    let big = extent.max(ell);
+    let big = if big > T::zero() { big } else { T::one() };
     let ftol = T::lit(16.0) * eps * ell * big;
     // `eps` is the scalar's unit round-off: f64's, or ~1e-32 for double-double (whose
     // `epsilon()` is not its round-off), and the defaults' tolerances are rebuilt from it.
