@@ -2,6 +2,7 @@
 //! terms, the choice of scheme, and the initial-state checks.
 
 use super::error::{FieldPath, SceneError, SceneErrorKind};
+use super::gram::MassGram;
 use super::model::{
     ConstraintKind, ConstraintTerm, Counter, EffectKind, PairLaw, Potential, PotentialTerm,
     SceneModel, StructureTerm,
@@ -16,7 +17,7 @@ use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
     ImplicitMidpoint, Projected, ProjectionOptions, Scheme, from_fn,
 };
-use crate::linalg::{LinearSolver, Sink, SolverChoice, Structure};
+use crate::linalg::LinearSolver;
 use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
 use crate::system::{Case, HolonomicConstraint, System};
@@ -1638,35 +1639,13 @@ fn project_initial(
     let x_start = x.clone();
     let w_inv: Vec<f64> = (0..nq).map(|i| model.inv_masses[i / d]).collect();
     let mut g = vec![0.0; m];
-    let solve = |x: &Col<f64>, rhs: &mut [f64]| -> std::result::Result<Col<f64>, String> {
-        // A = G W⁻¹ Gᵀ from the Jacobian entries, grouped by state column.
-        let mut entries = crate::linalg::Triplets::default();
-        HolonomicConstraint::<Col<f64>>::jacobian_entries(&DenseEntries(model), x, &mut entries);
-        let mut by_col: HashMap<usize, Vec<(usize, f64)>> = HashMap::new();
-        for &(r, c, v) in &entries.entries {
-            by_col.entry(c).or_default().push((r, v));
-        }
-        let mut a: HashMap<(usize, usize), f64> = HashMap::new();
-        for (c, rows) in &by_col {
-            for &(i, vi) in rows {
-                for &(j, vj) in rows {
-                    *a.entry((i, j)).or_insert(0.0) += vi * w_inv[*c] * vj;
-                }
-            }
-        }
-        let mut keys: Vec<(usize, usize)> = a.keys().copied().collect();
-        keys.sort_unstable();
-        let structure = Structure::of_pattern(&keys);
-        let mut lu = crate::linalg::AutoLu::<f64>::with_structure(m, structure, SolverChoice::Auto)
-            .map_err(|e| e.to_string())?;
-        lu.clear();
-        for k in &keys {
-            lu.add(k.0, k.1, a[k]);
-        }
-        lu.factor().map_err(|e| {
+    let mut gram = MassGram::new(model, &x.as_slice()[..nq]).map_err(|e| e.to_string())?;
+    // δ = W⁻¹ Gᵀ (G W⁻¹ Gᵀ)⁻¹ rhs, on the positions.
+    let mut solve = |x: &Col<f64>, rhs: &mut [f64]| -> std::result::Result<Col<f64>, String> {
+        gram.factor(model, &x.as_slice()[..nq]).map_err(|e| {
             format!("the constraints are redundant or singular at the initial state ({e})")
         })?;
-        lu.solve_in_place(rhs).map_err(|e| e.to_string())?;
+        gram.solve(rhs).map_err(|e| e.to_string())?;
         let mut delta = Col::<f64>::zeros(n);
         HolonomicConstraint::<Col<f64>>::jacobian_transpose_apply_add(
             model, x, rhs, 1.0, &mut delta,
@@ -1705,36 +1684,6 @@ fn project_initial(
     let dq = (0..nq).fold(0.0f64, |a, i| a.max((x[i] - x_start[i]).abs()));
     let dp = (0..nq).fold(0.0f64, |a, i| a.max((x[nq + i] - x_start[nq + i]).abs()));
     Ok((dq, dp))
-}
-
-/// The model's constraints with their Jacobian entries always on (the model turns them off for
-/// `m ≤ 4` to take the small dense path).
-struct DenseEntries<'a>(&'a Arc<SceneModel>);
-
-#[allow(clippy::misnamed_getters)] // `dim` is the number of constraints `m`.
-impl HolonomicConstraint<Col<f64>> for DenseEntries<'_> {
-    fn dim(&self) -> usize {
-        self.0.m
-    }
-    fn residual(&self, x: &Col<f64>, out: &mut [f64]) {
-        HolonomicConstraint::<Col<f64>>::residual(self.0, x, out)
-    }
-    fn jacobian_apply(&self, x: &Col<f64>, v: &Col<f64>, out: &mut [f64]) {
-        HolonomicConstraint::<Col<f64>>::jacobian_apply(self.0, x, v, out)
-    }
-    fn jacobian_transpose_apply_add(
-        &self,
-        x: &Col<f64>,
-        mu: &[f64],
-        alpha: f64,
-        out: &mut Col<f64>,
-    ) {
-        HolonomicConstraint::<Col<f64>>::jacobian_transpose_apply_add(self.0, x, mu, alpha, out)
-    }
-    fn jacobian_entries(&self, x: &Col<f64>, sink: &mut dyn Sink<f64>) -> bool {
-        self.0.jacobian_entries_always(x.as_slice(), sink);
-        true
-    }
 }
 
 /// The built-in models, with the scene's integrator.

@@ -40,6 +40,7 @@
 
 mod compile;
 mod error;
+mod gram;
 mod model;
 #[cfg(feature = "peers")]
 mod peers;

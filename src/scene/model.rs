@@ -931,22 +931,17 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         if !self.sparse {
             return false;
         }
-        self.jacobian_entries_always(x.as_slice(), sink);
+        let d = self.dim;
+        self.for_each_gradient(x.as_slice(), |row, body, coef| {
+            for k in 0..d {
+                sink.add(row, body * d + k, coef[k]);
+            }
+        });
         true
     }
 }
 
 impl<T: Real> SceneModel<T> {
-    /// The structurally non-zero entries of `G(q)` (`x` may be the whole state).
-    pub(crate) fn jacobian_entries_always(&self, q: &[T], sink: &mut dyn Sink<T>) {
-        let d = self.dim;
-        self.for_each_gradient(q, |row, body, coef| {
-            for k in 0..d {
-                sink.add(row, body * d + k, coef[k]);
-            }
-        });
-    }
-
     /// Calls `f(row, body, c)` for every body a row of `G(q)` touches, with `c` the row's
     /// gradient with respect to that body's position: a rod `(|u|² − L²)/2` gives `u` and `−u`
     /// (`u = q_a − q_b`), a sphere `u = q − c`, a plane `n`, a pin the unit vectors. `G v`,

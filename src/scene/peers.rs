@@ -16,9 +16,10 @@
 //! fixed arrays (DOP853 for `n = 4`, Radau5 for `n + m = 5`), others `Vec`.
 
 use super::Scene;
+use super::gram::MassGram;
 use super::model::{ConstraintKind, SceneModel};
 use super::precision::{PrecisionPlan, PrecisionRow, Reference, distance, min_median};
-use crate::linalg::{AutoLu, LinearSolver, Sink, SolverChoice, Structure};
+use crate::System;
 use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::Vector;
 use differential_equations::linalg::Matrix;
@@ -28,7 +29,6 @@ use differential_equations::prelude::{
 };
 use faer::Col;
 use std::cell::RefCell;
-use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -100,23 +100,18 @@ struct SceneWork {
     x: Col<f64>,
     t1: Col<f64>,
     t2: Col<f64>,
-    coefs: Vec<[f64; 3]>,
-    vals: Vec<f64>,
     rhs: Vec<f64>,
     grad: Vec<f64>,
     full: Col<f64>,
     mu: Vec<f64>,
-    lu: AutoLu<f64>,
+    gram: MassGram,
 }
 
 /// A scene as a peer problem (see the module docs).
 struct ScenePeer {
     model: Arc<SceneModel>,
-    /// The gradient walk's `(row, body)` in order, and per body the walk indices touching it.
-    walk: Vec<(usize, usize)>,
-    /// `(walk index e₁, walk index e₂, key index)`: `A[key] += c(e₁) · c(e₂) / m_body`.
-    products: Vec<(usize, usize, usize)>,
-    keys: Vec<(usize, usize)>,
+    /// `model` as a system, for the hidden constraint.
+    system: System<Arc<SceneModel>, Arc<SceneModel>, Arc<SceneModel>>,
     work: RefCell<SceneWork>,
 }
 
@@ -124,49 +119,21 @@ impl ScenePeer {
     fn new(model: Arc<SceneModel>, x0: &[f64]) -> Result<Self, String> {
         let m = model.m;
         let n = model.state_len();
-        let mut walk = Vec::new();
-        model.for_each_gradient(&x0[..n / 2], |row, body, _| walk.push((row, body)));
-        let mut by_body: HashMap<usize, Vec<usize>> = HashMap::new();
-        for (e, &(_, b)) in walk.iter().enumerate() {
-            by_body.entry(b).or_default().push(e);
-        }
-        let mut key_index: HashMap<(usize, usize), usize> = HashMap::new();
-        let mut keys = Vec::new();
-        let mut products = Vec::new();
-        let mut bodies: Vec<_> = by_body.into_iter().collect();
-        bodies.sort_unstable();
-        for (_, es) in &bodies {
-            for &e1 in es {
-                for &e2 in es {
-                    let key = (walk[e1].0, walk[e2].0);
-                    let k = *key_index.entry(key).or_insert_with(|| {
-                        keys.push(key);
-                        keys.len() - 1
-                    });
-                    products.push((e1, e2, k));
-                }
-            }
-        }
-        let lu = AutoLu::with_structure(m, Structure::of_pattern(&keys), SolverChoice::Auto)
-            .map_err(|e| e.to_string())?;
+        let gram = MassGram::new(&model, &x0[..n / 2]).map_err(|e| e.to_string())?;
         let zeros = Col::<f64>::zeros(n);
         Ok(Self {
             work: RefCell::new(SceneWork {
                 x: zeros.clone(),
                 t1: zeros.clone(),
                 t2: zeros,
-                coefs: vec![[0.0; 3]; walk.len()],
-                vals: vec![0.0; keys.len()],
                 rhs: vec![0.0; m],
                 grad: vec![0.0; n / 2],
                 full: Col::<f64>::zeros(n),
                 mu: vec![0.0; m],
-                lu,
+                gram,
             }),
+            system: System::new(model.clone(), model.clone(), model.clone()),
             model,
-            walk,
-            products,
-            keys,
         })
     }
 }
@@ -177,24 +144,6 @@ impl ScenePeer {
         let model = &self.model;
         let (n, d) = (model.state_len(), model.dim);
         let nq = n / 2;
-        // A = G W⁻¹ Gᵀ on the recorded pattern.
-        let mut e = 0;
-        let coefs = &mut w.coefs;
-        model.for_each_gradient(&x[..nq], |_, _, c| {
-            coefs[e] = c;
-            e += 1;
-        });
-        w.vals.fill(0.0);
-        for &(e1, e2, k) in &self.products {
-            let b = self.walk[e1].1;
-            let (c1, c2) = (w.coefs[e1], w.coefs[e2]);
-            let dot = (0..d).fold(0.0, |s, i| s + c1[i] * c2[i]);
-            w.vals[k] += dot * model.inv_masses[b];
-        }
-        w.lu.clear();
-        for (k, &(i, j)) in self.keys.iter().enumerate() {
-            w.lu.add(i, j, w.vals[k]);
-        }
         // b = G W⁻¹ ((K − R) v − ∇V) + Ġ v: t1 = (0, v) so that M t1 = (v, (K − R) v).
         w.t1.as_mut_slice()[..nq].fill(0.0);
         for i in 0..nq {
@@ -221,7 +170,7 @@ impl ScenePeer {
                 _ => 0.0,
             };
         }
-        let ok = w.lu.factor().is_ok() && w.lu.solve_in_place(&mut w.rhs).is_ok();
+        let ok = w.gram.factor(model, &x[..nq]).is_ok() && w.gram.solve(&mut w.rhs).is_ok();
         if ok {
             out.copy_from_slice(&w.rhs);
         } else {
@@ -285,8 +234,8 @@ impl PeerProblem for ScenePeer {
         let mut w = self.work.borrow_mut();
         let w = &mut *w;
         w.x.as_mut_slice().copy_from_slice(x);
-        let system = crate::System::new(self.model.clone(), self.model.clone(), self.model.clone());
-        system.hidden_constraint(&w.x, &mut w.t1, &mut w.t2, out);
+        self.system
+            .hidden_constraint(&w.x, &mut w.t1, &mut w.t2, out);
     }
     fn energy(&self, x: &[f64]) -> f64 {
         let mut w = self.work.borrow_mut();

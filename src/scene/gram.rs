@@ -1,0 +1,85 @@
+//! The mass-weighted Gram matrix of the constraints, `A = G(q) W⁻¹ G(q)ᵀ`, assembled on a
+//! pattern recorded once and factored by [`AutoLu`]: the matrix of the initial projection
+//! (`project_initial`) and of the peers' index-1 multipliers.
+
+use super::model::SceneModel;
+use crate::error::LinearSolveError;
+use crate::linalg::{AutoLu, LinearSolver, Sink, SolverChoice, Structure};
+use std::collections::HashMap;
+
+/// `A = G W⁻¹ Gᵀ`, `W` the masses: two rows couple where their gradients touch the same body.
+pub(crate) struct MassGram {
+    /// The gradient walk's `(row, body)` in order ([`SceneModel::for_each_gradient`]).
+    walk: Vec<(usize, usize)>,
+    /// `(walk index e₁, walk index e₂, key index)`: `A[key] += c(e₁) · c(e₂) / m_body`.
+    products: Vec<(usize, usize, usize)>,
+    /// The pattern of `A`, in assembly order.
+    keys: Vec<(usize, usize)>,
+    coefs: Vec<[f64; 3]>,
+    vals: Vec<f64>,
+    lu: AutoLu<f64>,
+}
+
+impl MassGram {
+    /// Records the pattern at positions `q` (it does not depend on them) and sets up the solver.
+    pub(crate) fn new(model: &SceneModel, q: &[f64]) -> Result<Self, LinearSolveError> {
+        let mut walk = Vec::new();
+        model.for_each_gradient(q, |row, body, _| walk.push((row, body)));
+        let mut by_body: HashMap<usize, Vec<usize>> = HashMap::new();
+        for (e, &(_, b)) in walk.iter().enumerate() {
+            by_body.entry(b).or_default().push(e);
+        }
+        let mut bodies: Vec<_> = by_body.into_iter().collect();
+        bodies.sort_unstable();
+        let mut key_index: HashMap<(usize, usize), usize> = HashMap::new();
+        let (mut keys, mut products) = (Vec::new(), Vec::new());
+        for (_, es) in &bodies {
+            for &e1 in es {
+                for &e2 in es {
+                    let key = (walk[e1].0, walk[e2].0);
+                    let k = *key_index.entry(key).or_insert_with(|| {
+                        keys.push(key);
+                        keys.len() - 1
+                    });
+                    products.push((e1, e2, k));
+                }
+            }
+        }
+        let lu = AutoLu::with_structure(model.m, Structure::of_pattern(&keys), SolverChoice::Auto)?;
+        Ok(Self {
+            coefs: vec![[0.0; 3]; walk.len()],
+            vals: vec![0.0; keys.len()],
+            walk,
+            products,
+            keys,
+            lu,
+        })
+    }
+
+    /// Assembles and factors `A` at positions `q` (no allocation).
+    pub(crate) fn factor(&mut self, model: &SceneModel, q: &[f64]) -> Result<(), LinearSolveError> {
+        let d = model.dim;
+        let mut e = 0;
+        let coefs = &mut self.coefs;
+        model.for_each_gradient(q, |_, _, c| {
+            coefs[e] = c;
+            e += 1;
+        });
+        self.vals.fill(0.0);
+        for &(e1, e2, k) in &self.products {
+            let (c1, c2) = (self.coefs[e1], self.coefs[e2]);
+            let dot = (0..d).fold(0.0, |s, i| s + c1[i] * c2[i]);
+            self.vals[k] += dot * model.inv_masses[self.walk[e1].1];
+        }
+        self.lu.clear();
+        for (k, &(i, j)) in self.keys.iter().enumerate() {
+            self.lu.add(i, j, self.vals[k]);
+        }
+        self.lu.factor()
+    }
+
+    /// `rhs ← A⁻¹ rhs` with the last factorization.
+    pub(crate) fn solve(&mut self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
+        self.lu.solve_in_place(rhs)
+    }
+}
