@@ -76,8 +76,7 @@ fn main() {
         scheme_table(&args, &scheme, "projection")
     };
     let c: f64 = args.get("damping", 0.1);
-    let model = DampedPendulum::try_new(c)
-        .unwrap_or_else(|| args.fail("--damping must be finite and non-negative"));
+    let model = DampedPendulum::try_new(c).unwrap_or_else(|e| args.fail(&e.to_string()));
     let dt = args.positive("dt", 0.01);
     let t_end = args.positive("t-end", 10.0);
     let theta0: f64 = args.get("theta0", std::f64::consts::FRAC_PI_2);

@@ -65,7 +65,7 @@ fn main() {
         args.positive("length", 1.0),
         args.get("gravity", 9.81),
     )
-    .unwrap_or_else(|| args.fail("mass and length must be positive, gravity non-negative"));
+    .unwrap_or_else(|e| args.fail(&e.to_string()));
     if !(theta0.is_finite() && speed.is_finite()) {
         args.fail("--theta0 and --speed must be finite");
     }

@@ -165,7 +165,7 @@ fn main() {
         args.positive("stiffness", 1.0),
         args.get("damping", 1e6),
     )
-    .unwrap_or_else(|| args.fail("need --masses >= 1, --stiffness > 0, --damping >= 0"));
+    .unwrap_or_else(|e| args.fail(&e.to_string()));
     let dt = args.positive("dt", 0.1);
     let t_end = args.positive("t-end", 10.0);
     let steps = common::steps(&args, dt, t_end);

@@ -202,6 +202,20 @@ pub enum StepError {
         /// Max-norm of g after the step.
         residual: f64,
     },
+    /// A projected step was asked to start from a state off the constraint manifold (changed
+    /// by the caller since the flow's last step): projecting it back would hide a jump. See
+    /// [`ProjectionOptions::manifold_tol`](crate::flow::ProjectionOptions::manifold_tol).
+    #[error(
+        "the step starts off the constraint manifold: |{what}| = {residual:e} > {tol:e} (the state was changed since the last step; set manifold_tol to None to project it back)"
+    )]
+    OffManifold {
+        /// `"g"` or `"phi"`.
+        what: &'static str,
+        /// Max-norm of the violation.
+        residual: f64,
+        /// The tolerance.
+        tol: f64,
+    },
     /// The state passed to a flow has a different length than the flow was built for.
     #[error("{flow}: state of length {got}, built for length {expected}")]
     StateLength {
@@ -279,6 +293,17 @@ pub enum SetupError {
     /// A linear solver could not be created for the multiplier system.
     #[error("linear solver: {0}")]
     Linear(#[from] LinearSolveError),
+    /// A model parameter is out of its domain (a non-positive mass, a NaN length, a negative
+    /// damping coefficient).
+    #[error("parameter {name} = {value} is invalid: it must be {requirement}")]
+    InvalidParameter {
+        /// The parameter, with its index when it is one of many (`"mass 3"`).
+        name: String,
+        /// The value given.
+        value: f64,
+        /// What it must be (`"positive and finite"`).
+        requirement: &'static str,
+    },
     /// Dimensions of the model pieces do not match.
     #[error("dimension mismatch: {what}")]
     Dimension {

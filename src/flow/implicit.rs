@@ -346,6 +346,13 @@ where
     L: LinearSolver<V::Real>,
 {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        if x.len() != self.start.len() {
+            return Err(StepError::StateLength {
+                flow: R::NAME,
+                expected: self.start.len(),
+                got: x.len(),
+            });
+        }
         if !super::check_step(h, x)? {
             return Ok(());
         }

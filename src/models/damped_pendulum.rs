@@ -29,8 +29,9 @@ pub struct DampedPendulum<T> {
 pub type DampedStructure<T> = JMinusR<Canonical, MomentumDamping<T>>;
 
 impl<T: Real> DampedPendulum<T> {
-    /// The pendulum with damping `c`; `None` unless `c` is finite and `c ≥ 0`.
-    pub fn try_new(damping: T) -> Option<Self> {
+    /// The pendulum with damping `c`; [`SetupError::InvalidParameter`] unless `c` is finite and
+    /// `c ≥ 0`.
+    pub fn try_new(damping: T) -> Result<Self, SetupError> {
         MomentumDamping::new(damping).map(|_| Self { damping })
     }
 

@@ -36,15 +36,19 @@ pub(crate) fn check_parameters<T: Real>(
             } else {
                 what.to_string()
             };
-            return Err(SetupError::Dimension {
-                what: format!("{name} must be positive and finite"),
+            return Err(SetupError::InvalidParameter {
+                name,
+                value: values[i].to_f64_lossy(),
+                requirement: "positive and finite",
             });
         }
     }
     for (what, v) in non_negative {
         if !(*v >= T::zero() && v.is_finite()) {
-            return Err(SetupError::Dimension {
-                what: format!("{what} must be finite and non-negative"),
+            return Err(SetupError::InvalidParameter {
+                name: what.to_string(),
+                value: v.to_f64_lossy(),
+                requirement: "finite and non-negative",
             });
         }
     }

@@ -7,6 +7,7 @@
 //! `y` is the body angular momentum. Both `H` and the Casimir `C = |y|²` are quadratic, so the
 //! implicit midpoint rule conserves both (to round-off).
 
+use crate::error::SetupError;
 use crate::real::Real;
 use crate::system::{Hamiltonian, LiePoissonSo3};
 use crate::vector::Vector;
@@ -19,12 +20,11 @@ pub struct RigidBody<T> {
 }
 
 impl<T: Real> RigidBody<T> {
-    /// A rigid body; `None` unless every moment is positive and finite.
-    pub fn try_new(inertia: [T; 3]) -> Option<Self> {
-        inertia
-            .iter()
-            .all(|i| i.is_finite() && *i > T::zero())
-            .then_some(Self { inertia })
+    /// A rigid body; [`SetupError::InvalidParameter`] (naming the moment) unless every moment
+    /// is positive and finite.
+    pub fn try_new(inertia: [T; 3]) -> Result<Self, SetupError> {
+        super::check_parameters(&[("moment of inertia", &inertia)], &[])?;
+        Ok(Self { inertia })
     }
 
     /// GNI's example: `I = (2, 1, 2/3)`.

@@ -8,6 +8,7 @@
 //! Degenerate case: `⟨g,g⟩ = 0`, hidden constraint `φ = q·p/m = 0` (velocity tangent to the
 //! sphere). Its natural scheme is the projected Strang splitting kick–drift–kick, i.e. RATTLE.
 
+use crate::error::SetupError;
 use crate::flow::{FnFlow, from_fn};
 use crate::real::Real;
 use crate::system::{Canonical, Hamiltonian, HolonomicConstraint, System};
@@ -32,15 +33,14 @@ pub struct Sphere<T> {
 }
 
 impl<T: Real> SphericalPendulum<T> {
-    /// A pendulum; `None` unless `mass > 0`, `length > 0`, `gravity ≥ 0`, all finite.
-    pub fn try_new(mass: T, length: T, gravity: T) -> Option<Self> {
-        let ok = mass > T::zero()
-            && length > T::zero()
-            && gravity >= T::zero()
-            && mass.is_finite()
-            && length.is_finite()
-            && gravity.is_finite();
-        ok.then_some(Self {
+    /// A pendulum; [`SetupError::InvalidParameter`] (naming the parameter) unless `mass > 0`,
+    /// `length > 0`, `gravity ≥ 0`, all finite.
+    pub fn try_new(mass: T, length: T, gravity: T) -> Result<Self, SetupError> {
+        super::check_parameters(
+            &[("mass", &[mass]), ("length", &[length])],
+            &[("gravity", gravity)],
+        )?;
+        Ok(Self {
             mass,
             length,
             gravity,

@@ -28,13 +28,18 @@ pub struct SpringChain<T> {
 }
 
 impl<T: Real> SpringChain<T> {
-    /// A chain; `None` unless `masses ≥ 1`, `stiffness > 0` and `damping ≥ 0`, all finite.
-    pub fn try_new(masses: usize, stiffness: T, damping: T) -> Option<Self> {
-        let ok = masses >= 1
-            && stiffness > T::zero()
-            && stiffness.is_finite()
-            && MomentumDamping::new(damping).is_some();
-        ok.then_some(Self {
+    /// A chain; [`SetupError::InvalidParameter`] (naming the parameter) unless `masses ≥ 1`,
+    /// `stiffness > 0` and `damping ≥ 0`, all finite.
+    pub fn try_new(masses: usize, stiffness: T, damping: T) -> Result<Self, SetupError> {
+        if masses == 0 {
+            return Err(SetupError::InvalidParameter {
+                name: "masses".into(),
+                value: 0.0,
+                requirement: "at least 1",
+            });
+        }
+        super::check_parameters(&[("stiffness", &[stiffness])], &[("damping", damping)])?;
+        Ok(Self {
             masses,
             stiffness,
             damping,

@@ -418,5 +418,6 @@ fn step_error_kind(e: &StepError) -> &'static str {
         StepError::BackwardDissipation { .. } => "BackwardDissipation",
         StepError::CouplingViolated { .. } => "CouplingViolated",
         StepError::StateLength { .. } => "StateLength",
+        StepError::OffManifold { .. } => "OffManifold",
     }
 }

@@ -231,9 +231,24 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
         } else {
             match small_lu(m, gg, rcond) {
                 Ok(_) => Ok(Case::NonDegenerate),
-                Err((_, _)) => Err(SetupError::MixedCase {
-                    norm: norm.to_f64_lossy(),
-                }),
+                Err((_, _)) => {
+                    // Redundant constraints make ⟨g,g⟩ singular too: name them when `G Gᵀ`
+                    // is singular, before calling it a mix of the two cases.
+                    let mut ggt = vec![V::Real::zero(); m * m];
+                    for j in 0..m {
+                        e.iter_mut().for_each(|v| *v = V::Real::zero());
+                        e[j] = V::Real::one();
+                        ops::fill_zero(gt.as_mut_slice());
+                        c.jacobian_transpose_apply_add(x, &e, V::Real::one(), &mut gt);
+                        c.jacobian_apply(x, &gt, &mut ggt[j * m..(j + 1) * m]);
+                    }
+                    Err(match small_lu(m, ggt, rcond) {
+                        Err((constraint, ratio)) => SetupError::RankDeficient { constraint, ratio },
+                        Ok(_) => SetupError::MixedCase {
+                            norm: norm.to_f64_lossy(),
+                        },
+                    })
+                }
             }
         }
     }

@@ -37,6 +37,13 @@ pub trait StructureMatrix<V: Vector> {
     fn is_dissipative(&self) -> bool {
         false
     }
+
+    /// `true` if `M(x) = 0` for every `x`, known without evaluating it. [`JMinusR`] asks its
+    /// `R` part: `J − R` is dissipative unless `R` says it is zero (or `J` is). The default,
+    /// `false`, is the safe answer for a dissipation part that does not know.
+    fn is_zero(&self) -> bool {
+        false
+    }
 }
 
 /// The canonical symplectic matrix `M = [[0, I], [−I, 0]]` on `x = (q, p)`, `q, p ∈ Rᵈ`, `n = 2d`.
@@ -128,6 +135,14 @@ impl<V: Vector> StructureMatrix<V> for Constant<V::Real> {
     fn is_constant(&self) -> bool {
         true
     }
+    /// `true` if the symmetric part `(M + Mᵀ)/2` has a non-zero entry.
+    fn is_dissipative(&self) -> bool {
+        let n = self.n;
+        (0..n).any(|i| (i..n).any(|j| self.get(i, j) + self.get(j, i) != V::Real::zero()))
+    }
+    fn is_zero(&self) -> bool {
+        self.rows.iter().all(|&a| a == V::Real::zero())
+    }
 }
 
 /// The port-Hamiltonian structure `M(x) = J(x) − R(x)`: `J` skew (interconnection),
@@ -160,8 +175,13 @@ impl<V: Vector, J: StructureMatrix<V>, R: StructureMatrix<V>> StructureMatrix<V>
         self.j.derivative_apply_add(x, u, w, alpha, out)
             && self.r.derivative_apply_add(x, u, w, -alpha, out)
     }
+    /// Dissipative unless the `R` part is known to be zero (a `MomentumDamping` with `c = 0`,
+    /// an all-zero [`Constant`]), or `J` itself is dissipative.
     fn is_dissipative(&self) -> bool {
-        true
+        self.j.is_dissipative() || !self.r.is_zero()
+    }
+    fn is_zero(&self) -> bool {
+        self.j.is_zero() && self.r.is_zero()
     }
 }
 
@@ -175,9 +195,18 @@ pub struct MomentumDamping<T> {
 }
 
 impl<T: Real> MomentumDamping<T> {
-    /// `R = c · diag(0, I)`; `None` unless `c` is finite and `c ≥ 0` (so that `R ⪰ 0`).
-    pub fn new(c: T) -> Option<Self> {
-        (c.is_finite() && c >= T::zero()).then_some(Self { c })
+    /// `R = c · diag(0, I)`; [`SetupError::InvalidParameter`] unless `c` is finite and `c ≥ 0`
+    /// (so that `R ⪰ 0`).
+    pub fn new(c: T) -> Result<Self, crate::error::SetupError> {
+        if c.is_finite() && c >= T::zero() {
+            Ok(Self { c })
+        } else {
+            Err(crate::error::SetupError::InvalidParameter {
+                name: "damping coefficient".into(),
+                value: c.to_f64_lossy(),
+                requirement: "finite and non-negative",
+            })
+        }
     }
 }
 
@@ -193,6 +222,9 @@ impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for MomentumDamping<T> {
     }
     fn is_dissipative(&self) -> bool {
         self.c > T::zero()
+    }
+    fn is_zero(&self) -> bool {
+        self.c == T::zero()
     }
 }
 

@@ -83,8 +83,11 @@ pub struct ProjectionOptions<T> {
     pub fixed_point_max_iterations: usize,
     /// The initial state must satisfy `‖g(x₀)‖∞ ≤ manifold_tol` (and `‖φ(x₀)‖∞ ≤ manifold_tol` in
     /// the degenerate case), or construction fails with [`SetupError::OffManifold`]: the
-    /// scheme's symmetry and invariants hold on the manifold. `None` skips the check (the first
-    /// step then projects onto `g = 0`, `φ = 0`). Default `√ε`.
+    /// scheme's symmetry and invariants hold on the manifold. So must every state a step starts
+    /// from that is not the flow's own last result (a state changed between steps by the
+    /// caller), or the step fails with [`StepError::OffManifold`](crate::StepError::OffManifold)
+    /// instead of silently projecting it back. `None` skips both checks (a step then projects
+    /// onto `g = 0`, `φ = 0`: an explicit opt-in). Default `√ε`.
     pub manifold_tol: Option<T>,
 }
 
@@ -189,7 +192,17 @@ pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
     /// Relative tolerance of the fixed point for the implicit end point.
     fixed_point_tol: V::Real,
     w: Work<V>,
+    entry: EntryCheck<V>,
     stats: FlowStats,
+}
+
+/// The check of a step's starting state (see [`ProjectionOptions::manifold_tol`]): skipped when
+/// the state is the flow's own last result, bit for bit.
+struct EntryCheck<V: Vector> {
+    tol: Option<V::Real>,
+    /// A copy of the last result (`valid`), or nothing yet.
+    last: V,
+    valid: bool,
 }
 
 impl<V, F, Ms, H, C, L> core::fmt::Debug for Projected<V, F, Ms, H, C, L>
@@ -302,6 +315,12 @@ where
             guard_tol: options.newton.ftol,
             fixed_point_tol: options.newton.xtol,
             w,
+            entry: EntryCheck {
+                tol: options.manifold_tol,
+                last: x0.clone(),
+                // The initial state was checked above.
+                valid: options.manifold_tol.is_some(),
+            },
             stats: FlowStats::default(),
         })
     }
@@ -661,6 +680,7 @@ where
         if !super::check_step(h, x)? {
             return Ok(None);
         }
+        self.check_entry(x)?;
         let steps_before = self.stats.projected_steps;
         let result =
             work(self, x).and_then(|r| match ops::first_non_finite(self.w.x_next.as_slice()) {
@@ -670,6 +690,10 @@ where
         match result {
             Ok(r) => {
                 core::mem::swap(x, &mut self.w.x_next);
+                if self.entry.tol.is_some() {
+                    self.entry.last.copy_from(x);
+                    self.entry.valid = true;
+                }
                 Ok(Some(r))
             }
             Err(e) => {
@@ -681,6 +705,45 @@ where
                 Err(e)
             }
         }
+    }
+
+    /// A step must start on the manifold (`‖g‖∞`, and `‖φ‖∞` in the degenerate case, within
+    /// the tolerance) unless it starts from this flow's own last result: one residual
+    /// evaluation (two with `φ`) only when the caller changed the state between steps.
+    fn check_entry(&mut self, x: &V) -> Result<(), StepError> {
+        let Some(tol) = self.entry.tol else {
+            return Ok(());
+        };
+        if self.entry.valid && x.as_slice() == self.entry.last.as_slice() {
+            return Ok(());
+        }
+        let m = self.m;
+        let w = &mut self.w;
+        let r = &mut w.r.as_mut_slice()[..m];
+        self.system.constraint.residual(x, r);
+        let g = ops::norm_inf(r);
+        if g.is_nan() || g > tol {
+            return Err(StepError::OffManifold {
+                what: "g",
+                residual: g.to_f64_lossy(),
+                tol: tol.to_f64_lossy(),
+            });
+        }
+        if self.scheme != Scheme::Symmetric {
+            // φ = G M ∇H, the hidden constraint of the degenerate case.
+            self.system.hamiltonian.gradient(x, &mut w.t1);
+            self.system.structure.apply(x, &w.t1, &mut w.t2);
+            self.system.constraint.jacobian_apply(x, &w.t2, r);
+            let phi = ops::norm_inf(r);
+            if phi.is_nan() || phi > tol {
+                return Err(StepError::OffManifold {
+                    what: "phi",
+                    residual: phi.to_f64_lossy(),
+                    tol: tol.to_f64_lossy(),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The fused composition dispatched on the multiplier count (see `step_fused`).
