@@ -4,43 +4,18 @@
 //! rule, the discrete gradient), and the explicit splitting fails with a typed error or a
 //! finite, reported state — never a panic.
 
+use lieflow::scene::stress::{damped_chain_scene, stiff_spring_scene};
 use lieflow::scene::{Scene, run};
 
 fn scene(text: &str) -> Scene {
     Scene::from_toml(text, "stiff.toml").unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// A 3-link pendulum chain with damping `c` on every body, `h = 0.01`, `T = 1`.
-fn damped_chain(c: f64, scheme: &str) -> String {
-    format!(
-        r#"
-        version = 1
-        dim = 2
-        [[chains]]
-        name = "c"
-        links = 3
-        direction = [1.0, -0.2]
-        length = 0.5
-        mass = 1.0
-        [[effects]]
-        type = "gravity"
-        g = [0.0, -9.81]
-        [[effects]]
-        type = "damping"
-        coefficient = {c}
-        [integrator]
-        scheme = "{scheme}"
-        dt = 0.01
-        t_end = 1.0
-        "#
-    )
-}
-
 #[test]
 fn damping_up_to_c_h_over_m_1e6_stays_stable_and_dissipative() {
     for c in [1e2, 1e4, 1e6, 1e8] {
         for scheme in ["auto", "discrete-gradient"] {
-            let s = run_to_end(&damped_chain(c, scheme));
+            let s = run_to_end(&damped_chain_scene(c, scheme));
             assert_eq!(s.error, None, "c = {c:e}, {scheme}");
             assert!(s.x.iter().all(|v| v.is_finite()));
             // The discrete gradient's energy never increases from one step to the next (a few
@@ -89,37 +64,6 @@ fn run_to_end(text: &str) -> lieflow::scene::RunSummary {
     run(c.simulation.as_mut(), &c.plan, &mut |_| {})
 }
 
-/// Two bodies joined by a spring of stiffness `k` (unit masses), one pinned: a single
-/// oscillator of frequency `√k`. At `h = 0.01` and `k = 1e8`, `ω h = 100`.
-fn stiff_spring(k: f64, scheme: &str) -> String {
-    format!(
-        r#"
-        version = 1
-        dim = 2
-        [[bodies]]
-        name = "a"
-        mass = 1.0
-        position = [0.0, 0.0]
-        [[bodies]]
-        name = "b"
-        mass = 1.0
-        position = [1.001, 0.0]
-        [[constraints]]
-        type = "pin"
-        bodies = ["a"]
-        [[effects]]
-        type = "spring"
-        bodies = ["a", "b"]
-        stiffness = {k}
-        rest_length = 1.0
-        [integrator]
-        scheme = "{scheme}"
-        dt = 0.01
-        t_end = 1.0
-        "#
-    )
-}
-
 #[test]
 fn stiff_springs_need_an_a_stable_scheme_and_the_explicit_one_fails_cleanly() {
     // The implicit midpoint rule and the discrete gradient (A-stable) conserve the energy to
@@ -127,7 +71,7 @@ fn stiff_springs_need_an_a_stable_scheme_and_the_explicit_one_fails_cleanly() {
     // (k = 1e4: ω h = 1), up to its O(h²) oscillation.
     for k in [1e6, 1e8] {
         for scheme in ["midpoint", "discrete-gradient"] {
-            let s = run_to_end(&stiff_spring(k, scheme));
+            let s = run_to_end(&stiff_spring_scene(k, scheme));
             assert_eq!(s.error, None, "k = {k:e}, {scheme}");
             let e0 = s.energy_initial.unwrap();
             assert!(
@@ -138,7 +82,7 @@ fn stiff_springs_need_an_a_stable_scheme_and_the_explicit_one_fails_cleanly() {
         }
     }
     for scheme in ["midpoint", "discrete-gradient", "auto"] {
-        let s = run_to_end(&stiff_spring(1e4, scheme));
+        let s = run_to_end(&stiff_spring_scene(1e4, scheme));
         assert_eq!(s.error, None, "{scheme}");
         let e0 = s.energy_initial.unwrap();
         let tol = if scheme == "auto" { 0.5 } else { 1e-6 };
@@ -153,7 +97,7 @@ fn stiff_springs_need_an_a_stable_scheme_and_the_explicit_one_fails_cleanly() {
     // (ω h = 10, 100) it blows up, which the run reports — a typed error, or an energy far
     // above its start — with a finite last state, never a panic.
     for k in [1e6, 1e8] {
-        let s = run_to_end(&stiff_spring(k, "auto"));
+        let s = run_to_end(&stiff_spring_scene(k, "auto"));
         assert!(s.x.iter().all(|v| v.is_finite()));
         let blown =
             s.error.is_some() || s.max_abs_energy_error.unwrap() > s.energy_initial.unwrap();

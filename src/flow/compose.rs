@@ -1,4 +1,4 @@
-use super::{CompositionTable, EXACT, Flow, FlowStats};
+use super::{CompositionTable, EXACT, Flow, FlowStats, Multipliers};
 use crate::error::StepError;
 use crate::real::Real;
 use crate::vector::Vector;
@@ -53,6 +53,9 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Then<V, A, B> {
     }
     fn stats(&self) -> FlowStats {
         self.a.stats() + self.b.stats()
+    }
+    fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
+        self.b.multipliers().or_else(|| self.a.multipliers())
     }
 }
 
@@ -110,6 +113,9 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
     }
     fn stats(&self) -> FlowStats {
         self.a.stats() + self.b.stats()
+    }
+    fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
+        self.b.multipliers().or_else(|| self.a.multipliers())
     }
 }
 
@@ -204,6 +210,9 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
     }
     fn stats(&self) -> FlowStats {
         self.inner.stats()
+    }
+    fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
+        self.inner.multipliers()
     }
 }
 

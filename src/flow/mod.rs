@@ -74,6 +74,9 @@ impl core::ops::Add for FlowStats {
     }
 }
 
+/// The multipliers `(λ_k, λ_{k+1})` of a projected step (see [`Flow::multipliers`]).
+pub type Multipliers<'a, T> = (&'a [T], &'a [T]);
+
 /// A one-step map `x ↦ Φ_h(x)`, applied in place.
 ///
 /// Contract: on `Err`, `x` is left exactly as it was passed in (never partially updated, never
@@ -91,6 +94,12 @@ pub trait Flow<V: Vector> {
     /// Work counters.
     fn stats(&self) -> FlowStats {
         FlowStats::default()
+    }
+    /// The constraint multipliers `(λ_k, λ_{k+1})` of the last step, when the flow (or the
+    /// flow it wraps) is a projection; `None` otherwise. In `x' = M (∇H + Gᵀλ)` the continuous
+    /// multiplier at the step is `≈ (λ_k + λ_{k+1})/2`. See [`Projected::multipliers`].
+    fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
+        None
     }
     /// `false` if `step` never returns an error (closed-form flows); compositions then skip
     /// saving the state for a restore.
@@ -154,6 +163,9 @@ macro_rules! forward_flow {
             }
             fn stats(&self) -> FlowStats {
                 (**self).stats()
+            }
+            fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
+                (**self).multipliers()
             }
             fn is_fallible(&self) -> bool {
                 (**self).is_fallible()

@@ -11,7 +11,7 @@ use super::run::{ModelRun, RunPlan, Simulation};
 use super::schema::{
     Builtin, ConstraintSpec, EffectSpec, Flags, IntegratorSpec, SCENE_VERSION, SceneFile,
 };
-use crate::error::SetupError;
+use crate::error::{LinearSolveError, SetupError};
 use crate::flow::coefficients::table_by_name;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
@@ -1227,6 +1227,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
                 ));
             }
         }
+        check_independent(&model, &x0.as_slice()[..nq])?;
     }
     let dt = file.integrator.dt;
     let dissipative = model.is_dissipative();
@@ -1376,6 +1377,28 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
 /// The label of the constraint term that owns row `row`.
 fn constraint_term(model: &SceneModel, row: usize) -> Option<&ConstraintTerm> {
     model.constraints.iter().rev().find(|c| c.row <= row)
+}
+
+/// Refuses redundant constraints (a rod listed twice, an over-constraining loop): the
+/// constraint gradients must be independent at the initial positions, i.e. the mass-weighted
+/// Gram matrix `G W⁻¹ Gᵀ` non-singular. The projection's own analysis is skipped for scenes (the
+/// case is known), and without this check a duplicated constraint would only fail at the first
+/// step, with a singular Newton matrix that names no constraint.
+fn check_independent(model: &SceneModel, q: &[f64]) -> Result<()> {
+    let singular = |e: LinearSolveError| match e {
+        LinearSolveError::Singular { pivot, ratio, .. } => SetupError::RankDeficient {
+            constraint: pivot,
+            ratio,
+        },
+        LinearSolveError::StructurallySingular { column } => SetupError::RankDeficient {
+            constraint: column,
+            ratio: 0.0,
+        },
+        other => SetupError::Linear(other),
+    };
+    let mut gram = MassGram::new(model, q).map_err(|e| setup_error(model, singular(e)))?;
+    gram.factor(model, q)
+        .map_err(|e| setup_error(model, singular(e)))
 }
 
 /// Turns a projection's setup error into a scene error that names the constraint and points at

@@ -47,6 +47,7 @@ mod peers;
 pub mod precision;
 mod run;
 pub mod schema;
+pub mod stress;
 
 pub use compile::{Assembly, Compiled, MAX_BODIES, MAX_PAIRS, compile};
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};

@@ -49,6 +49,18 @@ pub trait Simulation {
     /// Zeroes the terms' evaluation counters and clocks (a run starts with it, so that the
     /// evaluations of the compile-time checks do not count).
     fn reset_counters(&self) {}
+    /// The constraint multipliers of the last step, `(λ_k + λ_{k+1})/2` — the multiplier `λ`
+    /// of `x' = M (∇H + Gᵀλ)` at the step — when the scheme is a projection.
+    fn multipliers(&self) -> Option<Vec<f64>> {
+        None
+    }
+    /// An estimate of the 2-norm condition number of the mass-weighted Gram matrix
+    /// `G W⁻¹ Gᵀ` at the current positions (the matrix every multiplier system of a scene is a
+    /// perturbation of), for scenes with constraints; `None` otherwise. `Some(∞)` when it is
+    /// singular to working precision.
+    fn multiplier_condition(&mut self) -> Option<f64> {
+        None
+    }
 }
 
 /// A flow, its system and its state: the [`Simulation`] of a scene and of the built-in models.
@@ -64,6 +76,8 @@ pub(crate) struct ModelRun<V: Vector, Ms, H, C> {
     t0: f64,
     k: usize,
     pub(crate) model: Option<Arc<SceneModel>>,
+    /// The Gram matrix of the condition estimate, built on first use.
+    gram: Option<super::gram::MassGram>,
 }
 
 impl<V, Ms, H, C> ModelRun<V, Ms, H, C>
@@ -92,6 +106,7 @@ where
             t0: 0.0,
             k: 0,
             model,
+            gram: None,
         }
     }
 }
@@ -164,6 +179,23 @@ where
         if let Some(m) = &self.model {
             m.reset_counters();
         }
+    }
+    fn multipliers(&self) -> Option<Vec<f64>> {
+        let (a, b) = self.flow.multipliers()?;
+        Some(a.iter().zip(b).map(|(a, b)| 0.5 * (a + b)).collect())
+    }
+    fn multiplier_condition(&mut self) -> Option<f64> {
+        let model = self.model.as_ref()?;
+        if model.m == 0 {
+            return None;
+        }
+        let x = self.x.as_slice();
+        let q = &x[..x.len() / 2];
+        if self.gram.is_none() {
+            self.gram = super::gram::MassGram::new(model, q).ok();
+        }
+        let gram = self.gram.as_mut()?;
+        Some(gram.condition_estimate(model, q))
     }
 }
 

@@ -26,7 +26,7 @@ mod small;
 mod stage;
 mod warm;
 
-use super::{CompositionTable, Flow, FlowStats};
+use super::{CompositionTable, Flow, FlowStats, Multipliers};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, NewtonOptions, NonlinearSolver, SMALL_MAX, SolveReport};
@@ -846,6 +846,9 @@ where
     }
     fn stats(&self) -> FlowStats {
         self.stats + self.inner.stats()
+    }
+    fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
+        Some(Projected::multipliers(self))
     }
     /// The inner flow dissipates, or the half-steps do: `M Gᵀλ` has a dissipative part when `M` has.
     fn dissipates(&self) -> bool {
