@@ -32,8 +32,9 @@ pub struct NewtonOptions<T> {
     pub ftol: T,
     /// Also converged when `‖F‖∞ ≤ 100 ftol` (the round-off floor of a residual can lie above
     /// `ftol`) and, right after a freshly built Jacobian, either the update is at round-off,
-    /// `‖Δz‖∞ ≤ xtol (1 + ‖z‖∞)`, or the residual stopped decreasing (by at least half).
-    /// Default `16 ε`.
+    /// `‖Δz‖∞ ≤ xtol (1 + ‖z‖∞)`, or the residual stopped decreasing (by at least half); and
+    /// when `‖F‖∞ ≤ 10⁴ ftol` with both at once (a residual whose terms cancel rounds far above
+    /// `ε` times its own size; no representable `z` does better). Default `16 ε`.
     pub xtol: T,
     /// Iteration limit. Default 25.
     pub max_iterations: usize,
