@@ -20,7 +20,7 @@ use crate::flow::{
 use crate::linalg::LinearSolver;
 use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
-use crate::system::{Case, HolonomicConstraint, System};
+use crate::system::{Case, HolonomicConstraint, System, Unconstrained};
 use crate::vector::Vector;
 use faer::Col;
 use num_traits::Zero as _;
@@ -1986,19 +1986,6 @@ fn builtin_assembly(
         solver: None,
         steps,
         initial_projection: None,
-    }
-}
-
-/// No constraints (`m = 0`), for the built-in models without any.
-struct Unconstrained;
-
-impl<V: Vector> HolonomicConstraint<V> for Unconstrained {
-    fn dim(&self) -> usize {
-        0
-    }
-    fn residual(&self, _x: &V, _out: &mut [V::Real]) {}
-    fn jacobian_apply(&self, _x: &V, _v: &V, _out: &mut [V::Real]) {}
-    fn jacobian_transpose_apply_add(&self, _x: &V, _mu: &[V::Real], _alpha: V::Real, _out: &mut V) {
     }
 }
 

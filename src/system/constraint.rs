@@ -25,3 +25,18 @@ pub trait HolonomicConstraint<V: Vector> {
         false
     }
 }
+
+/// No constraints (`m = 0`): a [`System`](super::System) of an unconstrained model, e.g. to
+/// check its derivatives with [`check_model`](super::check_model) or to run it through a scene.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Unconstrained;
+
+impl<V: Vector> HolonomicConstraint<V> for Unconstrained {
+    fn dim(&self) -> usize {
+        0
+    }
+    fn residual(&self, _x: &V, _out: &mut [V::Real]) {}
+    fn jacobian_apply(&self, _x: &V, _v: &V, _out: &mut [V::Real]) {}
+    fn jacobian_transpose_apply_add(&self, _x: &V, _mu: &[V::Real], _alpha: V::Real, _out: &mut V) {
+    }
+}

@@ -9,6 +9,7 @@
 
 mod analysis;
 mod bracket;
+mod check;
 mod constraint;
 mod hamiltonian;
 mod modified;
@@ -19,7 +20,8 @@ pub(crate) use analysis::{
     InitialChecks, check_initial_state, half_step_keeps_jacobian, probe_decoupled,
 };
 pub use bracket::{Brackets, Case, bracket};
-pub use constraint::HolonomicConstraint;
+pub use check::{Hints, ModelCheck, ModelReport, check_model};
+pub use constraint::{HolonomicConstraint, Unconstrained};
 pub use hamiltonian::Hamiltonian;
 pub use modified::ModifiedHamiltonian;
 pub use structure::{
