@@ -51,6 +51,8 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "autodiff")]
+pub mod autodiff;
 pub mod error;
 pub mod flow;
 pub mod integrate;

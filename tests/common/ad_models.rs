@@ -1,0 +1,71 @@
+//! The built-in models written once as autodiff elements, shared by tests/autodiff.rs and
+//! benches/autodiff.rs (included with `#[path]`).
+
+use lieflow::autodiff::{AdConstraint, AdHamiltonian, DualNum, Element};
+
+lieflow::element!(
+    /// The paper's `H = (x₃² + x₄²)/2`, reading `(x₃, x₄)`.
+    pub PaperEnergy, 2, |p| (p[0] * p[0] + p[1] * p[1]) * 0.5);
+lieflow::element!(
+    /// The paper's `g = (x₁² + x₂² − 1)/2`, reading `(x₁, x₂)`.
+    pub UnitCircle, 2, |q| (q[0] * q[0] + q[1] * q[1] - 1.0) * 0.5);
+
+/// The paper's example with automatic derivatives: each element reads only the coordinates it
+/// depends on (two of four).
+pub fn ad_paper() -> (AdHamiltonian<PaperEnergy, 2>, AdConstraint<UnitCircle, 2>) {
+    (
+        AdHamiltonian::new(vec![(PaperEnergy, [2, 3])]).quadratic(),
+        AdConstraint::new(vec![(UnitCircle, [0, 1])]),
+    )
+}
+
+/// A planar chain per element: each body's energy reads `(q_y, p_x, p_y)`; each link reads the
+/// two bodies it joins (the pin reads body 0 twice and uses the first copy).
+#[derive(Clone, Copy)]
+pub struct Body {
+    pub m: f64,
+    pub gravity: f64,
+}
+impl Element<3> for Body {
+    fn eval<T: DualNum<Primitive = f64> + Copy>(&self, x: [T; 3]) -> T {
+        (x[1] * x[1] + x[2] * x[2]) / (2.0 * self.m) + x[0] * (self.m * self.gravity)
+    }
+}
+#[derive(Clone, Copy)]
+pub enum Link {
+    Pin(f64),
+    Rod(f64),
+}
+impl Element<4> for Link {
+    fn eval<T: DualNum<Primitive = f64> + Copy>(&self, x: [T; 4]) -> T {
+        match *self {
+            Link::Pin(l) => (x[0] * x[0] + x[1] * x[1] - l * l) * 0.5,
+            Link::Rod(l) => {
+                let (dx, dy) = (x[2] - x[0], x[3] - x[1]);
+                (dx * dx + dy * dy - l * l) * 0.5
+            }
+        }
+    }
+}
+
+pub fn ad_chain(links: usize) -> (AdHamiltonian<Body, 3>, AdConstraint<Link, 4>) {
+    let nq = 2 * links;
+    let h = AdHamiltonian::new(
+        (0..links)
+            .map(|i| {
+                (
+                    Body {
+                        m: 1.0,
+                        gravity: 1.0,
+                    },
+                    [2 * i + 1, nq + 2 * i, nq + 2 * i + 1],
+                )
+            })
+            .collect(),
+    )
+    .quadratic();
+    let l = 1.0 / links as f64;
+    let mut rows = vec![(Link::Pin(l), [0, 1, 0, 1])];
+    rows.extend((1..links).map(|i| (Link::Rod(l), [2 * i - 2, 2 * i - 1, 2 * i, 2 * i + 1])));
+    (h, AdConstraint::new(rows))
+}
