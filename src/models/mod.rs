@@ -1,6 +1,8 @@
 //! Ready-made models, one file each. Every model implements the traits generically for any
 //! [`Vector`](crate::Vector) storage, so the same model runs on the stack or on the heap.
 
+#[cfg(feature = "autodiff")]
+pub mod andrews;
 pub mod damped_pendulum;
 pub mod paper;
 pub mod pendulum_chain;

@@ -74,8 +74,13 @@ pub struct Case {
 
 #[derive(Debug, Clone)]
 enum Kind {
-    Scene { text: String, expect: Expect },
+    Scene {
+        text: String,
+        expect: Expect,
+    },
     Fekete,
+    #[cfg(feature = "autodiff")]
+    Andrews,
     Hostile,
 }
 
@@ -266,6 +271,8 @@ pub fn run_case(case: &Case) -> Row {
     let mut row = match &case.kind {
         Kind::Scene { text, expect } => run_scene_case(case.name, text, *expect),
         Kind::Fekete => fekete(),
+        #[cfg(feature = "autodiff")]
+        Kind::Andrews => andrews(),
         Kind::Hostile => hostile(),
     };
     row.seconds = start.elapsed().as_secs_f64();
@@ -531,6 +538,118 @@ fn fekete() -> Row {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Andrews' squeezing mechanism (IVP test set), a model with automatic derivatives.
+
+/// Runs the mechanism to `t = 0.03` in `steps` steps of the projected implicit midpoint rule.
+#[cfg(feature = "autodiff")]
+fn andrews_run(steps: usize) -> Result<(Measured, [f64; 14], f64), String> {
+    use crate::flow::{Flow, FlowExt, ImplicitMidpoint, ProjectionOptions};
+    use crate::models::andrews;
+    use crate::nonlinear::NewtonOptions;
+    use crate::system::{Canonical, Hamiltonian, HolonomicConstraint};
+    type V = nalgebra::SVector<f64, 14>;
+    let x0: V = andrews::initial_state();
+    let s = andrews::system();
+    let setup = |e: crate::error::SetupError| format!("refused: {e}");
+    let mid = ImplicitMidpoint::<V, _, _>::try_new(
+        Canonical,
+        s.hamiltonian.clone(),
+        &x0,
+        NewtonOptions::default(),
+    )
+    .map_err(setup)?;
+    let mut flow = mid
+        .projected(andrews::system(), &x0, ProjectionOptions::default())
+        .map_err(setup)?;
+    let h = 0.03 / steps as f64;
+    let (mut x, mut g, mut max_g) = (x0, [0.0; 6], 0.0f64);
+    let e0 = s.hamiltonian.energy(&x);
+    let (mut newton_prev, mut newton_max) = (0, 0);
+    for _ in 0..steps {
+        flow.step(h, &mut x)
+            .map_err(|e| format!("typed error: {e}"))?;
+        let n = flow.stats().newton_iterations;
+        newton_max = newton_max.max(n - newton_prev);
+        newton_prev = n;
+        s.constraint.residual(&x, &mut g);
+        max_g = max_g.max(g.iter().fold(0.0f64, |a, v| a.max(v.abs())));
+    }
+    let mut out = [0.0; 14];
+    out[..7].copy_from_slice(&x.as_slice()[..7]);
+    out[7..].copy_from_slice(&andrews::velocities(x.as_slice()));
+    let e1 = s.hamiltonian.energy(&x);
+    let m = Measured {
+        steps,
+        max_g: Some(max_g),
+        max_phi: None,
+        e0,
+        max_rise: f64::NEG_INFINITY,
+        rise_at: (0, e0),
+        max_de: (e1 - e0).abs(),
+        first_tenth: 0.0,
+        last_tenth: 0.0,
+        newton_max,
+        condition: None,
+        error: None,
+        finite: out.iter().all(|v| v.is_finite()),
+        x: out.to_vec(),
+        multipliers: None,
+    };
+    Ok((m, out, e1))
+}
+
+#[cfg(feature = "autodiff")]
+fn andrews() -> Row {
+    use crate::models::andrews::REFERENCE;
+    let name = "andrews";
+    let (coarse, fine) = match (andrews_run(3000), andrews_run(6000)) {
+        (Ok(a), Ok(b)) => (a, b),
+        (Err(e), _) | (_, Err(e)) => return refused_row(name, e, false),
+    };
+    let (m, x, e1) = fine;
+    // Relative to each component's scale (angles to 16 rad, velocities to 1.4e3 rad/s);
+    // Richardson for order 2: x_{h/2} − x ≈ (x_{h/2} − x_h)/3.
+    let (mut err, mut est) = (0.0f64, 0.0f64);
+    for i in 0..14 {
+        let scale = REFERENCE[i].abs().max(1.0);
+        err = err.max((x[i] - REFERENCE[i]).abs() / scale);
+        est = est.max((x[i] - coarse.1[i]).abs() / 3.0 / scale);
+    }
+    let checks = vec![
+        Check::new(
+            "max |g| (absolute; lengths ~0.03 m)",
+            m.max_g.unwrap_or(f64::INFINITY),
+            1e-14,
+        ),
+        Check::new(
+            "max relative error of (q, q') at t = 0.03 against the test set",
+            err,
+            2.0 * est + 1e-12,
+        ),
+        Check::new("Richardson error estimate (h = 5e-6)", est, 1e-3),
+    ];
+    let passed = m.finite && checks.iter().all(|c| c.passed);
+    Row {
+        case: name.into(),
+        scheme: "projection around the implicit midpoint rule (autodiff model) order 2".into(),
+        steps: m.steps,
+        max_g: m.max_g,
+        max_phi: None,
+        energy: format!(
+            "H (with the torque's potential -mom beta) {:.6e}, |H - H0| at t = 0.03: {:.1e}",
+            m.e0,
+            (e1 - m.e0).abs()
+        ),
+        newton_max: m.newton_max,
+        condition: None,
+        outcome: "ok".into(),
+        checks,
+        passed,
+        seconds: 0.0,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Scenes of the other cases.
 
 /// A planar chain of `masses.len()` bodies on rods of length `l`, hanging from the origin at
@@ -666,6 +785,14 @@ pub fn cases() -> Vec<Case> {
             source: "IVP test set (Bari), Fekete problem",
             long: false,
             kind: Kind::Fekete,
+        },
+        #[cfg(feature = "autodiff")]
+        Case {
+            name: "andrews",
+            about: "7 bodies, 6 loop closures, position-dependent mass matrix, t in [0, 0.03]",
+            source: "IVP test set (Bari), Andrews' squeezing mechanism",
+            long: false,
+            kind: Kind::Andrews,
         },
         scene_case(
             "damping-1e6-strang",
