@@ -4,6 +4,7 @@
 #[cfg(feature = "autodiff")]
 pub mod andrews;
 pub mod damped_pendulum;
+pub mod four_bar;
 pub mod paper;
 pub mod pendulum_chain;
 pub mod rigid_body;

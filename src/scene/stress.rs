@@ -81,6 +81,7 @@ enum Kind {
     Fekete,
     #[cfg(feature = "autodiff")]
     Andrews,
+    FourBar,
     Hostile,
 }
 
@@ -273,6 +274,7 @@ pub fn run_case(case: &Case) -> Row {
         Kind::Fekete => fekete(),
         #[cfg(feature = "autodiff")]
         Kind::Andrews => andrews(),
+        Kind::FourBar => four_bar(),
         Kind::Hostile => hostile(),
     };
     row.seconds = start.elapsed().as_secs_f64();
@@ -650,6 +652,59 @@ fn andrews() -> Row {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The N-four-bar mechanism (IFToMM A02).
+
+fn four_bar() -> Row {
+    use crate::models::four_bar::NFourBar;
+    let name = "n-four-bar";
+    let model = NFourBar::new(40);
+    let r = match model.benchmark_run(1e-3, 10_000) {
+        Ok(r) => r,
+        Err(e) => return refused_row(name, e.to_string(), false),
+    };
+    let walk = 4.0 * f64::EPSILON * (r.steps as f64).sqrt() * r.energy.abs();
+    let checks = if r.error.is_none() {
+        vec![
+            Check::new(
+                "crossings of the singular position (at least 2)",
+                2.0 - r.crossings as f64,
+                0.0,
+            ),
+            // The Newton tolerance 16 ε (N + 1) plus the rounding of g at coordinates to N + 1.
+            Check::new("max |g|", r.max_g, 20.0 * f64::EPSILON * 41.0),
+            Check::new(
+                "max |H - H0| over the last tenth",
+                r.last_tenth,
+                1.1 * r.first_tenth + walk,
+            ),
+        ]
+    } else {
+        Vec::new()
+    };
+    let passed = r.finite && checks.iter().all(|c| c.passed);
+    Row {
+        case: name.into(),
+        scheme: "RATTLE with the bars' constant non-diagonal mass matrix, order 2".into(),
+        steps: r.steps,
+        max_g: Some(r.max_g),
+        max_phi: None,
+        energy: format!(
+            "H0 {:.6e}; max |H - H0| first tenth {:.2e}, last tenth {:.2e}; {} crossings of the singular position",
+            r.energy, r.first_tenth, r.last_tenth, r.crossings
+        ),
+        newton_max: r.newton_max,
+        condition: None,
+        outcome: match &r.error {
+            None => "ok".into(),
+            Some(e) => format!("typed error: {e}"),
+        },
+        checks,
+        passed,
+        seconds: 0.0,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Scenes of the other cases.
 
 /// A planar chain of `masses.len()` bodies on rods of length `l`, hanging from the origin at
@@ -793,6 +848,13 @@ pub fn cases() -> Vec<Case> {
             source: "IVP test set (Bari), Andrews' squeezing mechanism",
             long: false,
             kind: Kind::Andrews,
+        },
+        Case {
+            name: "n-four-bar",
+            about: "40 four-bar windows (81 bars) through the horizontal, rank-deficient position, 10 s",
+            source: "IFToMM multibody benchmark A02",
+            long: false,
+            kind: Kind::FourBar,
         },
         scene_case(
             "damping-1e6-strang",
