@@ -319,6 +319,12 @@ fn print_assembly(a: &Assembly) {
     if let Some((dq, dp)) = a.initial_projection {
         println!("projected    initial state moved by max |dq| = {dq:.3e}, max |dp| = {dp:.3e}");
     }
+    if !a.dropped_constraints.is_empty() {
+        println!(
+            "dropped      redundant: {}",
+            a.dropped_constraints.join(", ")
+        );
+    }
 }
 
 fn run_scene(args: &RunArgs) -> ExitCode {
@@ -367,6 +373,12 @@ fn run_scene(args: &RunArgs) -> ExitCode {
     );
     if let Some((dq, dp)) = a.initial_projection {
         println!("  initial state projected: max |dq| = {dq:.3e}, max |dp| = {dp:.3e}");
+    }
+    if !a.dropped_constraints.is_empty() {
+        println!(
+            "  redundant constraints dropped: {}",
+            a.dropped_constraints.join(", ")
+        );
     }
     let steps = compiled.plan.steps;
     if args.every == Some(0) {
@@ -472,6 +484,12 @@ fn run_scene(args: &RunArgs) -> ExitCode {
     obj.insert("scene".into(), compiled.assembly.name.clone().into());
     obj.insert("scheme".into(), compiled.assembly.scheme.clone().into());
     obj.insert("order".into(), compiled.assembly.order.into());
+    if !compiled.assembly.dropped_constraints.is_empty() {
+        obj.insert(
+            "dropped_constraints".into(),
+            compiled.assembly.dropped_constraints.clone().into(),
+        );
+    }
     println!("{json}");
     code
 }

@@ -75,6 +75,8 @@ pub struct Assembly {
     pub steps: usize,
     /// The initial projection, if the scene asked for one: `(max |Δq|, max |Δp|)`.
     pub initial_projection: Option<(f64, f64)>,
+    /// Redundant constraints removed (`redundant = "drop-dependent"`), by label.
+    pub dropped_constraints: Vec<String>,
 }
 
 /// A compiled scene: the simulation, what was assembled, and the run's plan.
@@ -1181,7 +1183,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             )
             .collect();
     let masses: Vec<f64> = bodies.list.iter().map(|b| b.mass).collect();
-    let model = Arc::new(SceneModel::new(
+    let mut model = SceneModel::new(
         dim,
         masses,
         fx.potentials,
@@ -1189,7 +1191,26 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         fx.damping,
         fx.magnetic,
         profile,
-    ));
+    );
+    let dropped_constraints = match file.integrator.redundant.as_str() {
+        "refuse" => Vec::new(),
+        "drop-dependent" => {
+            let q0: Vec<f64> = bodies
+                .list
+                .iter()
+                .flat_map(|b| b.q[..dim].to_vec())
+                .collect();
+            drop_dependent(&mut model, &q0)?
+        }
+        other => {
+            return Err(err(
+                SceneErrorKind::Value,
+                root.key("integrator").key("redundant"),
+                format!("unknown value '{other}': use \"refuse\" (default) or \"drop-dependent\""),
+            ));
+        }
+    };
+    let model = Arc::new(model);
     let n = model.state_len();
     let nq = n / 2;
     let mut x0 = Col::<f64>::zeros(n);
@@ -1359,6 +1380,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         solver,
         steps,
         initial_projection,
+        dropped_constraints,
     };
     let system = System::new(model.clone(), model.clone(), model.clone());
     let simulation = Box::new(ModelRun::new(flow, system, x0, dt, m, Some(shared)));
@@ -1377,6 +1399,42 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
 /// The label of the constraint term that owns row `row`.
 fn constraint_term(model: &SceneModel, row: usize) -> Option<&ConstraintTerm> {
     model.constraints.iter().rev().find(|c| c.row <= row)
+}
+
+/// Removes dependent constraints one at a time (`redundant = "drop-dependent"`): factor
+/// `G W⁻¹ Gᵀ` at the initial positions; a pivot that vanishes names a row that depends on the
+/// rows before it in the factorization's order, and its constraint goes. Returns the labels of
+/// the dropped constraints. A dependent row inside a multi-row constraint (a pin) is refused:
+/// dropping the whole pin would remove independent rows too.
+fn drop_dependent(model: &mut SceneModel, q: &[f64]) -> Result<Vec<String>> {
+    let mut dropped = Vec::new();
+    while model.m > 0 {
+        let result = MassGram::new(model, q).and_then(|mut g| g.factor(model, q));
+        let row = match result {
+            Ok(()) => break,
+            Err(LinearSolveError::Singular { pivot, .. }) => pivot,
+            Err(LinearSolveError::StructurallySingular { column }) => column,
+            Err(e) => return Err(setup_error(model, SetupError::Linear(e))),
+        };
+        let Some(index) = model.constraints.iter().rposition(|c| c.row <= row) else {
+            break;
+        };
+        let term = &model.constraints[index];
+        if term.rows(model.dim) != 1 {
+            return Err(err(
+                SceneErrorKind::Redundant,
+                term.path.clone(),
+                format!(
+                    "{} is redundant in one of its {} rows; only single-row constraints are dropped (declare it as rods)",
+                    term.label,
+                    term.rows(model.dim)
+                ),
+            ));
+        }
+        dropped.push(term.label.clone());
+        model.retain_constraints(|i| i != index);
+    }
+    Ok(dropped)
 }
 
 /// Refuses redundant constraints (a rod listed twice, an over-constraining loop): the
@@ -1735,6 +1793,9 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
             root.key("integrator").key("project_initial"),
         );
     }
+    if file.integrator.redundant != "refuse" {
+        return unused("`redundant`", root.key("integrator").key("redundant"));
+    }
     if profile {
         return unused(
             "the `profile` diagnostic",
@@ -1986,6 +2047,7 @@ fn builtin_assembly(
         solver: None,
         steps,
         initial_projection: None,
+        dropped_constraints: Vec::new(),
     }
 }
 

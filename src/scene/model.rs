@@ -317,6 +317,25 @@ impl<T: Real> SceneModel<T> {
         }
     }
 
+    /// Keeps the constraint terms whose index passes `keep`, renumbering their rows.
+    pub(crate) fn retain_constraints(&mut self, keep: impl Fn(usize) -> bool) {
+        let dim = self.dim;
+        let mut row = 0;
+        let old = std::mem::take(&mut self.constraints);
+        self.constraints = old
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .map(|(_, mut t)| {
+                t.row = row;
+                row += t.rows(dim);
+                t
+            })
+            .collect();
+        self.m = row;
+        self.sparse = row > 4;
+    }
+
     /// Number of bodies.
     pub fn bodies(&self) -> usize {
         self.masses.len()

@@ -325,6 +325,18 @@ pub struct IntegratorSpec {
     /// positions then velocities) and report by how much, instead of refusing it.
     #[serde(default)]
     pub project_initial: bool,
+    /// What to do with redundant constraints (gradients that depend on the others at the
+    /// initial state): `"refuse"` (default: an error naming one) or `"drop-dependent"` (remove
+    /// them one by one, each found as the dependent pivot of `G W⁻¹ Gᵀ`, and report which — the
+    /// remaining constraints carry the same forces; over-constrained mechanisms whose redundancy
+    /// persists along the motion then run). Only single-row constraints (rods, spheres, planes)
+    /// are dropped; a dependent row of a pin is refused.
+    #[serde(default = "default_redundant")]
+    pub redundant: String,
+}
+
+fn default_redundant() -> String {
+    "refuse".to_owned()
 }
 
 fn default_scheme() -> String {

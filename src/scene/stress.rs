@@ -971,6 +971,18 @@ pub fn cases() -> Vec<Case> {
             ),
             Expect::Refused("redundant"),
         ),
+        scene_case(
+            "redundant-dropped",
+            "parallel cranks with a rigid 3-point coupler (one redundant rod), redundant = \"drop-dependent\"",
+            "issue 12, case 4",
+            include_str!("../../scenes/parallel_cranks.toml").to_owned(),
+            // The Newton tolerance 16 ε ℓ L (ℓ = 1, L ≈ 2.2) plus rounding; RATTLE's energy
+            // error O(h²) at h = 1e-3.
+            Expect::Stable {
+                g_bound: 64.0 * f64::EPSILON * 2.3,
+                energy: EnergyRule::Bounded { rel: 1e-5 },
+            },
+        ),
         Case {
             name: "hostile-input",
             about: "NaN, infinite, zero and negative parameters, steps and states: typed, located errors",
