@@ -48,6 +48,8 @@ pub mod precision;
 mod run;
 pub mod schema;
 pub mod stress;
+#[cfg(feature = "sweep")]
+pub mod sweep;
 
 pub use compile::{Assembly, Compiled, MAX_BODIES, MAX_PAIRS, compile};
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
