@@ -4,6 +4,7 @@
 //! Exit codes: 0 success, 1 a run that stopped early (what it computed is still written), 2 bad
 //! input (flags or scene).
 
+mod distributed;
 mod plot;
 mod precision_plot;
 mod sweep_plot;
@@ -225,12 +226,19 @@ fn sweep(args: &SweepArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let members: Vec<_> = ids.iter().map(|&i| sweep.member(i)).collect();
+    // Under mpirun (feature `mpi`), rank r of n runs every n-th member; rank 0 gathers.
+    let ranks = distributed::Ranks::init();
+    let members: Vec<_> = ids
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % ranks.size == ranks.rank)
+        .map(|(_, &i)| sweep.member(i))
+        .collect();
     if let Err(e) = std::fs::create_dir_all(&args.out) {
         eprintln!("error: cannot create {}: {e}", args.out.display());
         return ExitCode::from(2);
     }
-    let bar = if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+    let bar = if ranks.size == 1 && std::io::IsTerminal::is_terminal(&std::io::stderr()) {
         let b = ProgressBar::new(members.len() as u64);
         b.set_style(
             ProgressStyle::with_template("{bar:40} {pos}/{len} members, {per_sec}, eta {eta}")
@@ -255,6 +263,14 @@ fn sweep(args: &SweepArgs) -> ExitCode {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    let rows = match ranks.gather(rows) {
+        Ok(Some(rows)) => rows,
+        Ok(None) => return ExitCode::SUCCESS, // not rank 0: its rows went there
+        Err(e) => {
+            eprintln!("error: gathering the rows: {e}");
+            return ExitCode::from(1);
+        }
+    };
     let seconds = start.elapsed().as_secs_f64();
     let threads = if args.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
@@ -317,9 +333,10 @@ fn sweep(args: &SweepArgs) -> ExitCode {
     }
     // The table: each output's range over the members that report it.
     println!(
-        "{} members ({} failed) on {threads} threads in {seconds:.2} s: {:.1} members/s",
+        "{} members ({} failed) on {} x {threads} threads in {seconds:.2} s: {:.1} members/s",
         member_rows.len(),
         failed,
+        ranks.size,
         member_rows.len() as f64 / seconds
     );
     println!("{:<22} {:>13} {:>13}", "output", "min", "max");
@@ -349,6 +366,7 @@ fn sweep(args: &SweepArgs) -> ExitCode {
             "command": "sweep",
             "members": member_rows.len(),
             "failed": failed,
+            "ranks": ranks.size,
             "threads": threads,
             "seconds": seconds,
             "members_per_second": member_rows.len() as f64 / seconds,

@@ -151,7 +151,7 @@ pub struct Member {
 }
 
 /// The result of one member: its parameters and its run's summary, or why it failed.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MemberRow {
     /// The member id.
     pub id: usize,
