@@ -220,6 +220,7 @@ where
     V: Vector<Real = f64>,
     E: Element<K>,
 {
+    #[inline]
     fn energy(&self, x: &V) -> f64 {
         let x = x.as_slice();
         self.elements.check(x.len());
@@ -229,6 +230,7 @@ where
             .map(|(e, idx)| e.eval::<f64>(core::array::from_fn(|j| x[idx[j]])))
             .sum()
     }
+    #[inline]
     fn gradient(&self, x: &V, out: &mut V) {
         let (x, out) = (x.as_slice(), out.as_mut_slice());
         out.fill(0.0);
@@ -248,6 +250,7 @@ where
             }
         }
     }
+    #[inline]
     fn hessian_apply(&self, x: &V, v: &V, out: &mut V) -> bool {
         let (x, v, out) = (x.as_slice(), v.as_slice(), out.as_mut_slice());
         out.fill(0.0);
@@ -312,6 +315,7 @@ where
     fn dim(&self) -> usize {
         self.elements.items.len()
     }
+    #[inline]
     fn residual(&self, x: &V, out: &mut [f64]) {
         let x = x.as_slice();
         self.elements.check(x.len());
@@ -319,12 +323,14 @@ where
             *o = e.eval::<f64>(core::array::from_fn(|j| x[idx[j]]));
         }
     }
+    #[inline]
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [f64]) {
         let (x, v) = (x.as_slice(), v.as_slice());
         for ((e, idx), o) in self.elements.items.iter().zip(out) {
             *o = directional(e, x, v, idx);
         }
     }
+    #[inline]
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[f64], alpha: f64, out: &mut V) {
         let (x, out) = (x.as_slice(), out.as_mut_slice());
         for ((e, idx), &m) in self.elements.items.iter().zip(mu) {
