@@ -27,8 +27,8 @@ fn mass_ratios_of_a_million_between_neighbours() {
             .collect();
         // g = (|u|² − ℓ²)/2 rounds at a few ε ℓ L; the Newton tolerance is 16 ε ℓ L. The
         // issue allows a typed error. Measured: a typed Newton error in λ_k after 1 and 5
-        // steps — the inner splitting's Jacobian by differences (error ~√ε) no longer contracts
-        // at a multiplier-matrix condition of 6e7 (docs/hard-cases.md).
+        // steps — at a multiplier-matrix condition of 6e7 the residual stalls near κ ε times
+        // its scale, far above that tolerance (docs/hard-cases.md).
         let outcome = run_scaled(&chain(&masses, 0.1, None, 1e-3, 200), 0.1, 1.2);
         eprintln!("ratio {ratio:e}: {outcome:?}");
         match outcome {
