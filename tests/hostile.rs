@@ -186,6 +186,17 @@ fn a_zero_damping_part_is_not_dissipative() {
         rotation.clone(),
         rotation
     )));
+    // An indefinite symmetric part (the paper's matrix) is not dissipation, nor is an
+    // energy-creating one.
+    let paper = Constant::from_rows(&[
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+        [-1.0, 0.0, 0.0, 0.0],
+        [0.0, -2.0, 0.0, 0.0],
+    ]);
+    assert!(!StructureMatrix::<V4>::is_dissipative(&paper));
+    let pumping = Constant::from_rows(&[[0.0, 1.0], [-1.0, 0.2]]);
+    assert!(!StructureMatrix::<V2>::is_dissipative(&pumping));
 
     // The undamped "damped" pendulum composes to order 4 with backward sub-steps.
     let model = DampedPendulum::try_new(0.0).unwrap();

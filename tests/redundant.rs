@@ -103,3 +103,25 @@ fn a_duplicated_rod_is_dropped_on_request() {
     assert_eq!(s.error, None);
     assert!(s.max_abs_g.unwrap() < 1e-14);
 }
+
+#[test]
+fn a_dependent_constraint_that_contradicts_the_others_is_not_dropped() {
+    // A second rod between b0 and b1 of another length: parallel gradient, violated.
+    let text = chain_scene(&[1.0; 3], 0.5, None, 0.01, 100)
+        .replace(
+            "[[effects]]",
+            "[[constraints]]\ntype = \"rod\"\nbodies = [\"b0\", \"b1\"]\nlength = 0.7\n[[effects]]",
+        )
+        .replace(
+            "[integrator]",
+            "[integrator]\nredundant = \"drop-dependent\"",
+        );
+    let err = Scene::from_toml(&text, "contradiction.toml")
+        .and_then(|s| s.compile())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("contradicts") || err.contains("off the constraints"),
+        "{err}"
+    );
+}

@@ -121,3 +121,32 @@ fn random_members_are_reproducible_and_in_bounds() {
     }
     assert_ne!(a.member(0), a.member(1));
 }
+
+#[test]
+fn bad_random_values_are_refused_and_integer_fields_can_be_swept() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/chain100_damped.toml"
+    ))
+    .unwrap();
+    let empty: SweepFile = toml::from_str(
+        "version = 1\nscene = \"x\"\nmode = \"random\"\nmembers = 3\n[[parameters]]\npath = \"integrator.dt\"\nvalues = []\n",
+    )
+    .unwrap();
+    let err = Sweep::new(empty, &text, "chain.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("at least one"), "{err}");
+    // `links` is an integer field: swept values are written as integers.
+    let links: SweepFile = toml::from_str(
+        "version = 1\nscene = \"x\"\n[[parameters]]\npath = \"chains[0].links\"\nvalues = [3, 5]\n[[parameters]]\npath = \"integrator.t_end\"\nvalues = [0.01]\n",
+    )
+    .unwrap();
+    let s = Sweep::new(links, &text, "chain.toml").unwrap();
+    let members: Vec<_> = s.members().collect();
+    let rows = run_all(&s, &members, 1, &|| {}).unwrap();
+    for (row, _) in &rows {
+        assert_eq!(row.error, None, "member {}: {:?}", row.id, row.error);
+        assert_eq!(row.steps, 10);
+    }
+}

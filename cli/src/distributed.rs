@@ -1,10 +1,75 @@
 //! Members over MPI ranks (feature `mpi`, on rsmpi): rank `r` of `n` runs the members whose
-//! position in the list is `r mod n`, and the rows travel to rank 0 as JSON (serde_json writes
-//! every `f64` in its shortest round-trip form and reads it back exactly), where they are sorted
-//! by id and written as a one-process run writes them — byte for byte. Without the feature a
-//! single "rank" runs everything and nothing MPI is compiled.
+//! position in the list is `r mod n`, and the rows travel to rank 0 as JSON with every `f64` as
+//! its bit pattern (so NaN, ±∞ and every last bit survive), where they are sorted by id and
+//! written as a one-process run writes them — byte for byte. Without the feature a single
+//! "rank" runs everything and nothing MPI is compiled.
 
 use lieflow::scene::sweep::MemberRow;
+
+/// A row on the wire: every `f64` as `to_bits`.
+#[cfg(feature = "mpi")]
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Wire {
+    id: usize,
+    parameters: Vec<(String, u64)>,
+    t: u64,
+    steps: usize,
+    opt: [Option<u64>; 6],
+    final_state_max_abs: u64,
+    error: Option<(String, String)>,
+    seconds: u64,
+}
+
+#[cfg(feature = "mpi")]
+impl Wire {
+    fn from_row((r, seconds): &(MemberRow, f64)) -> Self {
+        let b = |v: Option<f64>| v.map(f64::to_bits);
+        Self {
+            id: r.id,
+            parameters: r
+                .parameters
+                .iter()
+                .map(|(p, v)| (p.clone(), v.to_bits()))
+                .collect(),
+            t: r.t.to_bits(),
+            steps: r.steps,
+            opt: [
+                b(r.max_abs_g),
+                b(r.energy_initial),
+                b(r.energy_final),
+                b(r.max_abs_energy_error),
+                b(r.dissipated),
+                None,
+            ],
+            final_state_max_abs: r.final_state_max_abs.to_bits(),
+            error: r.error.clone(),
+            seconds: seconds.to_bits(),
+        }
+    }
+    fn into_row(self) -> (MemberRow, f64) {
+        let f = |v: Option<u64>| v.map(f64::from_bits);
+        (
+            MemberRow {
+                id: self.id,
+                parameters: self
+                    .parameters
+                    .into_iter()
+                    .map(|(p, v)| (p, f64::from_bits(v)))
+                    .collect(),
+                t: f64::from_bits(self.t),
+                steps: self.steps,
+                max_abs_g: f(self.opt[0]),
+                energy_initial: f(self.opt[1]),
+                energy_final: f(self.opt[2]),
+                max_abs_energy_error: f(self.opt[3]),
+                dissipated: f(self.opt[4]),
+                final_state_max_abs: f64::from_bits(self.final_state_max_abs),
+                error: self.error,
+            },
+            f64::from_bits(self.seconds),
+        )
+    }
+}
 
 /// The MPI environment (finalized when dropped) and this process's rank and size.
 pub struct Ranks {
@@ -55,7 +120,8 @@ impl Ranks {
         }
         let world = universe.world();
         let root = world.process_at_rank(0);
-        let mine = serde_json::to_vec(&rows).map_err(|e| e.to_string())?;
+        let wire: Vec<Wire> = rows.iter().map(Wire::from_row).collect();
+        let mine = serde_json::to_vec(&wire).map_err(|e| e.to_string())?;
         let count = i32::try_from(mine.len())
             .map_err(|_| "rows too large for one MPI message".to_owned())?;
         if self.rank != 0 {
@@ -65,14 +131,14 @@ impl Ranks {
         }
         let mut counts = vec![0i32; self.size];
         root.gather_into_root(&count, &mut counts[..]);
-        let displs: Vec<i32> = counts
-            .iter()
-            .scan(0i32, |acc, &c| {
-                let d = *acc;
-                *acc += c;
-                Some(d)
-            })
-            .collect();
+        let mut displs = Vec::with_capacity(self.size);
+        let mut total = 0i32;
+        for &c in &counts {
+            displs.push(total);
+            total = total.checked_add(c).ok_or_else(|| {
+                "the rows of all ranks exceed 2 GiB: slice the sweep with --members".to_owned()
+            })?;
+        }
         let mut buf = vec![0u8; counts.iter().map(|&c| c as usize).sum()];
         {
             let mut part = PartitionMut::new(&mut buf[..], counts.clone(), &displs[..]);
@@ -81,9 +147,8 @@ impl Ranks {
         let mut all = Vec::new();
         for (d, c) in displs.iter().zip(&counts) {
             let chunk = &buf[*d as usize..(*d + *c) as usize];
-            let rows: Vec<(MemberRow, f64)> =
-                serde_json::from_slice(chunk).map_err(|e| e.to_string())?;
-            all.extend(rows);
+            let rows: Vec<Wire> = serde_json::from_slice(chunk).map_err(|e| e.to_string())?;
+            all.extend(rows.into_iter().map(Wire::into_row));
         }
         all.sort_by_key(|(r, _)| r.id);
         Ok(Some(all))

@@ -234,7 +234,10 @@ fn sweep(args: &SweepArgs) -> ExitCode {
         .filter(|(k, _)| k % ranks.size == ranks.rank)
         .map(|(_, &i)| sweep.member(i))
         .collect();
-    if let Err(e) = std::fs::create_dir_all(&args.out) {
+    // Only rank 0 writes; every rank reaches the gather (a rank that left early would block it).
+    if ranks.rank == 0
+        && let Err(e) = std::fs::create_dir_all(&args.out)
+    {
         eprintln!("error: cannot create {}: {e}", args.out.display());
         return ExitCode::from(2);
     }

@@ -459,13 +459,16 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             // root is reached. With a kept Jacobian, slow progress is not evidence of that.
             // Further up (to NOISE_FACTOR² ftol: a residual whose terms cancel, like the
             // hidden constraint of a light body between heavy ones, rounds far above ε times
-            // its own size) only both together: the update is at round-off of z and did not
-            // halve the residual — no representable z does better.
+            // its own size) only both together, for a full (undamped) step: the update is at
+            // round-off of z and did not halve the residual — no representable z does better.
             let at_roundoff = step <= opts.xtol * (one + ops::norm_inf(z));
             let stalled = r_new >= V::Real::lit(0.5) * r;
             if fresh
                 && ((r_eff <= noise && (at_roundoff || stalled))
-                    || (r_eff <= V::Real::lit(NOISE_FACTOR) * noise && at_roundoff && stalled))
+                    || (r_eff <= V::Real::lit(NOISE_FACTOR) * noise
+                        && halvings == 0
+                        && at_roundoff
+                        && stalled))
             {
                 return Ok(report);
             }

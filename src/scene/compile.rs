@@ -1431,6 +1431,20 @@ fn drop_dependent(model: &mut SceneModel, q: &[f64]) -> Result<Vec<String>> {
                 ),
             ));
         }
+        // A dependent constraint that contradicts the others (a second rod of another length)
+        // is not redundant but inconsistent: dropping it would run with it violated.
+        let value = model.term_residual(q, index).unwrap_or(0.0);
+        let scale = row_scales(model, q)[term.row].0;
+        if value.abs() > f64::EPSILON.sqrt() * scale {
+            return Err(err(
+                SceneErrorKind::OffConstraints,
+                term.path.clone(),
+                format!(
+                    "{} depends on the others but is not satisfied at the initial state (residual {value:.3e}): it contradicts them, and is not dropped",
+                    term.label
+                ),
+            ));
+        }
         dropped.push(term.label.clone());
         model.retain_constraints(|i| i != index);
     }

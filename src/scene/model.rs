@@ -743,6 +743,41 @@ impl SceneModel<f64> {
 /// first body and `−u` at the second (if any), or for a pin the unit rows.
 impl<T: Real> SceneModel<T> {
     #[inline]
+    /// `g` of constraint term `index` at positions `q`, for the single-row kinds (rod, sphere,
+    /// plane); `None` for a pin.
+    pub(crate) fn term_residual(&self, q: &[T], index: usize) -> Option<T> {
+        let half = T::lit(0.5);
+        match &self.constraints[index].kind {
+            ConstraintKind::Rod {
+                a,
+                b,
+                point,
+                length,
+            } => {
+                let u = self.rod_vector(q, *a, *b, point);
+                Some(half * (dot3(u, u) - *length * *length))
+            }
+            ConstraintKind::Sphere {
+                body,
+                center,
+                radius,
+            } => {
+                let u = self.rod_vector(q, *body, None, center);
+                Some(half * (dot3(u, u) - *radius * *radius))
+            }
+            ConstraintKind::Plane {
+                body,
+                normal,
+                offset,
+            } => {
+                let s =
+                    (0..self.dim).fold(T::lit(0.0), |s, k| s + normal[k] * q[body * self.dim + k]);
+                Some(s - *offset)
+            }
+            ConstraintKind::Pin { .. } => None,
+        }
+    }
+
     fn rod_vector(&self, q: &[T], a: usize, b: Option<usize>, point: &[T; 3]) -> [T; 3] {
         let d = self.dim;
         let mut u = [T::lit(0.0); 3];

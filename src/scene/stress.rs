@@ -1047,7 +1047,7 @@ fn hostile_scenes() -> Vec<(&'static str, String, &'static str)> {
         ("infinite step", base.replace("dt = 1e-2", "dt = inf"), "dt"),
         (
             "NaN position",
-            base.replacen("position = [", "position = [nan, ", 1),
+            base.replacen("position = [2.5e-1", "position = [nan", 1),
             "position",
         ),
         (

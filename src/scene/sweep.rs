@@ -243,6 +243,17 @@ fn parse_path(path: &str) -> Result<Vec<Seg<'_>>, SceneError> {
     Ok(segs)
 }
 
+/// The TOML value for `value` in a field that holds `old`: an integer where the base scene has
+/// an integer and the value is integral (`links`, `order`), else a float.
+fn value_like(old: Option<&toml::Value>, value: f64) -> toml::Value {
+    match old {
+        Some(toml::Value::Integer(_)) if value.fract() == 0.0 && value.abs() < 9.0e15 => {
+            toml::Value::Integer(value as i64)
+        }
+        _ => toml::Value::Float(value),
+    }
+}
+
 /// Sets `path` in `table` to `value`: every key and index but the last must exist; the last
 /// key may be new (a field the scene leaves at its default).
 fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), SceneError> {
@@ -254,7 +265,8 @@ fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), Scene
     };
     let mut cur: &mut toml::Value = match segs.first() {
         Some(Seg::Key(k)) if segs.len() == 1 => {
-            table.insert((*k).to_owned(), toml::Value::Float(value));
+            let v = value_like(table.get(*k), value);
+            table.insert((*k).to_owned(), v);
             return Ok(());
         }
         Some(Seg::Key(k)) => table
@@ -274,7 +286,8 @@ fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), Scene
                     .as_table_mut()
                     .ok_or_else(|| missing(&format!("table before '{k}'")))?;
                 if last {
-                    t.insert((*k).to_owned(), toml::Value::Float(value));
+                    let v = value_like(t.get(*k), value);
+                    t.insert((*k).to_owned(), v);
                     return Ok(());
                 }
                 cur = t.get_mut(*k).ok_or_else(|| missing(&format!("'{k}'")))?;
@@ -288,7 +301,7 @@ fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), Scene
                     .get_mut(*j)
                     .ok_or_else(|| missing(&format!("element [{j}] (it has {len})")))?;
                 if last {
-                    *slot = toml::Value::Float(value);
+                    *slot = value_like(Some(slot), value);
                     return Ok(());
                 }
                 cur = slot;
@@ -429,6 +442,14 @@ impl Sweep {
                     values.push(v);
                 }
                 "random" => {
+                    if let Some(v) = &p.values
+                        && (v.is_empty() || !v.iter().all(|x| x.is_finite()))
+                    {
+                        return Err(bad(format!(
+                            "parameter '{}': values must be finite, at least one",
+                            p.path
+                        )));
+                    }
                     if let Some(r) = &p.random {
                         let ok = r.low.is_finite()
                             && r.high.is_finite()
@@ -451,6 +472,14 @@ impl Sweep {
                 }
                 m => return Err(bad(format!("unknown mode '{m}' (grid or random)"))),
             }
+        }
+        if file.mode == "grid"
+            && values
+                .iter()
+                .try_fold(1usize, |acc, v| acc.checked_mul(v.len()))
+                .is_none()
+        {
+            return Err(bad("the grid has more members than a usize counts"));
         }
         if file.mode == "random" && file.members.is_none_or(|m| m == 0) {
             return Err(bad("a random sweep needs members >= 1"));

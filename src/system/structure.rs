@@ -84,6 +84,43 @@ impl<V: Vector> StructureMatrix<V> for Canonical {
 pub struct Constant<T> {
     n: usize,
     rows: Vec<T>,
+    /// The symmetric part is non-zero and negative semi-definite (`M = J − R`, `R ⪰ 0`, `R ≠ 0`).
+    dissipative: bool,
+}
+
+/// `true` if the symmetric `n × n` matrix `a` (row-major) is positive semi-definite, to a
+/// tolerance `n ε max|a|`: Gaussian elimination with diagonal pivoting; a pivot below the
+/// tolerance must leave a numerically zero remainder (Higham, *Accuracy and Stability of
+/// Numerical Algorithms*, §10.3).
+fn semidefinite<T: Real>(n: usize, mut a: Vec<T>) -> bool {
+    let scale = a.iter().fold(T::zero(), |s, v| s.max(v.abs()));
+    let tol = T::lit(n.max(1) as f64) * T::epsilon() * scale;
+    for k in 0..n {
+        let (p, d) = (k..n)
+            .map(|i| (i, a[i * n + i]))
+            .fold((k, T::neg_infinity()), |b, c| if c.1 > b.1 { c } else { b });
+        if d < -tol {
+            return false;
+        }
+        if d <= tol {
+            return (k..n).all(|i| (k..n).all(|j| a[i * n + j].abs() <= tol));
+        }
+        if p != k {
+            for j in 0..n {
+                a.swap(k * n + j, p * n + j);
+            }
+            for i in 0..n {
+                a.swap(i * n + k, i * n + p);
+            }
+        }
+        for i in k + 1..n {
+            let f = a[i * n + k] / d;
+            for j in k + 1..n {
+                a[i * n + j] = a[i * n + j] - f * a[k * n + j];
+            }
+        }
+    }
+    true
 }
 
 impl<T: Real> Constant<T> {
@@ -102,7 +139,19 @@ impl<T: Real> Constant<T> {
             );
             data.extend_from_slice(r);
         }
-        Self { n, rows: data }
+        // −(M + Mᵀ)/2 = R must be positive semi-definite and non-zero for M to dissipate.
+        let r: Vec<T> = (0..n * n)
+            .map(|k| {
+                let (i, j) = (k / n, k % n);
+                -(data[i * n + j] + data[j * n + i]) * T::lit(0.5)
+            })
+            .collect();
+        let dissipative = r.iter().any(|&v| v != T::zero()) && semidefinite(n, r);
+        Self {
+            n,
+            rows: data,
+            dissipative,
+        }
     }
 
     /// The entry `M_ij`.
@@ -135,10 +184,11 @@ impl<V: Vector> StructureMatrix<V> for Constant<V::Real> {
     fn is_constant(&self) -> bool {
         true
     }
-    /// `true` if the symmetric part `(M + Mᵀ)/2` has a non-zero entry.
+    /// `true` if the symmetric part `(M + Mᵀ)/2 = −R` is non-zero with `R ⪰ 0` (decided once,
+    /// at construction). An indefinite symmetric part (the paper's example) is not dissipation:
+    /// `H` is then not a Lyapunov function, and compositions may take backward sub-steps.
     fn is_dissipative(&self) -> bool {
-        let n = self.n;
-        (0..n).any(|i| (i..n).any(|j| self.get(i, j) + self.get(j, i) != V::Real::zero()))
+        self.dissipative
     }
     fn is_zero(&self) -> bool {
         self.rows.iter().all(|&a| a == V::Real::zero())
