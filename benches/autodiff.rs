@@ -40,6 +40,30 @@ fn bench(c: &mut Criterion) {
     g.bench_function("autodiff", |b| {
         b.iter(|| ad.step(black_box(0.1), &mut x).unwrap())
     });
+    // Which half costs: the energy by AD with the hand-written circle, and the reverse.
+    let (h, con) = ad_paper();
+    let mut ad_h = paper::drift()
+        .projected(
+            System::new(paper::Structure, h, paper::Circle),
+            &x0,
+            ProjectionOptions::default(),
+        )
+        .unwrap();
+    let mut ad_g = paper::drift()
+        .projected(
+            System::new(paper::Structure, paper::Energy, con),
+            &x0,
+            ProjectionOptions::default(),
+        )
+        .unwrap();
+    let mut x = x0;
+    g.bench_function("autodiff_energy_only", |b| {
+        b.iter(|| ad_h.step(black_box(0.1), &mut x).unwrap())
+    });
+    let mut x = x0;
+    g.bench_function("autodiff_constraint_only", |b| {
+        b.iter(|| ad_g.step(black_box(0.1), &mut x).unwrap())
+    });
     g.finish();
 
     let links = 1000;
