@@ -1,4 +1,4 @@
-//! `lieflow`: run, check and print scene files (see `lieflow --help`).
+//! `lieflow`: run, check, print, sweep and stress-test scene files (see `lieflow --help`).
 //!
 //! The command is thin: it parses flags, calls `lieflow::scene`, prints, writes CSV and plots.
 //! Exit codes: 0 success, 1 a run that stopped early (what it computed is still written), 2 bad
@@ -45,10 +45,11 @@ enum Command {
     /// solvers (DOP853 on the index-1 ODE, Radau5 on the index-3 DAE) over tolerances; print a
     /// table, write a CSV and SVG figures; the last line of stdout is a JSON summary.
     Precision(PrecisionArgs),
-    /// The hard-case suite: a public DAE test problem (Fekete), stiff damping and springs,
-    /// extreme lengths and mass ratios, a nearly singular chain, redundant constraints, hostile
-    /// input (and with --long, 10^7-step runs); one row per case, a JSON line per case with
-    /// --json, and a final JSON summary. Exit code 1 if a case fails its checks.
+    /// The hard-case suite: public test problems (Fekete, Andrews' squeezer, the N-four-bar),
+    /// stiff damping and springs, extreme lengths and mass ratios, a nearly singular chain,
+    /// redundant constraints, hostile input (and with --long, 10^7-step runs); one row per case,
+    /// a JSON line per case with --json, and a final JSON summary. Exit code 1 if a case fails
+    /// its checks.
     Stress(StressArgs),
     /// Run a parameter sweep of a scene (a sweep file: the base scene and the fields to vary),
     /// members in parallel; write one row per member (JSONL and CSV, in member order), their
