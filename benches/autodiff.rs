@@ -11,7 +11,7 @@
 #[path = "../tests/common/ad_models.rs"]
 mod ad_models;
 
-use ad_models::{ad_chain, ad_paper};
+use ad_models::{ad_paper, chain_rattle_pair};
 use criterion::{Criterion, criterion_group, criterion_main};
 use faer::Col;
 use lieflow::models::{PendulumChain, paper};
@@ -71,18 +71,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(20);
     let chain = PendulumChain::<f64>::uniform(2, links).unwrap();
     let x0: Col<f64> = chain.at_rest(|i| 0.3 + 0.001 * i as f64);
-    let opts = chain.projection_options();
-    let (h, con) = ad_chain(links);
-    let mut ad = chain
-        .kick()
-        .strang(chain.drift())
-        .projected(System::new(Canonical, h, con), &x0, opts)
-        .unwrap();
-    let mut hand = chain
-        .kick()
-        .strang(chain.drift())
-        .projected(chain.system(), &x0, opts)
-        .unwrap();
+    let (mut ad, mut hand) = chain_rattle_pair(&chain, links, &x0);
     let mut x = x0.clone();
     g.bench_function("hand", |b| {
         b.iter(|| hand.step(black_box(1e-5), &mut x).unwrap())

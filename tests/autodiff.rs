@@ -6,7 +6,7 @@
 #[path = "common/ad_models.rs"]
 mod ad_models;
 
-use ad_models::{ad_chain, ad_paper};
+use ad_models::{ad_chain, ad_paper, chain_rattle_pair};
 use lieflow::autodiff::{AdConstraint, AdHamiltonian, DualNum, Element};
 use lieflow::linalg::Triplets;
 use lieflow::models::{PendulumChain, RigidBody, SphereParticles, SphericalPendulum, paper};
@@ -193,17 +193,7 @@ fn the_pendulum_chain_per_element() {
     assert!(check_model(&System::new(Canonical, h.clone(), c.clone()), &x).passed());
     // Trajectories: RATTLE on both, from the same state at rest.
     let x0: D = chain.at_rest(|i| 0.3 + 0.01 * i as f64);
-    let opts = chain.projection_options();
-    let mut ad = chain
-        .kick()
-        .strang(chain.drift())
-        .projected(System::new(Canonical, h, c), &x0, opts)
-        .unwrap();
-    let mut hand = chain
-        .kick()
-        .strang(chain.drift())
-        .projected(chain.system(), &x0, opts)
-        .unwrap();
+    let (mut ad, mut hand) = chain_rattle_pair(&chain, links, &x0);
     let (mut xa, mut xh) = (x0.clone(), x0);
     for _ in 0..200 {
         ad.step(1e-3, &mut xa).unwrap();

@@ -746,8 +746,13 @@ impl<T: Real> SceneModel<T> {
     /// `g` of constraint term `index` at positions `q`, for the single-row kinds (rod, sphere,
     /// plane); `None` for a pin.
     pub(crate) fn term_residual(&self, q: &[T], index: usize) -> Option<T> {
+        self.single_row_residual(q, &self.constraints[index].kind)
+    }
+
+    /// `g` of a single-row constraint (rod, sphere, plane) at positions `q`; `None` for a pin.
+    fn single_row_residual(&self, q: &[T], kind: &ConstraintKind<T>) -> Option<T> {
         let half = T::lit(0.5);
-        match &self.constraints[index].kind {
+        match kind {
             ConstraintKind::Rod {
                 a,
                 b,
@@ -922,33 +927,10 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
                             out[r + k] = q[body * d + k] - point[k];
                         }
                     }
-                    ConstraintKind::Rod {
-                        a,
-                        b,
-                        point,
-                        length,
-                    } => {
-                        let u = self.rod_vector(q, *a, *b, point);
-                        out[r] = T::lit(0.5) * (dot3(u, u) - *length * *length);
-                    }
-                    ConstraintKind::Sphere {
-                        body,
-                        center,
-                        radius,
-                    } => {
-                        let u = self.rod_vector(q, *body, None, center);
-                        out[r] = T::lit(0.5) * (dot3(u, u) - *radius * *radius);
-                    }
-                    ConstraintKind::Plane {
-                        body,
-                        normal,
-                        offset,
-                    } => {
-                        let mut s = T::lit(0.0);
-                        for k in 0..d {
-                            s = s + (normal[k] * q[body * d + k]);
-                        }
-                        out[r] = s - *offset;
+                    kind => {
+                        out[r] = self
+                            .single_row_residual(q, kind)
+                            .expect("rods, spheres and planes are single rows");
                     }
                 }
             }
