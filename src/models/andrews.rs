@@ -253,3 +253,59 @@ pub fn velocities(x: &[f64]) -> [f64; 7] {
     let (v5, v6) = solve(block_omega(q[5]), p[5], p[6]);
     [v0, v1, v2, v3, v4, v5, v6]
 }
+
+/// What [`run`] measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Run {
+    /// `(q, q')` at `t = 0.03`, comparable with [`REFERENCE`].
+    pub end: [f64; 14],
+    /// `max |g|` over the run.
+    pub max_g: f64,
+    /// `H` at the start and at the end (with the torque's potential).
+    pub energy: (f64, f64),
+    /// The most Newton iterations one step took.
+    pub newton_max: u64,
+}
+
+/// The projection around the implicit midpoint rule from [`initial_state`] to `t = 0.03` in
+/// `steps` steps.
+pub fn run(steps: usize) -> Result<Run, String> {
+    use crate::flow::{Flow, FlowExt, ImplicitMidpoint, ProjectionOptions};
+    use crate::nonlinear::NewtonOptions;
+    use crate::system::{Hamiltonian, HolonomicConstraint};
+    type V = nalgebra::SVector<f64, 14>;
+    let setup = |e: crate::error::SetupError| format!("refused: {e}");
+    let x0: V = initial_state();
+    let s = system();
+    let mid = ImplicitMidpoint::<V, _, _>::try_new(
+        Canonical,
+        s.hamiltonian.clone(),
+        &x0,
+        NewtonOptions::default(),
+    )
+    .map_err(setup)?;
+    let mut flow = mid
+        .projected(system(), &x0, ProjectionOptions::default())
+        .map_err(setup)?;
+    let h = 0.03 / steps as f64;
+    let (mut x, mut g, mut max_g) = (x0, [0.0; 6], 0.0f64);
+    let (mut newton_prev, mut newton_max) = (0, 0);
+    for k in 0..steps {
+        flow.step(h, &mut x)
+            .map_err(|e| format!("typed error at step {k}: {e}"))?;
+        let n = flow.stats().newton_iterations;
+        newton_max = newton_max.max(n - newton_prev);
+        newton_prev = n;
+        s.constraint.residual(&x, &mut g);
+        max_g = g.iter().fold(max_g, |a, v| a.max(v.abs()));
+    }
+    let mut end = [0.0; 14];
+    end[..7].copy_from_slice(&x.as_slice()[..7]);
+    end[7..].copy_from_slice(&velocities(x.as_slice()));
+    Ok(Run {
+        end,
+        max_g,
+        energy: (s.hamiltonian.energy(&x0), s.hamiltonian.energy(&x)),
+        newton_max,
+    })
+}

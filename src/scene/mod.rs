@@ -63,6 +63,20 @@ use std::path::Path;
 /// spring-coupled triple pendulum pair under gravity.
 pub const DEFAULT_SCENE: &str = include_str!("default.toml");
 
+/// A TOML parse error as a located [`SceneError`] (for an unknown key, at the key's line).
+pub(crate) fn syntax_error(e: &toml::de::Error, file: &str, text: &str) -> SceneError {
+    let mut se = SceneError::new(
+        SceneErrorKind::Syntax,
+        FieldPath::root(),
+        e.message().trim_end().to_owned(),
+    );
+    if let Some(span) = e.span() {
+        let at = error::unknown_key_offset(e.message(), text, span.clone());
+        se.location = Some(error::location_of(file, text, at.unwrap_or(span.start)));
+    }
+    se
+}
+
 /// A parsed scene with its source text, so that errors found while compiling point at the file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
@@ -75,18 +89,7 @@ pub struct Scene {
 impl Scene {
     /// Parses a scene from TOML `text`; `file` names it in error messages.
     pub fn from_toml(text: &str, file: &str) -> Result<Self, SceneError> {
-        let parsed: SceneFile = toml::from_str(text).map_err(|e| {
-            let mut se = SceneError::new(
-                SceneErrorKind::Syntax,
-                FieldPath::root(),
-                e.message().trim_end().to_owned(),
-            );
-            if let Some(span) = e.span() {
-                let at = error::unknown_key_offset(e.message(), text, span.clone());
-                se.location = Some(error::location_of(file, text, at.unwrap_or(span.start)));
-            }
-            se
-        })?;
+        let parsed: SceneFile = toml::from_str(text).map_err(|e| syntax_error(&e, file, text))?;
         Ok(Self {
             file: parsed,
             source: Some((file.to_owned(), text.to_owned())),

@@ -151,7 +151,7 @@ pub struct Member {
 }
 
 /// The result of one member: its parameters and its run's summary, or why it failed.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct MemberRow {
     /// The member id.
     pub id: usize,
@@ -372,17 +372,8 @@ impl Sweep {
                 format!("cannot read {name}: {e}"),
             )
         })?;
-        let file: SweepFile = toml::from_str(&text).map_err(|e| {
-            let mut se = SceneError::new(
-                SceneErrorKind::Syntax,
-                FieldPath::root(),
-                e.message().trim_end().to_owned(),
-            );
-            if let Some(span) = e.span() {
-                se.location = Some(super::error::location_of(&name, &text, span.start));
-            }
-            se
-        })?;
+        let file: SweepFile =
+            toml::from_str(&text).map_err(|e| super::syntax_error(&e, &name, &text))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let scene_path = dir.join(&file.scene);
         let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
