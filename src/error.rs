@@ -282,6 +282,18 @@ pub enum SetupError {
         /// Its pivot relative to the largest pivot of `G Gᵀ`.
         ratio: f64,
     },
+    /// A constraint whose gradient depends on the others is violated at the initial state:
+    /// it contradicts them (a second rod of another length), so it cannot be dropped as
+    /// redundant (see [`DropDependent`](crate::system::DropDependent)).
+    #[error(
+        "constraint {constraint} depends on the others but is violated at the initial state (residual {residual:e}): it contradicts them and is not dropped"
+    )]
+    InconsistentConstraint {
+        /// The row of the wrapped constraint.
+        constraint: usize,
+        /// Its residual at the initial state.
+        residual: f64,
+    },
     /// The initial state violates the constraint manifold by more than the tolerance.
     #[error("initial state is off the constraint manifold: {what} = {residual:e}")]
     OffManifold {

@@ -125,3 +125,112 @@ fn a_dependent_constraint_that_contradicts_the_others_is_not_dropped() {
         "{err}"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// `DropDependent`: the same for a model written in Rust.
+
+use lieflow::error::SetupError;
+use lieflow::models::bricard::{self, Bricard, Joints};
+use lieflow::prelude::*;
+use lieflow::system::{DropDependent, check_model};
+use nalgebra::SVector;
+
+type V4 = SVector<f64, 4>;
+
+/// Three rows on a particle in the plane (q, p): `|q|² = 1` twice (the second scaled by `k`,
+/// with target `r²`) and `q_x = 0.6`.
+#[derive(Debug)]
+struct Rows {
+    k: f64,
+    r: f64,
+}
+
+impl HolonomicConstraint<V4> for Rows {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn residual(&self, x: &V4, out: &mut [f64]) {
+        let s = x[0] * x[0] + x[1] * x[1];
+        out[0] = (s - 1.0) / 2.0;
+        out[1] = self.k * (s - self.r * self.r) / 2.0;
+        out[2] = x[0] - 0.6;
+    }
+    fn jacobian_apply(&self, x: &V4, v: &V4, out: &mut [f64]) {
+        let d = x[0] * v[0] + x[1] * v[1];
+        out[0] = d;
+        out[1] = self.k * d;
+        out[2] = v[0];
+    }
+    fn jacobian_transpose_apply_add(&self, x: &V4, mu: &[f64], alpha: f64, out: &mut V4) {
+        let c = alpha * (mu[0] + self.k * mu[1]);
+        out[0] += c * x[0] + alpha * mu[2];
+        out[1] += c * x[1];
+    }
+}
+
+#[test]
+fn drop_dependent_keeps_the_first_of_repeated_rows_and_maps_multipliers_back() {
+    let x = V4::new(0.6, 0.8, 0.1, -0.2);
+    let c = DropDependent::new(Rows { k: 3.0, r: 1.0 }, &x, 1e-8).unwrap();
+    assert_eq!(c.dropped(), &[1]);
+    assert_eq!(c.kept(), &[0, 2]);
+    assert_eq!(HolonomicConstraint::<V4>::dim(&c), 2);
+    // Off the manifold the kept rows are the wrapped rows 0 and 2, and Gᵀμ puts μ on them.
+    let y = V4::new(0.7, 0.9, 0.0, 0.0);
+    let mut g = [0.0; 2];
+    c.residual(&y, &mut g);
+    assert_eq!(g, [(0.49 + 0.81 - 1.0) / 2.0, 0.7 - 0.6]);
+    let mut f = V4::zeros();
+    c.jacobian_transpose_apply_add(&y, &[2.0, 5.0], 1.0, &mut f);
+    assert_eq!(f, V4::new(2.0 * 0.7 + 5.0, 2.0 * 0.9, 0.0, 0.0));
+    assert_eq!(c.dropped_residual(&y), 3.0 * (0.49 + 0.81 - 1.0) / 2.0);
+}
+
+#[test]
+fn drop_dependent_refuses_a_contradicting_row_and_a_bad_tolerance() {
+    let x = V4::new(0.6, 0.8, 0.0, 0.0);
+    // The same gradient direction but another circle: not redundant, inconsistent.
+    let e = DropDependent::new(Rows { k: 1.0, r: 1.1 }, &x, 1e-8).unwrap_err();
+    assert!(
+        matches!(e, SetupError::InconsistentConstraint { constraint: 1, .. }),
+        "{e}"
+    );
+    for tol in [0.0, 1.0, f64::NAN] {
+        let e = DropDependent::new(Rows { k: 1.0, r: 1.0 }, &x, tol).unwrap_err();
+        assert!(matches!(e, SetupError::InvalidParameter { .. }), "{e}");
+    }
+}
+
+#[test]
+fn bricard_has_rank_23_and_its_model_checks_out() {
+    let x0: faer::Col<f64> = Bricard::initial_state();
+    // Without dropping, the projection refuses the linkage as redundant.
+    let full = System::new(Canonical, Bricard, Joints);
+    let refused = Bricard::kick()
+        .strang(Bricard::drift())
+        .projected(
+            full,
+            &x0,
+            ProjectionOptions::default().with_case(Case::Degenerate),
+        )
+        .and_then(|mut f| {
+            let mut x = x0.clone();
+            f.step(1e-3, &mut x).map_err(|e| SetupError::Dimension {
+                what: e.to_string(),
+            })
+        });
+    assert!(
+        refused.is_err(),
+        "24 rows of rank 23 must not run as they are"
+    );
+    let c = Bricard::constraint().unwrap();
+    assert_eq!(c.dropped().len(), 1, "rank 23 of {}", bricard::ROWS);
+    // Derivatives of the model (natural coordinates) against differences, at a moved state.
+    let system = Bricard::system().unwrap();
+    let mut x = x0.clone();
+    for (i, v) in x.as_mut_slice().iter_mut().enumerate() {
+        *v += 0.01 * ((i * 7 % 11) as f64 - 5.0) / 5.0;
+    }
+    let report = check_model(&system, &x);
+    assert!(report.passed(), "{report}");
+}

@@ -3,6 +3,7 @@
 
 #[cfg(feature = "autodiff")]
 pub mod andrews;
+pub mod bricard;
 pub mod damped_pendulum;
 pub mod four_bar;
 pub mod paper;

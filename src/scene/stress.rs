@@ -82,6 +82,7 @@ enum Kind {
     #[cfg(feature = "autodiff")]
     Andrews,
     FourBar,
+    Bricard,
     Hostile,
 }
 
@@ -275,6 +276,7 @@ pub fn run_case(case: &Case) -> Row {
         #[cfg(feature = "autodiff")]
         Kind::Andrews => andrews(),
         Kind::FourBar => four_bar(),
+        Kind::Bricard => bricard(),
         Kind::Hostile => hostile(),
     };
     row.seconds = start.elapsed().as_secs_f64();
@@ -642,6 +644,88 @@ fn four_bar() -> Row {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Bricard's mechanism (IFToMM A04).
+
+fn bricard() -> Row {
+    use crate::models::bricard::Bricard;
+    let name = "bricard";
+    let h = 1e-3;
+    let (r, half) = match (Bricard::run(h, 10_000), Bricard::run(h / 2.0, 20_000)) {
+        (Ok(r), Ok(half)) => (r, half),
+        (Err(e), _) | (_, Err(e)) => return refused_row(name, e.to_string(), false),
+    };
+    let walk = 4.0 * f64::EPSILON * (r.steps as f64).sqrt() * r.energy.abs();
+    // Enforced rows: the Newton tolerance 16 ε plus the rounding of g at unit coordinates.
+    let g_bound = 32.0 * f64::EPSILON;
+    let checks = if r.error.is_none() && half.error.is_none() {
+        vec![
+            Check::new(
+                "rows dropped other than one (rank 23 of 24)",
+                (r.dropped.len() as f64 - 1.0).abs(),
+                0.0,
+            ),
+            Check::new("max |g| (enforced rows)", r.max_g, g_bound),
+            // Near the manifold the dropped row is a combination Σ cᵢ gᵢ of the enforced ones
+            // (‖c‖₁ = 19 at the initial position) plus its own rounding.
+            Check::new("max |g| (dropped row)", r.max_dropped, 20.0 * g_bound),
+            Check::new(
+                "P3 moved less than 1 m (the mobility Grubler's count denies)",
+                1.0 - r.p3_travel,
+                0.0,
+            ),
+            Check::new(
+                "max |H - H0| over the last tenth",
+                r.last_tenth,
+                1.1 * r.first_tenth + walk,
+            ),
+            // RATTLE's energy error is O(h²) uniformly in time (GNI §IX.8, §XI).
+            Check::new(
+                "|order of the energy error from h, h/2 - 2|",
+                ((r.first_tenth / half.first_tenth).log2() - 2.0).abs(),
+                0.1,
+            ),
+        ]
+    } else {
+        Vec::new()
+    };
+    let passed = r.finite && half.finite && checks.iter().all(|c| c.passed);
+    let richardson: f64 = (0..3)
+        .map(|d| (r.p3[d] - half.p3[d]).abs())
+        .fold(0.0, f64::max)
+        / 3.0;
+    Row {
+        case: name.into(),
+        scheme: "RATTLE in natural coordinates, dependent row dropped (DropDependent), order 2"
+            .into(),
+        steps: r.steps,
+        max_g: Some(r.max_g),
+        max_phi: None,
+        energy: format!(
+            "H0 {:.6e}; max |H - H0| first tenth {:.2e}, last tenth {:.2e} (h/2: {:.2e}); dropped rows {:?} at {:.1e}; P3(10 s) = ({:.6}, {:.6}, {:.6}) +- {:.1e} (Richardson)",
+            r.energy,
+            r.first_tenth,
+            r.last_tenth,
+            half.first_tenth,
+            r.dropped,
+            r.max_dropped,
+            half.p3[0],
+            half.p3[1],
+            half.p3[2],
+            richardson
+        ),
+        newton_max: r.newton_max,
+        condition: None,
+        outcome: match r.error.as_ref().or(half.error.as_ref()) {
+            None => "ok".into(),
+            Some(e) => format!("typed error: {e}"),
+        },
+        checks,
+        passed,
+        seconds: 0.0,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Scenes of the other cases.
 
 /// A planar chain of `masses.len()` bodies on rods of length `l`, hanging from the origin at
@@ -792,6 +876,13 @@ pub fn cases() -> Vec<Case> {
             source: "IFToMM multibody benchmark A02",
             long: false,
             kind: Kind::FourBar,
+        },
+        Case {
+            name: "bricard",
+            about: "Bricard's over-constrained linkage (24 equations of rank 23, one degree of freedom Grubler's count denies) from rest under gravity, the dependent row dropped, 10 s",
+            source: "IFToMM multibody benchmark A04",
+            long: false,
+            kind: Kind::Bricard,
         },
         scene_case(
             "damping-1e6-strang",

@@ -11,6 +11,7 @@ mod analysis;
 mod bracket;
 mod check;
 mod constraint;
+mod dependent;
 mod hamiltonian;
 mod modified;
 mod structure;
@@ -22,6 +23,7 @@ pub(crate) use analysis::{
 pub use bracket::{Brackets, Case, bracket};
 pub use check::{Hints, ModelCheck, ModelReport, check_model};
 pub use constraint::{HolonomicConstraint, Unconstrained};
+pub use dependent::DropDependent;
 pub use hamiltonian::Hamiltonian;
 pub use modified::ModifiedHamiltonian;
 pub use structure::{

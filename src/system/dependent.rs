@@ -1,0 +1,197 @@
+//! Redundant constraints made runnable: drop the rows that depend on the others.
+
+use super::HolonomicConstraint;
+use crate::error::SetupError;
+use crate::linalg::Sink;
+use crate::real::Real;
+use crate::vector::{Vector, ops};
+use core::cell::RefCell;
+use num_traits::Zero;
+
+/// A constraint with its dependent rows removed: an over-constrained mechanism (Bricard's
+/// linkage, two parallel cranks, a rod listed twice) made runnable.
+///
+/// When the constraint gradients are linearly dependent at `x₀` (`G(x₀)` of rank `r < m`) the
+/// multipliers are not unique and every multiplier system is singular; the projection refuses
+/// such a model ([`SetupError::RankDeficient`]). If the dependence is structural — it persists
+/// along the motion, as in a mobile over-constrained linkage whose special geometry gives it a
+/// degree of freedom Grübler's count denies — the `r` independent rows define the same
+/// configuration manifold near `x₀`, and the dropped rows hold along the motion without being
+/// enforced (their residuals stay at the round-off level; check them with
+/// [`dropped_residual`](Self::dropped_residual)).
+///
+/// The rows are chosen by modified Gram–Schmidt (with one reorthogonalization) on the rows of
+/// `G(x₀)` in their order: row `i` is dropped when its component orthogonal to the kept rows
+/// before it is below `tol · ‖Gᵢ‖` — a rank-revealing factorization `Gᵀ = QR` read in the
+/// given order (Golub & Van Loan, *Matrix Computations*, 4th ed., §5.2.8, §5.4.1). Put the
+/// rows that must be enforced first. A dependent row that is violated at `x₀` (by more than
+/// `√ε` relative to its gradient) contradicts the others instead of repeating them and is
+/// refused ([`SetupError::InconsistentConstraint`]).
+///
+/// Setup costs `O(m² n)` (dense); the wrapper then costs one `m`-entry copy per residual or
+/// `G v` and one zero-filled expansion per `Gᵀ μ`, with no allocation.
+#[derive(Debug)]
+pub struct DropDependent<C, T> {
+    inner: C,
+    /// The kept rows of `inner`, in order.
+    keep: Vec<usize>,
+    /// The dropped rows of `inner`, in order.
+    dropped: Vec<usize>,
+    /// Row of `inner` → row here (`None` when dropped).
+    row_of: Vec<Option<usize>>,
+    /// Full-length scratch (`inner.dim()` entries).
+    full: RefCell<Vec<T>>,
+}
+
+impl<C, T: Real> DropDependent<C, T> {
+    /// Drops the rows of `inner` whose gradients at `x0` depend on the rows before them, with
+    /// the relative tolerance `tol` (e.g. `1e-8`: well above the rounding of `G`, well below
+    /// the smallest singular value of an independent, well-scaled set).
+    pub fn new<V>(inner: C, x0: &V, tol: T) -> Result<Self, SetupError>
+    where
+        V: Vector<Real = T>,
+        C: HolonomicConstraint<V>,
+    {
+        if !(tol > T::zero() && tol < T::one()) {
+            return Err(SetupError::InvalidParameter {
+                name: "tol".into(),
+                value: tol.to_f64_lossy(),
+                requirement: "in (0, 1)",
+            });
+        }
+        if let Some(component) = ops::first_non_finite(x0.as_slice()) {
+            return Err(SetupError::NonFiniteState { component });
+        }
+        let m = inner.dim();
+        let mut residual = vec![T::zero(); m];
+        inner.residual(x0, &mut residual);
+        let mut basis: Vec<Vec<T>> = Vec::new();
+        let (mut keep, mut dropped) = (Vec::new(), Vec::new());
+        let mut unit = vec![T::zero(); m];
+        for i in 0..m {
+            // Row i of G: Gᵀ e_i.
+            let mut row = x0.zeros_like();
+            unit[i] = T::one();
+            inner.jacobian_transpose_apply_add(x0, &unit, T::one(), &mut row);
+            unit[i] = T::zero();
+            let mut r = row.as_slice().to_vec();
+            let norm = ops::dot(&r, &r).sqrt();
+            for _ in 0..2 {
+                for q in &basis {
+                    let c = ops::dot(q, &r);
+                    ops::axpy(&mut r, -c, q);
+                }
+            }
+            let rest = ops::dot(&r, &r).sqrt();
+            if rest > tol * norm {
+                r.iter_mut().for_each(|v| *v = *v / rest);
+                basis.push(r);
+                keep.push(i);
+                continue;
+            }
+            // Dependent: it must hold at x0 like the rows it repeats.
+            let scale = T::one() + norm;
+            if residual[i].abs() > T::epsilon().sqrt() * scale || residual[i].is_nan() {
+                return Err(SetupError::InconsistentConstraint {
+                    constraint: i,
+                    residual: residual[i].to_f64_lossy(),
+                });
+            }
+            dropped.push(i);
+        }
+        let mut row_of = vec![None; m];
+        for (k, &i) in keep.iter().enumerate() {
+            row_of[i] = Some(k);
+        }
+        Ok(Self {
+            inner,
+            keep,
+            dropped,
+            row_of,
+            full: RefCell::new(vec![T::zero(); m]),
+        })
+    }
+
+    /// The rows of the wrapped constraint that were dropped, in order.
+    pub fn dropped(&self) -> &[usize] {
+        &self.dropped
+    }
+
+    /// The rows kept: row `k` of this constraint is row `kept()[k]` of the wrapped one.
+    pub fn kept(&self) -> &[usize] {
+        &self.keep
+    }
+
+    /// The wrapped constraint.
+    pub fn inner(&self) -> &C {
+        &self.inner
+    }
+
+    /// `max |gᵢ(x)|` over the dropped rows: how well the motion keeps the constraints it was
+    /// not forced to keep.
+    pub fn dropped_residual<V>(&self, x: &V) -> T
+    where
+        V: Vector<Real = T>,
+        C: HolonomicConstraint<V>,
+    {
+        let mut full = self.full.borrow_mut();
+        self.inner.residual(x, &mut full);
+        self.dropped
+            .iter()
+            .fold(T::zero(), |a, &i| a.max(full[i].abs()))
+    }
+}
+
+impl<V, C> HolonomicConstraint<V> for DropDependent<C, V::Real>
+where
+    V: Vector,
+    C: HolonomicConstraint<V>,
+{
+    fn dim(&self) -> usize {
+        self.keep.len()
+    }
+    fn residual(&self, x: &V, out: &mut [V::Real]) {
+        let mut full = self.full.borrow_mut();
+        self.inner.residual(x, &mut full);
+        for (o, &i) in out.iter_mut().zip(&self.keep) {
+            *o = full[i];
+        }
+    }
+    fn jacobian_apply(&self, x: &V, v: &V, out: &mut [V::Real]) {
+        let mut full = self.full.borrow_mut();
+        self.inner.jacobian_apply(x, v, &mut full);
+        for (o, &i) in out.iter_mut().zip(&self.keep) {
+            *o = full[i];
+        }
+    }
+    fn jacobian_transpose_apply_add(&self, x: &V, mu: &[V::Real], alpha: V::Real, out: &mut V) {
+        let mut full = self.full.borrow_mut();
+        full.fill(V::Real::zero());
+        for (&m, &i) in mu.iter().zip(&self.keep) {
+            full[i] = m;
+        }
+        self.inner
+            .jacobian_transpose_apply_add(x, &full, alpha, out);
+    }
+    fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<V::Real>) -> bool {
+        // Renumber the kept rows; drop the entries of the dropped ones.
+        struct Renumber<'a, T> {
+            row_of: &'a [Option<usize>],
+            sink: &'a mut dyn Sink<T>,
+        }
+        impl<T> Sink<T> for Renumber<'_, T> {
+            fn add(&mut self, row: usize, col: usize, value: T) {
+                if let Some(Some(r)) = self.row_of.get(row) {
+                    self.sink.add(*r, col, value);
+                }
+            }
+        }
+        self.inner.jacobian_entries(
+            x,
+            &mut Renumber {
+                row_of: &self.row_of,
+                sink,
+            },
+        )
+    }
+}
