@@ -184,6 +184,18 @@ fn drop_dependent_keeps_the_first_of_repeated_rows_and_maps_multipliers_back() {
     c.jacobian_transpose_apply_add(&y, &[2.0, 5.0], 1.0, &mut f);
     assert_eq!(f, V4::new(2.0 * 0.7 + 5.0, 2.0 * 0.9, 0.0, 0.0));
     assert_eq!(c.dropped_residual(&y), 3.0 * (0.49 + 0.81 - 1.0) / 2.0);
+    // Minimum-norm multipliers: row 1 = 3 row 0, so (a, b) on rows 0, 2 spreads to
+    // (a/10, 3a/10, b) — the same force, the least norm.
+    let mut full = [0.0; 3];
+    c.minimum_norm_multipliers(&y, &[2.0, 5.0], &mut full)
+        .unwrap();
+    let want = [0.2, 0.6, 5.0];
+    for (a, b) in full.iter().zip(want) {
+        assert!(
+            (a - b).abs() <= 4.0 * f64::EPSILON * 5.0,
+            "{full:?} vs {want:?}"
+        );
+    }
 }
 
 #[test]
@@ -233,4 +245,36 @@ fn bricard_has_rank_23_and_its_model_checks_out() {
     }
     let report = check_model(&system, &x);
     assert!(report.passed(), "{report}");
+    // The minimum-norm multipliers carry the same force as the kept ones, with less norm, at a
+    // state on the mechanism's motion (off it, all 24 rows are independent).
+    let mut flow = Bricard::kick()
+        .strang(Bricard::drift())
+        .projected(
+            Bricard::system().unwrap(),
+            &x0,
+            Bricard::projection_options(),
+        )
+        .unwrap();
+    let mut x = x0.clone();
+    for _ in 0..300 {
+        flow.step(1e-3, &mut x).unwrap();
+    }
+    let kept: Vec<f64> = (0..23).map(|i| ((i * 5 % 7) as f64 - 3.0) / 3.0).collect();
+    let mut full = vec![0.0; bricard::ROWS];
+    c.minimum_norm_multipliers(&x, &kept, &mut full).unwrap();
+    let (mut f_kept, mut f_full) = (faer::Col::<f64>::zeros(48), faer::Col::<f64>::zeros(48));
+    c.jacobian_transpose_apply_add(&x, &kept, 1.0, &mut f_kept);
+    Joints.jacobian_transpose_apply_add(&x, &full, 1.0, &mut f_full);
+    let diff = (0..48)
+        .map(|i| (f_kept[i] - f_full[i]).abs())
+        .fold(0.0, f64::max);
+    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    // Round-off of G (entries ~1) times |λ| ~ 1, through the normal equations (κ(G_K)² ~ 40).
+    assert!(diff <= 1e-12, "force changed by {diff:e}");
+    assert!(
+        norm(&full) < norm(&kept),
+        "{} vs {}",
+        norm(&full),
+        norm(&kept)
+    );
 }

@@ -127,6 +127,121 @@ impl<C, T: Real> DropDependent<C, T> {
         &self.inner
     }
 
+    /// The minimum-norm multipliers of all the wrapped rows at `x`, from the multipliers `kept`
+    /// of the kept rows (e.g. [`Flow::multipliers`](crate::flow::Flow::multipliers)): the same
+    /// force `Gᵀλ`, distributed over the redundant rows instead of loaded onto the kept ones —
+    /// what a joint-reaction report wants (the motion does not depend on it).
+    ///
+    /// `λ_full` (zeros at the dropped rows) is projected onto the complement of the null space
+    /// of `Gᵀ` at `x`: each dropped row `d` gives the null vector `n_d = e_d − Σ_k c_k e_k` with
+    /// `c` from the normal equations `G_K G_Kᵀ c = G_K g_d` of the kept rows `K`, and
+    /// `λ = λ_full − N (NᵀN)⁻¹ Nᵀ λ_full` (Golub & Van Loan §5.5 on minimum-norm solutions).
+    /// Dense, `O(m² n)` with allocation: for reporting, not for every step. Fails with
+    /// [`SetupError::RankDeficient`] when the kept rows are themselves dependent at `x`.
+    pub fn minimum_norm_multipliers<V>(
+        &self,
+        x: &V,
+        kept: &[T],
+        out: &mut [T],
+    ) -> Result<(), SetupError>
+    where
+        V: Vector<Real = T>,
+        C: HolonomicConstraint<V>,
+    {
+        let m = self.keep.len() + self.dropped.len();
+        assert!(
+            kept.len() == self.keep.len() && out.len() == m,
+            "minimum_norm_multipliers: {} kept multipliers and {} outputs for {} kept of {} rows",
+            kept.len(),
+            out.len(),
+            self.keep.len(),
+            m
+        );
+        // Rows of G at x.
+        let mut unit = vec![T::zero(); m];
+        let rows: Vec<Vec<T>> = (0..m)
+            .map(|i| {
+                let mut row = x.zeros_like();
+                unit[i] = T::one();
+                self.inner
+                    .jacobian_transpose_apply_add(x, &unit, T::one(), &mut row);
+                unit[i] = T::zero();
+                row.as_slice().to_vec()
+            })
+            .collect();
+        // Cholesky of G_K G_Kᵀ (lower, row-major).
+        let k = self.keep.len();
+        let mut l = vec![T::zero(); k * k];
+        let mut largest = T::zero();
+        for i in 0..k {
+            for j in 0..=i {
+                let mut v = ops::dot(&rows[self.keep[i]], &rows[self.keep[j]]);
+                for p in 0..j {
+                    v = v - l[i * k + p] * l[j * k + p];
+                }
+                if i == j {
+                    largest = largest.max(v.abs());
+                    if !(v > T::epsilon() * T::lit(64.0) * largest) {
+                        return Err(SetupError::RankDeficient {
+                            constraint: self.keep[i],
+                            ratio: (v / largest).to_f64_lossy(),
+                        });
+                    }
+                    l[i * k + i] = v.sqrt();
+                } else {
+                    l[i * k + j] = v / l[j * k + j];
+                }
+            }
+        }
+        // Null vectors n_d, one per dropped row.
+        let null: Vec<Vec<T>> = self
+            .dropped
+            .iter()
+            .map(|&d| {
+                let mut c: Vec<T> = self
+                    .keep
+                    .iter()
+                    .map(|&r| ops::dot(&rows[r], &rows[d]))
+                    .collect();
+                for i in 0..k {
+                    let s = (0..i).fold(c[i], |s, p| s - l[i * k + p] * c[p]);
+                    c[i] = s / l[i * k + i];
+                }
+                for i in (0..k).rev() {
+                    let s = (i + 1..k).fold(c[i], |s, p| s - l[p * k + i] * c[p]);
+                    c[i] = s / l[i * k + i];
+                }
+                let mut n = vec![T::zero(); m];
+                n[d] = T::one();
+                for (&r, &ci) in self.keep.iter().zip(&c) {
+                    n[r] = -ci;
+                }
+                n
+            })
+            .collect();
+        // λ_full, then its projection: orthonormalize the null vectors (Gram–Schmidt) and
+        // subtract their components.
+        out.fill(T::zero());
+        for (&r, &v) in self.keep.iter().zip(kept) {
+            out[r] = v;
+        }
+        let mut basis: Vec<Vec<T>> = Vec::new();
+        for mut n in null {
+            for q in &basis {
+                let c = ops::dot(q, &n);
+                ops::axpy(&mut n, -c, q);
+            }
+            let norm = ops::dot(&n, &n).sqrt();
+            n.iter_mut().for_each(|v| *v = *v / norm);
+            basis.push(n);
+        }
+        for q in &basis {
+            let c = ops::dot(q, out);
+            ops::axpy(out, -c, q);
+        }
+        Ok(())
+    }
+
     /// `max |gᵢ(x)|` over the dropped rows: how well the motion keeps the constraints it was
     /// not forced to keep.
     pub fn dropped_residual<V>(&self, x: &V) -> T
