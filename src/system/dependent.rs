@@ -181,7 +181,7 @@ impl<C, T: Real> DropDependent<C, T> {
                 }
                 if i == j {
                     largest = largest.max(v.abs());
-                    if !(v > T::epsilon() * T::lit(64.0) * largest) {
+                    if v.is_nan() || v <= T::epsilon() * T::lit(64.0) * largest {
                         return Err(SetupError::RankDeficient {
                             constraint: self.keep[i],
                             ratio: (v / largest).to_f64_lossy(),
