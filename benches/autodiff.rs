@@ -11,7 +11,7 @@
 #[path = "../tests/common/ad_models.rs"]
 mod ad_models;
 
-use ad_models::{ad_paper, chain_rattle_pair};
+use ad_models::{ad_paper, ad_paper_whole, chain_rattle_pair};
 use criterion::{Criterion, criterion_group, criterion_main};
 use faer::Col;
 use lieflow::models::{PendulumChain, paper};
@@ -39,6 +39,19 @@ fn bench(c: &mut Criterion) {
     let mut x = x0;
     g.bench_function("autodiff", |b| {
         b.iter(|| ad.step(black_box(0.1), &mut x).unwrap())
+    });
+    // The same functions written on the whole state (one element each, as in the README).
+    let (h, con) = ad_paper_whole();
+    let mut ad_whole = paper::drift()
+        .projected(
+            System::new(paper::Structure, h, con),
+            &x0,
+            ProjectionOptions::default(),
+        )
+        .unwrap();
+    let mut x = x0;
+    g.bench_function("autodiff_whole_state", |b| {
+        b.iter(|| ad_whole.step(black_box(0.1), &mut x).unwrap())
     });
     // Which half costs: the energy by AD with the hand-written circle, and the reverse.
     let (h, con) = ad_paper();

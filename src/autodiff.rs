@@ -86,14 +86,14 @@ macro_rules! element {
 const SCALAR_PASSES_MAX: usize = 8;
 
 /// The value and gradient of `e` at the coordinates `idx` of `x`.
-#[inline]
-fn gradient<E: Element<K>, const K: usize>(e: &E, x: &[f64], idx: &[usize; K]) -> (f64, [f64; K]) {
+#[inline(always)]
+fn gradient<E: Element<K>, const K: usize>(e: &E, x: &[f64; K]) -> (f64, [f64; K]) {
     if K <= SCALAR_PASSES_MAX {
         let mut g = [0.0; K];
         let mut value = 0.0;
         for (j, gj) in g.iter_mut().enumerate() {
             let xs: [Dual64; K] =
-                core::array::from_fn(|i| Dual64::new(x[idx[i]], if i == j { 1.0 } else { 0.0 }));
+                core::array::from_fn(|i| Dual64::new(x[i], if i == j { 1.0 } else { 0.0 }));
             let r = e.eval(xs);
             *gj = r.eps;
             value = r.re;
@@ -101,46 +101,36 @@ fn gradient<E: Element<K>, const K: usize>(e: &E, x: &[f64], idx: &[usize; K]) -
         return (value, g);
     }
     let xs: [DualSVec64<K>; K] =
-        core::array::from_fn(|j| DualSVec64::<K>::from_re(x[idx[j]]).derivative(j));
+        core::array::from_fn(|j| DualSVec64::<K>::from_re(x[j]).derivative(j));
     let r = e.eval(xs);
     let g = r.eps.unwrap_generic(Const::<K>, U1);
     (r.re, core::array::from_fn(|j| g[j]))
 }
 
-/// The directional derivative `∇f · v[idx]`.
-#[inline]
-fn directional<E: Element<K>, const K: usize>(
-    e: &E,
-    x: &[f64],
-    v: &[f64],
-    idx: &[usize; K],
-) -> f64 {
-    let xs: [Dual64; K] = core::array::from_fn(|j| Dual64::new(x[idx[j]], v[idx[j]]));
+/// The directional derivative `∇f · v`.
+#[inline(always)]
+fn directional<E: Element<K>, const K: usize>(e: &E, x: &[f64; K], v: &[f64; K]) -> f64 {
+    let xs: [Dual64; K] = core::array::from_fn(|j| Dual64::new(x[j], v[j]));
     e.eval(xs).eps
 }
 
 /// `∇²f · v[idx]` by forward over forward: the inner dual carries the direction `v`, the outer
 /// vector dual the gradient; the gradient's `v`-derivative is the Hessian product.
-#[inline]
-fn hessian_product<E: Element<K>, const K: usize>(
-    e: &E,
-    x: &[f64],
-    v: &[f64],
-    idx: &[usize; K],
-) -> [f64; K] {
+#[inline(always)]
+fn hessian_product<E: Element<K>, const K: usize>(e: &E, x: &[f64; K], v: &[f64; K]) -> [f64; K] {
     if K <= SCALAR_PASSES_MAX {
         // K passes of a hyper-dual number: ε₁ carries v, ε₂ the unit vector e_j, and the
         // ε₁ε₂ part is (∇²f v)_j.
         return core::array::from_fn(|j| {
             let xs: [HyperDual64; K] = core::array::from_fn(|i| {
-                HyperDual64::new(x[idx[i]], v[idx[i]], if i == j { 1.0 } else { 0.0 }, 0.0)
+                HyperDual64::new(x[i], v[i], if i == j { 1.0 } else { 0.0 }, 0.0)
             });
             e.eval(xs).eps1eps2
         });
     }
     let xs: [DualSVec<Dual64, K>; K] = core::array::from_fn(|j| {
         DualSVec::<Dual64, K>::new(
-            Dual64::new(x[idx[j]], v[idx[j]]),
+            Dual64::new(x[j], v[j]),
             Derivative::derivative_generic(Const::<K>, U1, j),
         )
     });
@@ -152,9 +142,40 @@ fn hessian_product<E: Element<K>, const K: usize>(
 #[derive(Debug, Clone, PartialEq)]
 struct Elements<E, const K: usize> {
     items: Vec<(E, [usize; K])>,
+    /// One element reading `x[0..K]` in order: loads and stores at fixed positions, which the
+    /// compiler keeps in registers for a small stack state (gathers and scatters through
+    /// run-time indices go through memory, and a scalar store read back by a vector load
+    /// stalls).
+    whole: bool,
 }
 
 impl<E, const K: usize> Elements<E, K> {
+    fn new(items: Vec<(E, [usize; K])>) -> Self {
+        let whole = items.len() == 1 && items[0].1.iter().enumerate().all(|(j, &i)| i == j);
+        Self { items, whole }
+    }
+    /// `x[idx]`.
+    #[inline(always)]
+    fn load(&self, x: &[f64], idx: &[usize; K]) -> [f64; K] {
+        if self.whole {
+            core::array::from_fn(|j| x[j])
+        } else {
+            core::array::from_fn(|j| x[idx[j]])
+        }
+    }
+    /// `out[idx] += a · v`.
+    #[inline(always)]
+    fn add(&self, out: &mut [f64], idx: &[usize; K], a: f64, v: &[f64; K]) {
+        if self.whole {
+            for j in 0..K {
+                out[j] += a * v[j];
+            }
+        } else {
+            for j in 0..K {
+                out[idx[j]] += a * v[j];
+            }
+        }
+    }
     fn check(&self, n: usize) {
         debug_assert!(
             self.items.iter().all(|(_, idx)| idx.iter().all(|&i| i < n)),
@@ -168,16 +189,16 @@ impl<E, const K: usize> Elements<E, K> {
 pub struct AdHamiltonian<E, const K: usize> {
     elements: Elements<E, K>,
     quadratic: bool,
-    /// For a quadratic `H`: each element's constant Hessian (`K × K`, row-major) and its
+    /// For a quadratic `H`: each element's constant Hessian (`K × K`, by rows) and its
     /// gradient at 0, so that `∇f(x) = A x + b` and `∇²f v = A v` cost `K²` flops.
-    affine: Vec<(Vec<f64>, [f64; K])>,
+    affine: Vec<([[f64; K]; K], [f64; K])>,
 }
 
 impl<E: Element<K>, const K: usize> AdHamiltonian<E, K> {
     /// `H = Σ f(x[i])` over the given elements and the coordinates each reads.
     pub fn new(items: Vec<(E, [usize; K])>) -> Self {
         Self {
-            elements: Elements { items },
+            elements: Elements::new(items),
             quadratic: false,
             affine: Vec::new(),
         }
@@ -195,20 +216,19 @@ impl<E: Element<K>, const K: usize> AdHamiltonian<E, K> {
         let zeros = [0.0; K];
         let at =
             |j: usize| -> [f64; K] { core::array::from_fn(|i| if i == j { 1.0 } else { 0.0 }) };
-        let id: [usize; K] = core::array::from_fn(|j| j);
         self.affine = self
             .elements
             .items
             .iter()
             .map(|(e, _)| {
-                let mut a = vec![0.0; K * K];
+                let mut a = [[0.0; K]; K];
                 for j in 0..K {
-                    let col = hessian_product(e, &zeros, &at(j), &id);
+                    let col = hessian_product(e, &zeros, &at(j));
                     for i in 0..K {
-                        a[i * K + j] = col[i];
+                        a[i][j] = col[i];
                     }
                 }
-                (a, gradient(e, &zeros, &id).1)
+                (a, gradient(e, &zeros).1)
             })
             .collect();
         self
@@ -220,54 +240,52 @@ where
     V: Vector<Real = f64>,
     E: Element<K>,
 {
-    #[inline]
+    #[inline(always)]
     fn energy(&self, x: &V) -> f64 {
         let x = x.as_slice();
-        self.elements.check(x.len());
-        self.elements
-            .items
+        let el = &self.elements;
+        el.check(x.len());
+        el.items
             .iter()
-            .map(|(e, idx)| e.eval::<f64>(core::array::from_fn(|j| x[idx[j]])))
+            .map(|(e, idx)| e.eval::<f64>(el.load(x, idx)))
             .sum()
     }
-    #[inline]
+    #[inline(always)]
     fn gradient(&self, x: &V, out: &mut V) {
         let (x, out) = (x.as_slice(), out.as_mut_slice());
+        let el = &self.elements;
         out.fill(0.0);
         if self.quadratic {
-            for ((_, idx), (a, b)) in self.elements.items.iter().zip(&self.affine) {
-                for i in 0..K {
-                    let row = &a[i * K..(i + 1) * K];
-                    out[idx[i]] += (0..K).fold(b[i], |s, j| s + row[j] * x[idx[j]]);
-                }
+            for ((_, idx), (a, b)) in el.items.iter().zip(&self.affine) {
+                let xs = el.load(x, idx);
+                let g: [f64; K] =
+                    core::array::from_fn(|i| (0..K).fold(b[i], |s, j| s + a[i][j] * xs[j]));
+                el.add(out, idx, 1.0, &g);
             }
             return;
         }
-        for (e, idx) in &self.elements.items {
-            let (_, g) = gradient(e, x, idx);
-            for j in 0..K {
-                out[idx[j]] += g[j];
-            }
+        for (e, idx) in &el.items {
+            let (_, g) = gradient(e, &el.load(x, idx));
+            el.add(out, idx, 1.0, &g);
         }
     }
-    #[inline]
+    #[inline(always)]
     fn hessian_apply(&self, x: &V, v: &V, out: &mut V) -> bool {
         let (x, v, out) = (x.as_slice(), v.as_slice(), out.as_mut_slice());
+        let el = &self.elements;
         out.fill(0.0);
         if self.quadratic {
-            for ((_, idx), (a, _)) in self.elements.items.iter().zip(&self.affine) {
-                for i in 0..K {
-                    let row = &a[i * K..(i + 1) * K];
-                    out[idx[i]] += (0..K).fold(0.0, |s, j| s + row[j] * v[idx[j]]);
-                }
+            for ((_, idx), (a, _)) in el.items.iter().zip(&self.affine) {
+                let vs = el.load(v, idx);
+                let hv: [f64; K] =
+                    core::array::from_fn(|i| (0..K).fold(0.0, |s, j| s + a[i][j] * vs[j]));
+                el.add(out, idx, 1.0, &hv);
             }
             return true;
         }
-        for (e, idx) in &self.elements.items {
-            let hv = hessian_product(e, x, v, idx);
-            for j in 0..K {
-                out[idx[j]] += hv[j];
-            }
+        for (e, idx) in &el.items {
+            let hv = hessian_product(e, &el.load(x, idx), &el.load(v, idx));
+            el.add(out, idx, 1.0, &hv);
         }
         true
     }
@@ -290,7 +308,7 @@ impl<E: Element<K>, const K: usize> AdConstraint<E, K> {
     pub fn new(items: Vec<(E, [usize; K])>) -> Self {
         let entries = items.len() > SMALL_MAX;
         Self {
-            elements: Elements { items },
+            elements: Elements::new(items),
             entries,
         }
     }
@@ -315,32 +333,33 @@ where
     fn dim(&self) -> usize {
         self.elements.items.len()
     }
-    #[inline]
+    #[inline(always)]
     fn residual(&self, x: &V, out: &mut [f64]) {
         let x = x.as_slice();
-        self.elements.check(x.len());
-        for ((e, idx), o) in self.elements.items.iter().zip(out) {
-            *o = e.eval::<f64>(core::array::from_fn(|j| x[idx[j]]));
+        let el = &self.elements;
+        el.check(x.len());
+        for ((e, idx), o) in el.items.iter().zip(out) {
+            *o = e.eval::<f64>(el.load(x, idx));
         }
     }
-    #[inline]
+    #[inline(always)]
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [f64]) {
         let (x, v) = (x.as_slice(), v.as_slice());
-        for ((e, idx), o) in self.elements.items.iter().zip(out) {
-            *o = directional(e, x, v, idx);
+        let el = &self.elements;
+        for ((e, idx), o) in el.items.iter().zip(out) {
+            *o = directional(e, &el.load(x, idx), &el.load(v, idx));
         }
     }
-    #[inline]
+    #[inline(always)]
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[f64], alpha: f64, out: &mut V) {
         let (x, out) = (x.as_slice(), out.as_mut_slice());
-        for ((e, idx), &m) in self.elements.items.iter().zip(mu) {
+        let el = &self.elements;
+        for ((e, idx), &m) in el.items.iter().zip(mu) {
             if m == 0.0 {
                 continue;
             }
-            let (_, g) = gradient(e, x, idx);
-            for j in 0..K {
-                out[idx[j]] += alpha * m * g[j];
-            }
+            let (_, g) = gradient(e, &el.load(x, idx));
+            el.add(out, idx, alpha * m, &g);
         }
     }
     fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<f64>) -> bool {
@@ -348,8 +367,9 @@ where
             return false;
         }
         let x = x.as_slice();
-        for (r, (e, idx)) in self.elements.items.iter().enumerate() {
-            let (_, g) = gradient(e, x, idx);
+        let el = &self.elements;
+        for (r, (e, idx)) in el.items.iter().enumerate() {
+            let (_, g) = gradient(e, &el.load(x, idx));
             for j in 0..K {
                 sink.add(r, idx[j], g[j]);
             }

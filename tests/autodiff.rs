@@ -6,7 +6,7 @@
 #[path = "common/ad_models.rs"]
 mod ad_models;
 
-use ad_models::{ad_chain, ad_paper, chain_rattle_pair};
+use ad_models::{ad_chain, ad_paper, ad_paper_whole, chain_rattle_pair};
 use lieflow::autodiff::{AdConstraint, AdHamiltonian, DualNum, Element};
 use lieflow::linalg::Triplets;
 use lieflow::models::{PendulumChain, RigidBody, SphereParticles, SphericalPendulum, paper};
@@ -91,9 +91,25 @@ fn same_derivatives<V: Vector<Real = f64>>(
 #[test]
 fn the_papers_example() {
     let (h, c) = ad_paper();
+    papers_example(h, c, "paper");
+}
+
+/// The same, each function one element reading the whole state (the loads and stores at fixed
+/// positions of `AdHamiltonian::whole`).
+#[test]
+fn the_papers_example_on_the_whole_state() {
+    let (h, c) = ad_paper_whole();
+    papers_example(h, c, "paper, whole state");
+}
+
+fn papers_example<H, C>(h: H, c: C, what: &str)
+where
+    H: Hamiltonian<V4> + Clone,
+    C: HolonomicConstraint<V4> + Clone,
+{
     let x = V4::new(0.6, 0.8, -0.3, 0.2);
     let v = V4::new(0.3, -0.1, 0.7, 0.5);
-    same_derivatives(&h, &paper::Energy, &c, &paper::Circle, &x, &v, "paper");
+    same_derivatives(&h, &paper::Energy, &c, &paper::Circle, &x, &v, what);
     let sys = System::new(paper::Structure, h.clone(), c.clone());
     assert!(check_model(&sys, &x).passed());
     // Trajectories: the same projected drift on the AD and the hand-written model.

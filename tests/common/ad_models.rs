@@ -94,3 +94,22 @@ pub fn chain_rattle_pair<V: Vector<Real = f64> + 'static>(
         .unwrap();
     (ad, hand)
 }
+
+lieflow::element!(
+    /// The paper's `H`, written on the whole state `x = (x₁, x₂, x₃, x₄)`.
+    pub PaperEnergyWhole, 4, |x| (x[2] * x[2] + x[3] * x[3]) * 0.5);
+lieflow::element!(
+    /// The paper's `g`, written on the whole state.
+    pub UnitCircleWhole, 4, |x| (x[0] * x[0] + x[1] * x[1] - 1.0) * 0.5);
+
+/// The paper's example with one element per function, each reading the whole state (how a
+/// small model is usually written, as in the README).
+pub fn ad_paper_whole() -> (
+    AdHamiltonian<PaperEnergyWhole, 4>,
+    AdConstraint<UnitCircleWhole, 4>,
+) {
+    (
+        AdHamiltonian::whole(PaperEnergyWhole).quadratic(),
+        AdConstraint::whole(UnitCircleWhole),
+    )
+}
