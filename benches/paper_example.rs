@@ -2,6 +2,8 @@
 //! model-specific loop of the same algorithm (same multiplier equations, same tolerance, same
 //! warm start), in the same process.
 //!
+//! Also the paper's §2 scheme against its §3 scheme, same process.
+//!
 //! ```text
 //! cargo bench --bench paper_example
 //! ```
@@ -191,6 +193,29 @@ fn bench(c: &mut Criterion) {
         |h, x| generic.step(h, x).unwrap(),
         |h, x| hand.composed(&KAHAN_LI8, h, x),
     );
+    // The paper's §2 scheme (projection around the implicit midpoint rule for H + μ g, the
+    // closed-form derivatives of paper::ModifiedEnergy) against its §3 scheme, one step each.
+    let inner: ImplicitMidpoint<V, _, _> = ImplicitMidpoint::try_new(
+        paper::Structure,
+        paper::modified_energy(),
+        &x0,
+        lieflow::nonlinear::NewtonOptions::default(),
+    )
+    .unwrap();
+    let mut section2 = inner
+        .projected(paper::system(), &x0, ProjectionOptions::default())
+        .unwrap();
+    let mut section3 = projected();
+    let mut group = c.benchmark_group("paper_section2_vs_section3");
+    let mut x = x0;
+    group.bench_function("section2_modified", |b| {
+        b.iter(|| section2.step(black_box(0.1), &mut x).unwrap())
+    });
+    let mut x = x0;
+    group.bench_function("section3_projection", |b| {
+        b.iter(|| section3.step(black_box(0.1), &mut x).unwrap())
+    });
+    group.finish();
     let mut generic = projected().composed(&KAHAN_LI8);
     let mut hand = HandWritten::default();
     pair(

@@ -31,7 +31,7 @@ fn build(
         // here by the implicit midpoint rule.
         let inner: ImplicitMidpoint<V, _, _> = ImplicitMidpoint::try_new(
             paper::Structure,
-            paper::modified_hamiltonian::<V>(),
+            paper::modified_energy(),
             x0,
             NewtonOptions::default(),
         )?;

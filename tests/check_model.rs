@@ -22,6 +22,11 @@ fn dense(n: usize, seed: f64) -> DVector<f64> {
 fn the_built_in_models_pass() {
     let r = check_model(&paper::system(), &V4::new(0.6, 0.8, -0.3, 0.2));
     assert!(r.passed(), "paper:\n{r}");
+    // The §2 scheme's H + μ g in closed form: on g = 0 its gradient is the energy's, and its
+    // Hessian product is the derivative of that gradient.
+    let modified = System::new(paper::Structure, paper::modified_energy(), paper::Circle);
+    let r = check_model(&modified, &V4::new(0.6, 0.8, -0.3, 0.2));
+    assert!(r.passed() && r.hints.hessian, "paper, modified:\n{r}");
     let pend = SphericalPendulum::try_new(1.5, 0.7, 9.81).unwrap();
     let x = SVector::<f64, 6>::from([0.3, -0.2, -0.6, 0.1, 0.4, -0.2]);
     let r = check_model(&pend.system(), &x);

@@ -131,6 +131,70 @@ pub fn modified_hamiltonian<V: Vector>() -> Modified<V> {
     )
 }
 
+/// `H_N1 = H + μ g` of the paper's model in closed form with its derivatives: the same energy
+/// and gradient as [`modified_hamiltonian`] (`∇K = ∇H + Gᵀμ = (x₁μ, x₂μ, x₃, x₄)`, the
+/// `(∂μ/∂x)ᵀ g` term dropped as there), and the exact derivative of that gradient field,
+///
+/// ```text
+/// DK v = (v₁μ + x₁ ∇μ·v,  v₂μ + x₂ ∇μ·v,  v₃,  v₄),
+/// ∇μ·v = (2x₃v₃ + 2x₄v₄ − μ (2x₁v₁ + 4x₂v₂)) / (x₁² + 2x₂²),
+/// ```
+///
+/// so that the implicit midpoint rule of the §2 scheme builds its Newton matrix in closed form
+/// instead of by differences (`DK` is not symmetric off `g = 0`: it is the Jacobian of the
+/// gradient as defined, which is what Newton needs).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ModifiedEnergy;
+
+/// The paper's modified Hamiltonian with closed-form derivatives (see [`ModifiedEnergy`]).
+pub fn modified_energy() -> ModifiedEnergy {
+    ModifiedEnergy
+}
+
+impl ModifiedEnergy {
+    /// `(μ, D)` with `D = x₁² + 2x₂²`.
+    #[inline(always)]
+    fn mu<T: Real>(x: &[T]) -> (T, T) {
+        let d = x[0] * x[0] + T::lit(2.0) * x[1] * x[1];
+        ((x[2] * x[2] + x[3] * x[3]) / d, d)
+    }
+}
+
+impl<V: Vector> Hamiltonian<V> for ModifiedEnergy {
+    #[inline(always)]
+    fn energy(&self, x: &V) -> V::Real {
+        let x = x.as_slice();
+        let (mu, _) = Self::mu(x);
+        let g = (x[0] * x[0] + x[1] * x[1] - V::Real::one()) * V::Real::lit(0.5);
+        (x[2] * x[2] + x[3] * x[3]) * V::Real::lit(0.5) + mu * g
+    }
+    #[inline(always)]
+    fn gradient(&self, x: &V, out: &mut V) {
+        let x = x.as_slice();
+        let (mu, _) = Self::mu(x);
+        let o = out.as_mut_slice();
+        o[0] = x[0] * mu;
+        o[1] = x[1] * mu;
+        o[2] = x[2];
+        o[3] = x[3];
+    }
+    #[inline(always)]
+    fn hessian_apply(&self, x: &V, v: &V, out: &mut V) -> bool {
+        let (x, v) = (x.as_slice(), v.as_slice());
+        let (mu, d) = Self::mu(x);
+        let two = V::Real::lit(2.0);
+        let dmu = (two * (x[2] * v[2] + x[3] * v[3])
+            - mu * (two * x[0] * v[0] + V::Real::lit(4.0) * x[1] * v[1]))
+            / d;
+        let o = out.as_mut_slice();
+        o[0] = v[0] * mu + x[0] * dmu;
+        o[1] = v[1] * mu + x[1] * dmu;
+        o[2] = v[2];
+        o[3] = v[3];
+        true
+    }
+}
+
 /// The exact flow `exp(h D_H)`: the drift `x₁ += h x₃, x₂ += h x₄`.
 pub fn drift<V: Vector>() -> FnFlow<impl FnMut(V::Real, &mut V) + Copy> {
     from_fn(|h: V::Real, x: &mut V| {

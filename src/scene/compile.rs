@@ -1856,7 +1856,7 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
                 "modified" => {
                     let inner = ImplicitMidpoint::<V, _, _>::try_new(
                         paper::Structure,
-                        paper::modified_hamiltonian::<V>(),
+                        paper::modified_energy(),
                         &x0,
                         NewtonOptions::default(),
                     )
