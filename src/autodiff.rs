@@ -221,13 +221,11 @@ impl<E: Element<K>, const K: usize> AdHamiltonian<E, K> {
             .items
             .iter()
             .map(|(e, _)| {
-                let mut a = [[0.0; K]; K];
-                for j in 0..K {
-                    let col = hessian_product(e, &zeros, &at(j));
-                    for i in 0..K {
-                        a[i][j] = col[i];
-                    }
-                }
+                // Column j is ∇²f e_j; a[i][j] is row i.
+                let cols: [[f64; K]; K] =
+                    core::array::from_fn(|j| hessian_product(e, &zeros, &at(j)));
+                let a: [[f64; K]; K] =
+                    core::array::from_fn(|i| core::array::from_fn(|j| cols[j][i]));
                 (a, gradient(e, &zeros).1)
             })
             .collect();
