@@ -178,6 +178,37 @@ fn dissipative_and_general_flows_allocate_nothing_per_step() {
         .projected(paper::system(), &x, ProjectionOptions::default())
         .unwrap();
     assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    // The same with the closed-form derivatives of paper::ModifiedEnergy.
+    let mut x: V = paper::initial_state();
+    let inner: ImplicitMidpoint<V, _, _> = ImplicitMidpoint::try_new(
+        paper::Structure,
+        paper::modified_energy(),
+        &x,
+        NewtonOptions::default(),
+    )
+    .unwrap();
+    let mut f = inner
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+}
+
+/// An over-constrained mechanism through `DropDependent` (Bricard, RATTLE on heap storage):
+/// the wrapper's full-length scratch and row map are made at construction.
+#[test]
+fn drop_dependent_steps_allocate_nothing() {
+    use lieflow::models::bricard::Bricard;
+    let x0: faer::Col<f64> = Bricard::initial_state();
+    let mut f = Bricard::kick()
+        .strang(Bricard::drift())
+        .projected(
+            Bricard::system().unwrap(),
+            &x0,
+            Bricard::projection_options(),
+        )
+        .unwrap();
+    let mut x = x0.clone();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 1e-3), 0);
 }
 
 #[test]
