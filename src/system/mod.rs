@@ -56,7 +56,7 @@ impl<Ms, H, C> System<Ms, H, C> {
 
     /// `out = M(x) G(x)ᵀ λ`, the direction of a projection half-step (Prop. 2 of Zhang & Deng).
     /// `tmp` is workspace of the state's length.
-    #[inline]
+    #[inline(always)]
     pub fn constraint_force<V>(&self, x: &V, lambda: &[V::Real], tmp: &mut V, out: &mut V)
     where
         V: Vector,
