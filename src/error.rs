@@ -294,6 +294,18 @@ pub enum SetupError {
         /// Its residual at the initial state.
         residual: f64,
     },
+    /// A constraint row dropped as dependent is not a combination of the kept rows at this
+    /// state: the state is off the motion along which the redundancy holds (see
+    /// [`DropDependent::minimum_norm_multipliers`](crate::system::DropDependent::minimum_norm_multipliers)).
+    #[error(
+        "constraint {constraint} was dropped as dependent but is independent of the kept rows here (relative residual {residual:e}): the state is off the mechanism's motion"
+    )]
+    NotDependent {
+        /// The row of the wrapped constraint.
+        constraint: usize,
+        /// `‖g_d − G_Kᵀ c‖ / ‖g_d‖` of its best combination of the kept rows.
+        residual: f64,
+    },
     /// The initial state violates the constraint manifold by more than the tolerance.
     #[error("initial state is off the constraint manifold: {what} = {residual:e}")]
     OffManifold {

@@ -196,6 +196,22 @@ fn drop_dependent_keeps_the_first_of_repeated_rows_and_maps_multipliers_back() {
             "{full:?} vs {want:?}"
         );
     }
+    // Wrong lengths and non-finite input are typed errors, not panics.
+    let e = c
+        .minimum_norm_multipliers(&y, &[2.0], &mut full)
+        .unwrap_err();
+    assert!(matches!(e, SetupError::Dimension { .. }), "{e}");
+    let e = c
+        .minimum_norm_multipliers(&y, &[f64::NAN, 1.0], &mut full)
+        .unwrap_err();
+    assert!(matches!(e, SetupError::InvalidParameter { .. }), "{e}");
+    let e = c
+        .minimum_norm_multipliers(&V4::new(f64::NAN, 0.0, 0.0, 0.0), &[1.0, 1.0], &mut full)
+        .unwrap_err();
+    assert!(
+        matches!(e, SetupError::NonFiniteState { component: 0 }),
+        "{e}"
+    );
 }
 
 #[test]
@@ -216,25 +232,22 @@ fn drop_dependent_refuses_a_contradicting_row_and_a_bad_tolerance() {
 #[test]
 fn bricard_has_rank_23_and_its_model_checks_out() {
     let x0: faer::Col<f64> = Bricard::initial_state();
-    // Without dropping, the projection refuses the linkage as redundant.
+    // Without dropping: with the case named (no bracket analysis) and no Jacobian entries (no
+    // Gram check) the flow is built, and its first step stops with a typed error at the
+    // singular multiplier system — the 24th row depends on the others.
     let full = System::new(Canonical, Bricard, Joints);
-    let refused = Bricard::kick()
+    let mut unreduced = Bricard::kick()
         .strang(Bricard::drift())
         .projected(
             full,
             &x0,
             ProjectionOptions::default().with_case(Case::Degenerate),
         )
-        .and_then(|mut f| {
-            let mut x = x0.clone();
-            f.step(1e-3, &mut x).map_err(|e| SetupError::Dimension {
-                what: e.to_string(),
-            })
-        });
-    assert!(
-        refused.is_err(),
-        "24 rows of rank 23 must not run as they are"
-    );
+        .unwrap();
+    let mut x = x0.clone();
+    let e = unreduced.step(1e-3, &mut x).unwrap_err().to_string();
+    assert!(e.contains("singular") && e.contains("pivot 23"), "{e}");
+    assert_eq!(x, x0, "a failed step leaves the state as it was");
     let c = Bricard::constraint().unwrap();
     assert_eq!(c.dropped().len(), 1, "rank 23 of {}", bricard::ROWS);
     // Derivatives of the model (natural coordinates) against differences, at a moved state.
@@ -247,6 +260,17 @@ fn bricard_has_rank_23_and_its_model_checks_out() {
     assert!(report.passed(), "{report}");
     // The minimum-norm multipliers carry the same force as the kept ones, with less norm, at a
     // state on the mechanism's motion (off it, all 24 rows are independent).
+    // Off the motion (the moved state above) the dropped row is independent: no
+    // redistribution keeps the force, and the call says so.
+    let kept: Vec<f64> = (0..23).map(|i| ((i * 5 % 7) as f64 - 3.0) / 3.0).collect();
+    let mut full = vec![0.0; bricard::ROWS];
+    let e = c
+        .minimum_norm_multipliers(&x, &kept, &mut full)
+        .unwrap_err();
+    assert!(
+        matches!(e, SetupError::NotDependent { constraint: 23, .. }),
+        "{e}"
+    );
     let mut flow = Bricard::kick()
         .strang(Bricard::drift())
         .projected(
@@ -259,8 +283,6 @@ fn bricard_has_rank_23_and_its_model_checks_out() {
     for _ in 0..300 {
         flow.step(1e-3, &mut x).unwrap();
     }
-    let kept: Vec<f64> = (0..23).map(|i| ((i * 5 % 7) as f64 - 3.0) / 3.0).collect();
-    let mut full = vec![0.0; bricard::ROWS];
     c.minimum_norm_multipliers(&x, &kept, &mut full).unwrap();
     let (mut f_kept, mut f_full) = (faer::Col::<f64>::zeros(48), faer::Col::<f64>::zeros(48));
     c.jacobian_transpose_apply_add(&x, &kept, 1.0, &mut f_kept);

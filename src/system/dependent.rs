@@ -22,11 +22,13 @@ use num_traits::Zero;
 ///
 /// The rows are chosen by modified Gram–Schmidt (with one reorthogonalization) on the rows of
 /// `G(x₀)` in their order: row `i` is dropped when its component orthogonal to the kept rows
-/// before it is below `tol · ‖Gᵢ‖` — a rank-revealing factorization `Gᵀ = QR` read in the
-/// given order (Golub & Van Loan, *Matrix Computations*, 4th ed., §5.2.8, §5.4.1). Put the
-/// rows that must be enforced first. A dependent row that is violated at `x₀` (by more than
-/// `√ε` relative to its gradient) contradicts the others instead of repeating them and is
-/// refused ([`SetupError::InconsistentConstraint`]).
+/// before it is below `tol · ‖Gᵢ‖` — the QR factorization `Gᵀ = QR` read greedily in the given
+/// order (Golub & Van Loan, *Matrix Computations*, 4th ed., §5.2.8), not a column-pivoted,
+/// rank-revealing one (§5.4.1): the rows kept are the first independent ones, so put the rows
+/// that must be enforced first. A dependent row that is violated at `x₀` (by more than
+/// `√ε (1 + ‖Gᵢ‖)`) contradicts the others instead of repeating them and is refused
+/// ([`SetupError::InconsistentConstraint`]); a row whose gradient is not finite at `x₀` is
+/// refused too ([`SetupError::InvalidParameter`] names the row).
 ///
 /// Setup costs `O(m² n)` (dense); the wrapper then costs one `m`-entry copy per residual or
 /// `G v` and one zero-filled expansion per `Gᵀ μ`, with no allocation.
@@ -76,6 +78,14 @@ impl<C, T: Real> DropDependent<C, T> {
             unit[i] = T::zero();
             let mut r = row.as_slice().to_vec();
             let norm = ops::dot(&r, &r).sqrt();
+            if !norm.is_finite() {
+                // Not a dependence: a gradient that cannot be evaluated here.
+                return Err(SetupError::InvalidParameter {
+                    name: format!("gradient of constraint row {i} at the initial state"),
+                    value: norm.to_f64_lossy(),
+                    requirement: "finite",
+                });
+            }
             for _ in 0..2 {
                 for q in &basis {
                     let c = ops::dot(q, &r);
@@ -136,8 +146,13 @@ impl<C, T: Real> DropDependent<C, T> {
     /// of `Gᵀ` at `x`: each dropped row `d` gives the null vector `n_d = e_d − Σ_k c_k e_k` with
     /// `c` from the normal equations `G_K G_Kᵀ c = G_K g_d` of the kept rows `K`, and
     /// `λ = λ_full − N (NᵀN)⁻¹ Nᵀ λ_full` (Golub & Van Loan §5.5 on minimum-norm solutions).
-    /// Dense, `O(m² n)` with allocation: for reporting, not for every step. Fails with
-    /// [`SetupError::RankDeficient`] when the kept rows are themselves dependent at `x`.
+    /// Dense, `O(m² n)` with allocation: for reporting, not for every step. Fails with a typed
+    /// error, never silently: [`SetupError::Dimension`] for slices of the wrong length,
+    /// [`SetupError::NonFiniteState`] or [`SetupError::InvalidParameter`] for a non-finite `x`
+    /// or multiplier, [`SetupError::RankDeficient`] when the kept rows are themselves dependent
+    /// at `x`, and [`SetupError::NotDependent`] when a dropped row is no longer a combination
+    /// of the kept ones (relative residual above `√ε`: `x` is off the mechanism's motion, where
+    /// no redistribution keeps the force).
     pub fn minimum_norm_multipliers<V>(
         &self,
         x: &V,
@@ -149,14 +164,27 @@ impl<C, T: Real> DropDependent<C, T> {
         C: HolonomicConstraint<V>,
     {
         let m = self.keep.len() + self.dropped.len();
-        assert!(
-            kept.len() == self.keep.len() && out.len() == m,
-            "minimum_norm_multipliers: {} kept multipliers and {} outputs for {} kept of {} rows",
-            kept.len(),
-            out.len(),
-            self.keep.len(),
-            m
-        );
+        if kept.len() != self.keep.len() || out.len() != m {
+            return Err(SetupError::Dimension {
+                what: format!(
+                    "minimum_norm_multipliers: {} kept multipliers and {} outputs for {} kept of {} rows",
+                    kept.len(),
+                    out.len(),
+                    self.keep.len(),
+                    m
+                ),
+            });
+        }
+        if let Some(component) = ops::first_non_finite(x.as_slice()) {
+            return Err(SetupError::NonFiniteState { component });
+        }
+        if let Some(k) = ops::first_non_finite(kept) {
+            return Err(SetupError::InvalidParameter {
+                name: format!("multiplier {k}"),
+                value: kept[k].to_f64_lossy(),
+                requirement: "finite",
+            });
+        }
         // Rows of G at x.
         let mut unit = vec![T::zero(); m];
         let rows: Vec<Vec<T>> = (0..m)
@@ -182,9 +210,14 @@ impl<C, T: Real> DropDependent<C, T> {
                 if i == j {
                     largest = largest.max(v.abs());
                     if v.is_nan() || v <= T::epsilon() * T::lit(64.0) * largest {
+                        let ratio = if largest > T::zero() {
+                            (v / largest).to_f64_lossy()
+                        } else {
+                            0.0
+                        };
                         return Err(SetupError::RankDeficient {
                             constraint: self.keep[i],
-                            ratio: (v / largest).to_f64_lossy(),
+                            ratio,
                         });
                     }
                     l[i * k + i] = v.sqrt();
@@ -193,11 +226,10 @@ impl<C, T: Real> DropDependent<C, T> {
                 }
             }
         }
-        // Null vectors n_d, one per dropped row.
-        let null: Vec<Vec<T>> = self
-            .dropped
-            .iter()
-            .map(|&d| {
+        // Null vectors n_d, one per dropped row, each checked: G_Kᵀ c must reproduce g_d.
+        let mut null: Vec<Vec<T>> = Vec::with_capacity(self.dropped.len());
+        for &d in &self.dropped {
+            null.push({
                 let mut c: Vec<T> = self
                     .keep
                     .iter()
@@ -211,14 +243,26 @@ impl<C, T: Real> DropDependent<C, T> {
                     let s = (i + 1..k).fold(c[i], |s, p| s - l[p * k + i] * c[p]);
                     c[i] = s / l[i * k + i];
                 }
+                let mut rest = rows[d].clone();
+                for (&r, &ci) in self.keep.iter().zip(&c) {
+                    ops::axpy(&mut rest, -ci, &rows[r]);
+                }
+                let scale = ops::dot(&rows[d], &rows[d]).sqrt();
+                let relative = ops::dot(&rest, &rest).sqrt() / scale.max(T::min_positive_value());
+                if relative.is_nan() || relative > T::epsilon().sqrt() {
+                    return Err(SetupError::NotDependent {
+                        constraint: d,
+                        residual: relative.to_f64_lossy(),
+                    });
+                }
                 let mut n = vec![T::zero(); m];
                 n[d] = T::one();
                 for (&r, &ci) in self.keep.iter().zip(&c) {
                     n[r] = -ci;
                 }
                 n
-            })
-            .collect();
+            });
+        }
         // λ_full, then its projection: orthonormalize the null vectors (Gram–Schmidt) and
         // subtract their components.
         out.fill(T::zero());
@@ -227,9 +271,11 @@ impl<C, T: Real> DropDependent<C, T> {
         }
         let mut basis: Vec<Vec<T>> = Vec::new();
         for mut n in null {
-            for q in &basis {
-                let c = ops::dot(q, &n);
-                ops::axpy(&mut n, -c, q);
+            for _ in 0..2 {
+                for q in &basis {
+                    let c = ops::dot(q, &n);
+                    ops::axpy(&mut n, -c, q);
+                }
             }
             let norm = ops::dot(&n, &n).sqrt();
             n.iter_mut().for_each(|v| *v = *v / norm);

@@ -677,8 +677,8 @@ where
                 got: x.len(),
             });
         }
-        // The flow's own last result (bit for bit) was checked finite and on the manifold
-        // when it was made: no scan, no residual.
+        // The flow's own last result (equal as floats; ±0 alike, which changes no residual)
+        // was checked finite and on the manifold when it was made: no scan, no residual.
         let from_last = self.entry.valid && x.as_slice() == self.entry.last.as_slice();
         if from_last {
             if !h.is_finite() {
