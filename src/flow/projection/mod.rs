@@ -197,7 +197,7 @@ pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
 }
 
 /// The check of a step's starting state (see [`ProjectionOptions::manifold_tol`]): skipped when
-/// the state is the flow's own last result, bit for bit.
+/// the state equals the flow's own last result (as floats).
 struct EntryCheck<V: Vector> {
     tol: Option<V::Real>,
     /// A copy of the last result (`valid`), or nothing yet.
