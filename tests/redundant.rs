@@ -271,14 +271,7 @@ fn bricard_has_rank_23_and_its_model_checks_out() {
         matches!(e, SetupError::NotDependent { constraint: 23, .. }),
         "{e}"
     );
-    let mut flow = Bricard::kick()
-        .strang(Bricard::drift())
-        .projected(
-            Bricard::system().unwrap(),
-            &x0,
-            Bricard::projection_options(),
-        )
-        .unwrap();
+    let mut flow = Bricard::rattle(&x0).unwrap();
     let mut x = x0.clone();
     for _ in 0..300 {
         flow.step(1e-3, &mut x).unwrap();

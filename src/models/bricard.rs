@@ -322,60 +322,55 @@ impl Bricard {
     pub fn run(h: f64, steps: usize) -> Result<BricardRun, SetupError> {
         type V = faer::Col<f64>;
         let x0: V = Self::initial_state();
-        let system = Self::system()?;
         let constraint = Self::constraint()?;
-        let mut flow = Self::kick().strang(Self::drift()).projected(
-            system,
-            &x0,
-            Self::projection_options(),
-        )?;
+        let mut flow = Self::rattle(&x0)?;
         let e0 = Hamiltonian::<V>::energy(&Bricard, &x0);
-        let mut g = vec![0.0; HolonomicConstraint::<V>::dim(&constraint)];
-        let mut run = BricardRun {
-            steps: 0,
-            dropped: constraint.dropped().to_vec(),
-            max_g: 0.0,
-            max_dropped: 0.0,
-            energy: e0,
-            first_tenth: 0.0,
-            last_tenth: 0.0,
-            newton_max: 0,
-            p3: [0.0; 3],
-            p3_travel: 0.0,
-            error: None,
-            finite: true,
-        };
         let mut x = x0;
         let start = Self::p3(x.as_slice());
-        let mut newton_prev = 0;
-        for k in 0..steps {
-            if let Err(e) = flow.step(h, &mut x) {
-                run.error = Some(e);
-                break;
-            }
-            run.steps += 1;
-            let n = flow.stats().newton_iterations;
-            run.newton_max = run.newton_max.max(n - newton_prev);
-            newton_prev = n;
-            constraint.residual(&x, &mut g);
-            run.max_g = g.iter().fold(run.max_g, |a, v| a.max(v.abs()));
-            run.max_dropped = run.max_dropped.max(constraint.dropped_residual(&x));
-            let de = (Hamiltonian::<V>::energy(&Bricard, &x) - e0).abs();
-            if k < steps / 10 {
-                run.first_tenth = run.first_tenth.max(de);
-            } else if k >= steps - steps / 10 {
-                run.last_tenth = run.last_tenth.max(de);
-            }
-            let p3 = Self::p3(x.as_slice());
-            let travel = (0..3)
-                .map(|d| (p3[d] - start[d]).powi(2))
-                .sum::<f64>()
-                .sqrt();
-            run.p3_travel = run.p3_travel.max(travel);
-        }
-        run.p3 = Self::p3(x.as_slice());
-        run.finite = x.iter().all(|v| v.is_finite());
-        Ok(run)
+        let (mut max_dropped, mut p3_travel) = (0.0f64, 0.0f64);
+        let t = super::tracked_run(
+            &mut flow,
+            &mut x,
+            (h, steps),
+            (
+                HolonomicConstraint::<V>::dim(&constraint),
+                |x: &V, g: &mut [f64]| constraint.residual(x, g),
+            ),
+            |x: &V| Hamiltonian::<V>::energy(&Bricard, x),
+            |x: &V| {
+                max_dropped = max_dropped.max(constraint.dropped_residual(x));
+                let p3 = Self::p3(x.as_slice());
+                let travel = (0..3)
+                    .map(|d| (p3[d] - start[d]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                p3_travel = p3_travel.max(travel);
+            },
+        );
+        Ok(BricardRun {
+            steps: t.steps,
+            dropped: constraint.dropped().to_vec(),
+            max_g: t.max_g,
+            max_dropped,
+            energy: e0,
+            first_tenth: t.first_tenth,
+            last_tenth: t.last_tenth,
+            newton_max: t.newton_max,
+            p3: Self::p3(x.as_slice()),
+            p3_travel,
+            error: t.error,
+            finite: t.finite,
+        })
+    }
+
+    /// RATTLE for the mechanism: the projected kick–drift–kick with the dependent row dropped,
+    /// from `x0`.
+    pub fn rattle<V: Vector<Real = f64>>(x0: &V) -> Result<impl Flow<V> + use<V>, SetupError> {
+        Self::kick().strang(Self::drift()).projected(
+            Self::system()?,
+            x0,
+            Self::projection_options(),
+        )
     }
 }
 

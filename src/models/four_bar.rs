@@ -19,7 +19,7 @@
 //! natural scheme is RATTLE with a non-diagonal constant mass matrix.
 
 use crate::error::StepError;
-use crate::flow::{Coupling, Flow, FlowExt, FnFlow, ProjectionOptions, from_fn};
+use crate::flow::{Coupling, FlowExt, FnFlow, ProjectionOptions, from_fn};
 use crate::nonlinear::NewtonOptions;
 use crate::system::{Canonical, Case, Hamiltonian, HolonomicConstraint, System};
 use crate::vector::Vector;
@@ -212,43 +212,34 @@ impl NFourBar {
         let s = self.system();
         let e0 = Hamiltonian::<V>::energy(self, &x0);
         let mut x = x0;
-        let mut g = vec![0.0; HolonomicConstraint::<V>::dim(&s.constraint)];
-        let mut run = BenchmarkRun {
-            steps: 0,
-            crossings: 0,
-            max_g: 0.0,
+        let (mut last_y, mut crossings) = (x[1], 0);
+        let t = super::tracked_run(
+            &mut flow,
+            &mut x,
+            (h, steps),
+            (
+                HolonomicConstraint::<V>::dim(&s.constraint),
+                |x: &V, g: &mut [f64]| s.constraint.residual(x, g),
+            ),
+            |x: &V| Hamiltonian::<V>::energy(self, x),
+            |x: &V| {
+                if x[1].signum() != last_y.signum() {
+                    crossings += 1;
+                }
+                last_y = x[1];
+            },
+        );
+        Ok(BenchmarkRun {
+            steps: t.steps,
+            crossings,
+            max_g: t.max_g,
             energy: e0,
-            first_tenth: 0.0,
-            last_tenth: 0.0,
-            newton_max: 0,
-            error: None,
-            finite: true,
-        };
-        let (mut last_y, mut newton_prev) = (x[1], 0);
-        for k in 0..steps {
-            if let Err(e) = flow.step(h, &mut x) {
-                run.error = Some(e);
-                break;
-            }
-            run.steps += 1;
-            let n = flow.stats().newton_iterations;
-            run.newton_max = run.newton_max.max(n - newton_prev);
-            newton_prev = n;
-            s.constraint.residual(&x, &mut g);
-            run.max_g = g.iter().fold(run.max_g, |a, v| a.max(v.abs()));
-            let de = (Hamiltonian::<V>::energy(self, &x) - e0).abs();
-            if k < steps / 10 {
-                run.first_tenth = run.first_tenth.max(de);
-            } else if k >= steps - steps / 10 {
-                run.last_tenth = run.last_tenth.max(de);
-            }
-            if x[1].signum() != last_y.signum() {
-                run.crossings += 1;
-            }
-            last_y = x[1];
-        }
-        run.finite = x.iter().all(|v| v.is_finite());
-        Ok(run)
+            first_tenth: t.first_tenth,
+            last_tenth: t.last_tenth,
+            newton_max: t.newton_max,
+            error: t.error,
+            finite: t.finite,
+        })
     }
 }
 

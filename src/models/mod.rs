@@ -58,3 +58,69 @@ pub(crate) fn check_parameters<T: Real>(
     }
     Ok(())
 }
+
+/// What [`tracked_run`] measured.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Tracked {
+    /// Steps taken (all of them, or up to the failing one).
+    pub steps: usize,
+    /// The most Newton iterations one step took.
+    pub newton_max: u64,
+    /// `max ‖g‖∞` over the run.
+    pub max_g: f64,
+    /// `max |H − H₀|` over the first and over the last tenth of the run.
+    pub first_tenth: f64,
+    /// See `first_tenth`.
+    pub last_tenth: f64,
+    /// The step error that stopped the run, if one did (the state is then the last good one).
+    pub error: Option<crate::error::StepError>,
+    /// The final state is finite.
+    pub finite: bool,
+}
+
+/// Steps `flow` `steps` times by `h` from `x`, and after every step records the Newton
+/// iterations it took, `‖g‖∞` (`residual` writes the `m` rows) and `|H − H₀|` over the first
+/// and last tenth (`energy`), then calls `each` on the state: the loop of the benchmark runs
+/// of the IFToMM models.
+pub(crate) fn tracked_run<V: crate::Vector<Real = f64>, F: crate::flow::Flow<V>>(
+    flow: &mut F,
+    x: &mut V,
+    (h, steps): (f64, usize),
+    (m, mut residual): (usize, impl FnMut(&V, &mut [f64])),
+    energy: impl Fn(&V) -> f64,
+    mut each: impl FnMut(&V),
+) -> Tracked {
+    let e0 = energy(x);
+    let mut g = vec![0.0; m];
+    let mut run = Tracked {
+        steps: 0,
+        newton_max: 0,
+        max_g: 0.0,
+        first_tenth: 0.0,
+        last_tenth: 0.0,
+        error: None,
+        finite: true,
+    };
+    let mut newton_prev = flow.stats().newton_iterations;
+    for k in 0..steps {
+        if let Err(e) = flow.step(h, x) {
+            run.error = Some(e);
+            break;
+        }
+        run.steps += 1;
+        let n = flow.stats().newton_iterations;
+        run.newton_max = run.newton_max.max(n - newton_prev);
+        newton_prev = n;
+        residual(x, &mut g);
+        run.max_g = g.iter().fold(run.max_g, |a, v| a.max(v.abs()));
+        let de = (energy(x) - e0).abs();
+        if k < steps / 10 {
+            run.first_tenth = run.first_tenth.max(de);
+        } else if k >= steps - steps / 10 {
+            run.last_tenth = run.last_tenth.max(de);
+        }
+        each(x);
+    }
+    run.finite = x.as_slice().iter().all(|v| v.is_finite());
+    run
+}
