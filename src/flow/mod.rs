@@ -30,7 +30,6 @@ use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
 use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
 use crate::vector::Vector;
-use num_traits::Zero as _;
 
 /// The order reported by a flow that is exact (a closed-form flow of a sub-Hamiltonian).
 pub const EXACT: u32 = u32::MAX;
@@ -196,16 +195,22 @@ forward_flow!(&mut F, Box<F>);
 /// Validates the input of a step: `h` and `x` finite. `Ok(false)` when `h = 0` (the step is the
 /// identity and nothing needs to be computed).
 pub(crate) fn check_step<V: Vector>(h: V::Real, x: &V) -> Result<bool, StepError> {
-    use num_traits::Float as _;
-    if !h.is_finite() {
-        return Err(StepError::BadStepSize {
-            h: crate::Real::to_f64_lossy(h),
-        });
-    }
+    let nonzero = check_step_size(h)?;
     if let Some(component) = crate::ops::first_non_finite(x.as_slice()) {
         return Err(StepError::NonFinite { component });
     }
-    Ok(h != V::Real::zero())
+    Ok(nonzero)
+}
+
+/// Validates a step size: finite. `Ok(false)` when `h = 0`.
+#[inline(always)]
+pub(crate) fn check_step_size<T: crate::Real>(h: T) -> Result<bool, StepError> {
+    if !h.is_finite() {
+        return Err(StepError::BadStepSize {
+            h: h.to_f64_lossy(),
+        });
+    }
+    Ok(h != T::zero())
 }
 
 /// Adapters that build schemes from flows.

@@ -332,11 +332,8 @@ impl Bricard {
             &mut flow,
             &mut x,
             (h, steps),
-            (
-                HolonomicConstraint::<V>::dim(&constraint),
-                |x: &V, g: &mut [f64]| constraint.residual(x, g),
-            ),
-            |x: &V| Hamiltonian::<V>::energy(&Bricard, x),
+            &constraint,
+            &Bricard,
             |x: &V| {
                 max_dropped = max_dropped.max(constraint.dropped_residual(x));
                 let p3 = Self::p3(x.as_slice());

@@ -217,11 +217,8 @@ impl NFourBar {
             &mut flow,
             &mut x,
             (h, steps),
-            (
-                HolonomicConstraint::<V>::dim(&s.constraint),
-                |x: &V, g: &mut [f64]| s.constraint.residual(x, g),
-            ),
-            |x: &V| Hamiltonian::<V>::energy(self, x),
+            &s.constraint,
+            self,
             |x: &V| {
                 if x[1].signum() != last_y.signum() {
                     crossings += 1;

@@ -79,19 +79,23 @@ pub(crate) struct Tracked {
 }
 
 /// Steps `flow` `steps` times by `h` from `x`, and after every step records the Newton
-/// iterations it took, `‖g‖∞` (`residual` writes the `m` rows) and `|H − H₀|` over the first
-/// and last tenth (`energy`), then calls `each` on the state: the loop of the benchmark runs
-/// of the IFToMM models.
-pub(crate) fn tracked_run<V: crate::Vector<Real = f64>, F: crate::flow::Flow<V>>(
+/// iterations it took, `‖g‖∞` of `constraint` and `|H − H₀|` of `hamiltonian` over the first
+/// and last tenth, then calls `each` on the state: the loop of the benchmark runs of the
+/// IFToMM models.
+pub(crate) fn tracked_run<V, F>(
     flow: &mut F,
     x: &mut V,
     (h, steps): (f64, usize),
-    (m, mut residual): (usize, impl FnMut(&V, &mut [f64])),
-    energy: impl Fn(&V) -> f64,
+    constraint: &impl crate::HolonomicConstraint<V>,
+    hamiltonian: &impl crate::Hamiltonian<V>,
     mut each: impl FnMut(&V),
-) -> Tracked {
-    let e0 = energy(x);
-    let mut g = vec![0.0; m];
+) -> Tracked
+where
+    V: crate::Vector<Real = f64>,
+    F: crate::flow::Flow<V>,
+{
+    let e0 = hamiltonian.energy(x);
+    let mut g = vec![0.0; constraint.dim()];
     let mut run = Tracked {
         steps: 0,
         newton_max: 0,
@@ -111,9 +115,9 @@ pub(crate) fn tracked_run<V: crate::Vector<Real = f64>, F: crate::flow::Flow<V>>
         let n = flow.stats().newton_iterations;
         run.newton_max = run.newton_max.max(n - newton_prev);
         newton_prev = n;
-        residual(x, &mut g);
+        constraint.residual(x, &mut g);
         run.max_g = g.iter().fold(run.max_g, |a, v| a.max(v.abs()));
-        let de = (energy(x) - e0).abs();
+        let de = (hamiltonian.energy(x) - e0).abs();
         if k < steps / 10 {
             run.first_tenth = run.first_tenth.max(de);
         } else if k >= steps - steps / 10 {

@@ -113,8 +113,7 @@ pub fn system() -> System<Structure, Energy, Circle> {
 /// `μ = −⟨φ,g⟩⁻¹⟨φ,H⟩`) in closed form: `⟨φ,g⟩ = −(x₁² + 2x₂²)`, `⟨φ,H⟩ = x₃² + x₄²`, so
 /// `μ = (x₃² + x₄²)/(x₁² + 2x₂²)`.
 pub fn modified_multiplier<V: Vector>(x: &V, out: &mut [V::Real]) {
-    let x = x.as_slice();
-    out[0] = (x[2] * x[2] + x[3] * x[3]) / (x[0] * x[0] + V::Real::lit(2.0) * x[1] * x[1]);
+    out[0] = ModifiedEnergy::mu(x.as_slice()).0;
 }
 
 /// `H_N1 = H + μ g` for the paper's model, `μ` from [`modified_multiplier`].
@@ -163,10 +162,10 @@ impl ModifiedEnergy {
 impl<V: Vector> Hamiltonian<V> for ModifiedEnergy {
     #[inline(always)]
     fn energy(&self, x: &V) -> V::Real {
-        let x = x.as_slice();
-        let (mu, _) = Self::mu(x);
-        let g = (x[0] * x[0] + x[1] * x[1] - V::Real::one()) * V::Real::lit(0.5);
-        (x[2] * x[2] + x[3] * x[3]) * V::Real::lit(0.5) + mu * g
+        let (mu, _) = Self::mu(x.as_slice());
+        let mut g = [V::Real::zero()];
+        Circle.residual(x, &mut g);
+        Energy.energy(x) + mu * g[0]
     }
     #[inline(always)]
     fn gradient(&self, x: &V, out: &mut V) {

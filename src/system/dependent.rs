@@ -6,7 +6,7 @@ use crate::linalg::Sink;
 use crate::real::Real;
 use crate::vector::{Vector, ops};
 use core::cell::RefCell;
-use num_traits::Zero;
+use num_traits::{One, Zero};
 
 /// A constraint with its dependent rows removed: an over-constrained mechanism (Bricard's
 /// linkage, two parallel cranks, a rod listed twice) made runnable.
@@ -69,14 +69,7 @@ impl<C, T: Real> DropDependent<C, T> {
         inner.residual(x0, &mut residual);
         let mut basis: Vec<Vec<T>> = Vec::new();
         let (mut keep, mut dropped) = (Vec::new(), Vec::new());
-        let mut unit = vec![T::zero(); m];
-        for i in 0..m {
-            // Row i of G: Gᵀ e_i.
-            let mut row = x0.zeros_like();
-            unit[i] = T::one();
-            inner.jacobian_transpose_apply_add(x0, &unit, T::one(), &mut row);
-            unit[i] = T::zero();
-            let mut r = row.as_slice().to_vec();
+        for (i, mut r) in gradient_rows(&inner, x0).into_iter().enumerate() {
             let norm = ops::dot(&r, &r).sqrt();
             if !norm.is_finite() {
                 // Not a dependence: a gradient that cannot be evaluated here.
@@ -185,18 +178,7 @@ impl<C, T: Real> DropDependent<C, T> {
                 requirement: "finite",
             });
         }
-        // Rows of G at x.
-        let mut unit = vec![T::zero(); m];
-        let rows: Vec<Vec<T>> = (0..m)
-            .map(|i| {
-                let mut row = x.zeros_like();
-                unit[i] = T::one();
-                self.inner
-                    .jacobian_transpose_apply_add(x, &unit, T::one(), &mut row);
-                unit[i] = T::zero();
-                row.as_slice().to_vec()
-            })
-            .collect();
+        let rows = gradient_rows(&self.inner, x);
         // Cholesky of G_K G_Kᵀ (lower, row-major).
         let k = self.keep.len();
         let mut l = vec![T::zero(); k * k];
@@ -301,6 +283,20 @@ impl<C, T: Real> DropDependent<C, T> {
             .iter()
             .fold(T::zero(), |a, &i| a.max(full[i].abs()))
     }
+}
+
+/// The rows of `G(x)`, each as `Gᵀ eᵢ` (dense; setup and reporting only).
+fn gradient_rows<V: Vector, C: HolonomicConstraint<V>>(c: &C, x: &V) -> Vec<Vec<V::Real>> {
+    let mut unit = vec![V::Real::zero(); c.dim()];
+    (0..c.dim())
+        .map(|i| {
+            let mut row = x.zeros_like();
+            unit[i] = V::Real::one();
+            c.jacobian_transpose_apply_add(x, &unit, V::Real::one(), &mut row);
+            unit[i] = V::Real::zero();
+            row.as_slice().to_vec()
+        })
+        .collect()
 }
 
 impl<V, C> HolonomicConstraint<V> for DropDependent<C, V::Real>

@@ -679,20 +679,15 @@ where
         }
         // The flow's own last result (equal as floats; ±0 alike, which changes no residual)
         // was checked finite and on the manifold when it was made: no scan, no residual.
+        let nonzero = super::check_step_size(h)?;
         let from_last = self.entry.valid && x.as_slice() == self.entry.last.as_slice();
-        if from_last {
-            if !h.is_finite() {
-                return Err(StepError::BadStepSize {
-                    h: h.to_f64_lossy(),
-                });
-            }
-            if h == V::Real::zero() {
-                return Ok(None);
-            }
-        } else {
-            if !super::check_step(h, x)? {
-                return Ok(None);
-            }
+        if !from_last && let Some(component) = ops::first_non_finite(x.as_slice()) {
+            return Err(StepError::NonFinite { component });
+        }
+        if !nonzero {
+            return Ok(None);
+        }
+        if !from_last {
             self.check_entry(x)?;
         }
         let steps_before = self.stats.projected_steps;
