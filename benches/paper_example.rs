@@ -205,11 +205,23 @@ fn bench(c: &mut Criterion) {
     let mut section2 = inner
         .projected(paper::system(), &x0, ProjectionOptions::default())
         .unwrap();
+    // The same scheme with the midpoint increment and λ_k as one Newton system.
+    let mut joint: ProjectedMidpoint<V, _, _, _, _> = ProjectedMidpoint::try_new(
+        paper::system(),
+        paper::modified_energy(),
+        &x0,
+        ProjectionOptions::default(),
+    )
+    .unwrap();
     let mut section3 = projected();
     let mut group = c.benchmark_group("paper_section2_vs_section3");
     let mut x = x0;
     group.bench_function("section2_modified", |b| {
         b.iter(|| section2.step(black_box(0.1), &mut x).unwrap())
+    });
+    let mut x = x0;
+    group.bench_function("section2_joint", |b| {
+        b.iter(|| joint.step(black_box(0.1), &mut x).unwrap())
     });
     let mut x = x0;
     group.bench_function("section3_projection", |b| {

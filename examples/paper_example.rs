@@ -12,9 +12,8 @@
 mod common;
 
 use common::{Args, Json, fatal, scheme_table, time_steps};
-use lieflow::flow::{CompositionTable, ImplicitMidpoint};
+use lieflow::flow::CompositionTable;
 use lieflow::models::paper;
-use lieflow::nonlinear::NewtonOptions;
 use lieflow::prelude::*;
 use nalgebra::SVector;
 use std::io::Write as _;
@@ -28,18 +27,15 @@ fn build(
 ) -> Result<Box<dyn Flow<V>>, SetupError> {
     if scheme == "modified" {
         // The paper's §2 scheme: projection half-steps around the flow of H_N1 = H + μ g,
-        // here by the implicit midpoint rule.
-        let inner: ImplicitMidpoint<V, _, _> = ImplicitMidpoint::try_new(
-            paper::Structure,
+        // here by the implicit midpoint rule, its increment and λ_k solved as one Newton
+        // system (ProjectedMidpoint; the same map as Projected around ImplicitMidpoint).
+        let flow: ProjectedMidpoint<V, _, _, _, _> = ProjectedMidpoint::try_new(
+            paper::system(),
             paper::modified_energy(),
             x0,
-            NewtonOptions::default(),
-        )?;
-        return Ok(Box::new(inner.projected(
-            paper::system(),
-            x0,
             ProjectionOptions::default(),
-        )?));
+        )?;
+        return Ok(Box::new(flow));
     }
     let base = paper::drift().projected(paper::system(), x0, ProjectionOptions::default())?;
     Ok(match table {

@@ -82,7 +82,8 @@ pub mod prelude {
     pub use crate::error::{IntegrateError, SetupError, StepError};
     pub use crate::flow::{
         ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt, ImplicitMidpoint,
-        LinearFlow, ProjectionOptions, Scheme, coefficients, from_fn, from_fn_with_order,
+        LinearFlow, ProjectedMidpoint, ProjectionOptions, Scheme, coefficients, from_fn,
+        from_fn_with_order,
     };
     pub use crate::integrate::{InvariantError, MaxResidual, Observer, Trajectory, integrate};
     pub use crate::system::{

@@ -24,7 +24,7 @@ pub use implicit::{
     DiscreteGradient, GonzalezRule, GradientRule, ImplicitMidpoint, IncrementFlow, MidpointRule,
 };
 pub use linear::{LINEAR_FLOW_CACHE, LinearFlow};
-pub use projection::{Coupling, Projected, ProjectionOptions, Scheme};
+pub use projection::{Coupling, Projected, ProjectedMidpoint, ProjectionOptions, Scheme};
 
 use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;

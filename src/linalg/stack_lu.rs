@@ -115,29 +115,45 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
 
     #[inline]
     fn solve_in_place(&mut self, b: &mut [T]) -> Result<(), LinearSolveError> {
-        let k = self.k;
         if !self.factored {
             return Err(LinearSolveError::NotFactored);
         }
-        let a = &self.lu;
-        for i in 0..k {
-            b.swap(i, self.piv[i]);
-        }
-        for i in 0..k {
-            let mut s = b[i];
-            for j in 0..i {
-                s = s - a[(i, j)] * b[j];
-            }
-            b[i] = s;
-        }
-        for i in (0..k).rev() {
-            let mut s = b[i];
-            for j in i + 1..k {
-                s = s - a[(i, j)] * b[j];
-            }
-            b[i] = s / a[(i, i)];
+        if self.k == N && b.len() >= N {
+            // The whole matrix: loop bounds known at compile time, so the substitutions
+            // unroll and index without bounds checks.
+            substitute::<T, N>(&self.lu, &self.piv, &mut b[..N], N);
+        } else {
+            substitute::<T, N>(&self.lu, &self.piv, b, self.k);
         }
         Ok(())
+    }
+}
+
+/// Forward and back substitution with the `k × k` factors in `lu` (unit lower, upper) and the
+/// row interchanges `piv`, in place on `b`.
+#[inline(always)]
+fn substitute<T: Real + nalgebra::Scalar, const N: usize>(
+    lu: &SMatrix<T, N, N>,
+    piv: &[usize; N],
+    b: &mut [T],
+    k: usize,
+) {
+    for (i, &p) in piv.iter().enumerate().take(k) {
+        b.swap(i, p);
+    }
+    for i in 0..k {
+        let mut s = b[i];
+        for j in 0..i {
+            s = s - lu[(i, j)] * b[j];
+        }
+        b[i] = s;
+    }
+    for i in (0..k).rev() {
+        let mut s = b[i];
+        for j in i + 1..k {
+            s = s - lu[(i, j)] * b[j];
+        }
+        b[i] = s / lu[(i, i)];
     }
 }
 

@@ -151,11 +151,11 @@ pub fn modified_energy() -> ModifiedEnergy {
 }
 
 impl ModifiedEnergy {
-    /// `(μ, D)` with `D = x₁² + 2x₂²`.
+    /// `(μ, 1/D)` with `D = x₁² + 2x₂²` (one division for both).
     #[inline(always)]
     fn mu<T: Real>(x: &[T]) -> (T, T) {
-        let d = x[0] * x[0] + T::lit(2.0) * x[1] * x[1];
-        ((x[2] * x[2] + x[3] * x[3]) / d, d)
+        let inv_d = T::one() / (x[0] * x[0] + T::lit(2.0) * x[1] * x[1]);
+        ((x[2] * x[2] + x[3] * x[3]) * inv_d, inv_d)
     }
 }
 
@@ -180,11 +180,11 @@ impl<V: Vector> Hamiltonian<V> for ModifiedEnergy {
     #[inline(always)]
     fn hessian_apply(&self, x: &V, v: &V, out: &mut V) -> bool {
         let (x, v) = (x.as_slice(), v.as_slice());
-        let (mu, d) = Self::mu(x);
+        let (mu, inv_d) = Self::mu(x);
         let two = V::Real::lit(2.0);
         let dmu = (two * (x[2] * v[2] + x[3] * v[3])
             - mu * (two * x[0] * v[0] + V::Real::lit(4.0) * x[1] * v[1]))
-            / d;
+            * inv_d;
         let o = out.as_mut_slice();
         o[0] = v[0] * mu + x[0] * dmu;
         o[1] = v[1] * mu + x[1] * dmu;

@@ -9,6 +9,7 @@ mod small;
 
 pub use newton::Newton;
 pub use options::{JacobianUpdate, NewtonOptions, SolveReport};
+pub(crate) use small::solve_dense;
 pub use small::{SMALL_MAX, SmallNewton};
 
 use crate::error::NewtonError;

@@ -59,7 +59,7 @@ impl<T: Real> SmallNewton<T> {
 /// partial pivoting. Singular when a pivot is at most `K ε` times the largest entry of `a`.
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // index loops read best for elimination
-fn solve_dense<T: Real, const K: usize>(
+pub(crate) fn solve_dense<T: Real, const K: usize>(
     a: &mut [[T; K]; K],
     b: &mut [T; K],
 ) -> Result<(), LinearSolveError> {

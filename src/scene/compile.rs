@@ -15,7 +15,7 @@ use crate::error::{LinearSolveError, SetupError};
 use crate::flow::coefficients::table_by_name;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
-    ImplicitMidpoint, Projected, ProjectionOptions, Scheme, from_fn,
+    ImplicitMidpoint, Projected, ProjectedMidpoint, ProjectionOptions, Scheme, from_fn,
 };
 use crate::linalg::LinearSolver;
 use crate::nonlinear::NewtonOptions;
@@ -1853,33 +1853,29 @@ fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled> {
             let (flow, inner): (Box<dyn Flow<V>>, &str) = match file.integrator.scheme.as_str() {
                 // The paper's §2 scheme: projection around the flow of H_N1 = H + μ g by the
                 // implicit midpoint rule.
+                // The midpoint increment and λ_k are solved as one Newton system
+                // (ProjectedMidpoint: the same map as Projected around ImplicitMidpoint).
                 "modified" => {
-                    let inner = ImplicitMidpoint::<V, _, _>::try_new(
-                        paper::Structure,
+                    let p = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+                        paper::system(),
                         paper::modified_energy(),
                         &x0,
-                        NewtonOptions::default(),
+                        ProjectionOptions::default(),
                     )
                     .map_err(setup)?;
-                    let p = inner
-                        .projected(paper::system(), &x0, ProjectionOptions::default())
-                        .map_err(setup)?;
                     (
                         with_table(p, table),
                         "§2: projection around the implicit midpoint rule for H + μ g",
                     )
                 }
                 "midpoint" => {
-                    let inner = ImplicitMidpoint::<V, _, _>::try_new(
-                        paper::Structure,
+                    let p = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+                        paper::system(),
                         paper::Energy,
                         &x0,
-                        NewtonOptions::default(),
+                        ProjectionOptions::default(),
                     )
                     .map_err(setup)?;
-                    let p = inner
-                        .projected(paper::system(), &x0, ProjectionOptions::default())
-                        .map_err(setup)?;
                     (
                         with_table(p, table),
                         "projection around the implicit midpoint rule",

@@ -22,6 +22,7 @@
 //! Every variant is symmetric when the inner flow is, and then of order 2 (composition raises it).
 //! The multipliers are warm-started from the previous step.
 
+mod midpoint;
 mod small;
 mod stage;
 mod warm;
@@ -42,6 +43,8 @@ use small::{FirstHalf, SmallPath};
 pub(crate) use small::{SecondHalf, fixed_mut, half_step};
 use stage::{Mode, Stage};
 use warm::WarmStart;
+
+pub use midpoint::ProjectedMidpoint;
 
 /// How the two multiplier systems of the degenerate case are solved.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -203,6 +206,59 @@ struct EntryCheck<V: Vector> {
     /// A copy of the last result (`valid`), or nothing yet.
     last: V,
     valid: bool,
+}
+
+impl<V: Vector> EntryCheck<V> {
+    /// A step must start on the manifold (`‖g‖∞`, and with `check_phi` `‖φ‖∞`, within the
+    /// tolerance). Called only when the step does not start from the flow's own last result:
+    /// one residual evaluation (two with `φ`) when the caller changed the state between
+    /// steps. `r` has the constraint's length; `t1`, `t2` are workspace of the state's length.
+    fn check<Ms, H, C>(
+        &self,
+        system: &System<Ms, H, C>,
+        x: &V,
+        check_phi: bool,
+        r: &mut [V::Real],
+        t1: &mut V,
+        t2: &mut V,
+    ) -> Result<(), StepError>
+    where
+        Ms: StructureMatrix<V>,
+        H: Hamiltonian<V>,
+        C: HolonomicConstraint<V>,
+    {
+        let Some(tol) = self.tol else {
+            return Ok(());
+        };
+        let off = |what, r: V::Real| StepError::OffManifold {
+            what,
+            residual: r.to_f64_lossy(),
+            tol: tol.to_f64_lossy(),
+        };
+        system.constraint.residual(x, r);
+        let g = ops::norm_inf(r);
+        if g.is_nan() || g > tol {
+            return Err(off("g", g));
+        }
+        if check_phi {
+            // φ = G M ∇H, the hidden constraint of the degenerate case.
+            system.hidden_constraint(x, t1, t2, r);
+            let phi = ops::norm_inf(r);
+            if phi.is_nan() || phi > tol {
+                return Err(off("phi", phi));
+            }
+        }
+        Ok(())
+    }
+
+    /// `x` is the flow's newest result (checked when it was made).
+    #[inline(always)]
+    fn record(&mut self, x: &V) {
+        if self.tol.is_some() {
+            self.last.copy_from(x);
+            self.valid = true;
+        }
+    }
 }
 
 impl<V, F, Ms, H, C, L> core::fmt::Debug for Projected<V, F, Ms, H, C, L>
@@ -699,10 +755,7 @@ where
         match result {
             Ok(r) => {
                 core::mem::swap(x, &mut self.w.x_next);
-                if self.entry.tol.is_some() {
-                    self.entry.last.copy_from(x);
-                    self.entry.valid = true;
-                }
+                self.entry.record(x);
                 Ok(Some(r))
             }
             Err(e) => {
@@ -716,41 +769,13 @@ where
         }
     }
 
-    /// A step must start on the manifold (`‖g‖∞`, and `‖φ‖∞` in the degenerate case, within
-    /// the tolerance). Called only when the step does not start from this flow's own last
-    /// result: one residual evaluation (two with `φ`) when the caller changed the state
-    /// between steps.
+    /// A step must start on the manifold (see [`EntryCheck::check`]).
     fn check_entry(&mut self, x: &V) -> Result<(), StepError> {
-        let Some(tol) = self.entry.tol else {
-            return Ok(());
-        };
-        let m = self.m;
+        let check_phi = self.scheme != Scheme::Symmetric;
         let w = &mut self.w;
-        let r = &mut w.r.as_mut_slice()[..m];
-        self.system.constraint.residual(x, r);
-        let g = ops::norm_inf(r);
-        if g.is_nan() || g > tol {
-            return Err(StepError::OffManifold {
-                what: "g",
-                residual: g.to_f64_lossy(),
-                tol: tol.to_f64_lossy(),
-            });
-        }
-        if self.scheme != Scheme::Symmetric {
-            // φ = G M ∇H, the hidden constraint of the degenerate case.
-            self.system.hamiltonian.gradient(x, &mut w.t1);
-            self.system.structure.apply(x, &w.t1, &mut w.t2);
-            self.system.constraint.jacobian_apply(x, &w.t2, r);
-            let phi = ops::norm_inf(r);
-            if phi.is_nan() || phi > tol {
-                return Err(StepError::OffManifold {
-                    what: "phi",
-                    residual: phi.to_f64_lossy(),
-                    tol: tol.to_f64_lossy(),
-                });
-            }
-        }
-        Ok(())
+        let r = &mut w.r.as_mut_slice()[..self.m];
+        self.entry
+            .check(&self.system, x, check_phi, r, &mut w.t1, &mut w.t2)
     }
 
     /// The fused composition dispatched on the multiplier count (see `step_fused`).

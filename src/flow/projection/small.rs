@@ -76,6 +76,15 @@ pub(crate) fn fixed_mut<T, const K: usize>(v: &mut [T]) -> &mut [T; K] {
     }
 }
 
+/// `&v[..K]` as an array; `v` has at least `K` entries (see [`fixed_mut`]).
+#[inline(always)]
+pub(crate) fn fixed<T, const K: usize>(v: &[T]) -> &[T; K] {
+    match <&[T; K]>::try_from(&v[..K]) {
+        Ok(a) => a,
+        Err(_) => unreachable!("a slice of length K converts to [T; K]"),
+    }
+}
+
 /// `out = x + (h/2) Σ_j z_j d_j`.
 #[inline(always)]
 pub(crate) fn half_step<V: Vector, const K: usize>(

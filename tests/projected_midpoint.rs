@@ -1,0 +1,182 @@
+//! `ProjectedMidpoint` (the midpoint increment and `λ_k` as one Newton system) against the
+//! nested form (`Projected` around `ImplicitMidpoint`): the same map, the same geometry.
+
+use lieflow::models::paper;
+use lieflow::nonlinear::NewtonOptions;
+use lieflow::prelude::*;
+use nalgebra::SVector;
+
+type V = SVector<f64, 4>;
+
+fn nested<K: Hamiltonian<V> + Clone>(k: K, x0: &V) -> impl Flow<V> + use<K> {
+    let inner: ImplicitMidpoint<V, _, _> =
+        ImplicitMidpoint::try_new(paper::Structure, k, x0, NewtonOptions::default()).unwrap();
+    inner
+        .projected(paper::system(), x0, ProjectionOptions::default())
+        .unwrap()
+}
+
+fn joint<K: Hamiltonian<V>>(
+    k: K,
+    x0: &V,
+) -> ProjectedMidpoint<V, paper::Structure, paper::Energy, paper::Circle, K> {
+    ProjectedMidpoint::try_new(paper::system(), k, x0, ProjectionOptions::default()).unwrap()
+}
+
+fn g(x: &V) -> f64 {
+    let mut r = [0.0];
+    paper::Circle.residual(x, &mut r);
+    r[0]
+}
+
+fn phi(x: &V) -> f64 {
+    let (mut t1, mut t2, mut r) = (V::zeros(), V::zeros(), [0.0]);
+    paper::system().hidden_constraint(x, &mut t1, &mut t2, &mut r);
+    r[0]
+}
+
+/// The largest distance between the two forms along `steps` steps of size `h`.
+fn max_difference<K: Hamiltonian<V> + Clone>(k: K, h: f64, steps: usize) -> f64 {
+    let x0: V = paper::initial_state();
+    let (mut a, mut b) = (nested(k.clone(), &x0), joint(k, &x0));
+    let (mut xa, mut xb) = (x0, x0);
+    let mut worst: f64 = 0.0;
+    for _ in 0..steps {
+        a.step(h, &mut xa).unwrap();
+        b.step(h, &mut xb).unwrap();
+        worst = worst.max((xa - xb).amax());
+    }
+    worst
+}
+
+/// Both forms solve the same equations to round-off (the increment to below the state's
+/// rounding, `g` to `ftol = 2ε`); the map is a near-isometry here (a rotation on the circle),
+/// so per-step differences of a few ε add up at most linearly: 400 steps × 8ε ≈ 7e-13.
+#[test]
+fn agrees_with_the_nested_form() {
+    let section2 = max_difference(paper::modified_energy(), 0.1, 400);
+    let midpoint = max_difference(paper::Energy, 0.1, 400);
+    assert!(section2 <= 7e-13, "§2 scheme: forms differ by {section2:e}");
+    assert!(
+        midpoint <= 7e-13,
+        "midpoint projection: forms differ by {midpoint:e}"
+    );
+    // At a large step the Newton iterations differ most; the answers still agree.
+    let large = max_difference(paper::modified_energy(), 0.8, 50);
+    assert!(large <= 1e-12, "h = 0.8: forms differ by {large:e}");
+}
+
+/// `g` at its tolerance (`ftol = 2ε` plus the rounding of `g` at `|x| ≈ 1`, ~2ε) and `φ`
+/// likewise after every step; the multipliers are reported.
+#[test]
+fn constraints_hold_at_round_off_every_step() {
+    let x0: V = paper::initial_state();
+    let mut f = joint(paper::modified_energy(), &x0);
+    let mut x = x0;
+    for _ in 0..2000 {
+        f.step(0.1, &mut x).unwrap();
+        assert!(g(&x).abs() <= 4.0 * f64::EPSILON, "g = {:e}", g(&x));
+        assert!(phi(&x).abs() <= 4.0 * f64::EPSILON, "phi = {:e}", phi(&x));
+    }
+    let (lk, lk1) = f.multipliers();
+    assert_eq!((lk.len(), lk1.len()), (1, 1));
+    assert!(lk[0] != 0.0 && lk1[0] != 0.0);
+    let stats = f.stats();
+    assert_eq!(stats.projected_steps, 2000);
+    assert!(stats.newton_solves >= 2000);
+}
+
+/// A step forward and one back return to the start (the scheme is symmetric): to the
+/// solves' round-off.
+#[test]
+fn is_symmetric() {
+    // On g = 0 and φ = x₁x₃ + x₂x₄ = 0.
+    let x0: V = paper::state(&[0.6, 0.8, 0.3, -0.6 * 0.3 / 0.8]);
+    let mut f = joint(paper::modified_energy(), &x0);
+    let mut x = x0;
+    for h in [0.1, 0.3] {
+        f.step(h, &mut x).unwrap();
+        f.step(-h, &mut x).unwrap();
+        assert!((x - x0).amax() <= 1e-14, "h = {h}: {:e}", (x - x0).amax());
+    }
+}
+
+/// Order 2 against the exact solution at T = 10 (paper::exact): the error ratio of h and h/2
+/// is 4 up to the next term, O(h²) relative.
+#[test]
+fn is_second_order() {
+    let err = |h: f64| {
+        let x0: V = paper::initial_state();
+        let mut f = joint(paper::modified_energy(), &x0);
+        let mut x = x0;
+        let n = (10.0 / h).round() as usize;
+        for _ in 0..n {
+            f.step(h, &mut x).unwrap();
+        }
+        let e = paper::exact(10.0, -0.15);
+        (0..4).map(|i| (x[i] - e[i]).abs()).fold(0.0, f64::max)
+    };
+    let (e1, e2) = (err(0.05), err(0.025));
+    let order = (e1 / e2).log2();
+    assert!((order - 2.0).abs() < 0.05, "order {order}");
+}
+
+/// Bad input and failures are typed errors that leave the state, the warm start and the
+/// counters as they were.
+#[test]
+fn failures_are_typed_and_leave_the_state() {
+    let x0: V = paper::initial_state();
+    let mut f = joint(paper::modified_energy(), &x0);
+    let mut x = x0;
+    f.step(0.1, &mut x).unwrap();
+    let (before, stats) = (x, f.stats());
+    assert!(matches!(
+        f.step(f64::NAN, &mut x),
+        Err(StepError::BadStepSize { .. })
+    ));
+    // Far beyond the midpoint rule's reach: Newton fails.
+    assert!(matches!(f.step(1e6, &mut x), Err(StepError::Newton { .. })));
+    assert_eq!(x, before);
+    assert_eq!(f.stats(), stats);
+    let mut off = x;
+    off[0] += 1e-3;
+    assert!(matches!(
+        f.step(0.1, &mut off),
+        Err(StepError::OffManifold { what: "g", .. })
+    ));
+    let mut nan = x;
+    nan[2] = f64::NAN;
+    assert!(matches!(
+        f.step(0.1, &mut nan),
+        Err(StepError::NonFinite { component: 2 })
+    ));
+    // The next step from the saved state matches a flow that never failed.
+    let mut clean = joint(paper::modified_energy(), &x0);
+    let mut y = x0;
+    clean.step(0.1, &mut y).unwrap();
+    clean.step(0.1, &mut y).unwrap();
+    f.step(0.1, &mut x).unwrap();
+    assert_eq!(x, y);
+}
+
+/// What this path does not cover is refused at construction with a typed error.
+#[test]
+fn unsupported_models_are_refused() {
+    let x0: V = paper::initial_state();
+    let r = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+        paper::system(),
+        paper::Energy,
+        &x0,
+        ProjectionOptions::default().with_coupling(Coupling::Coupled),
+    );
+    assert!(matches!(r, Err(SetupError::Dimension { .. })));
+    let mut off = x0;
+    off[0] = 1.1;
+    let r = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+        paper::system(),
+        paper::Energy,
+        &off,
+        ProjectionOptions::default(),
+    );
+    assert!(matches!(r, Err(SetupError::OffManifold { .. })));
+}
