@@ -113,6 +113,176 @@ impl HandWritten {
     }
 }
 
+/// The paper's §2 scheme written out for this model only, the same algorithm as
+/// `ProjectedMidpoint` with `paper::modified_energy()`: Newton on the midpoint increment `δ`
+/// and `λ_k` together (5 unknowns, the exact Jacobian built at the first iterate, its LU
+/// factors with partial pivoting kept while each iteration contracts the scaled residual
+/// fourfold), the same stopping rules (`|F₁| ≤ ε(2|x| + 8|δ₀|)` and `|g| ≤ 2ε`,
+/// the round-off floor, the contraction estimate), the explicit Euler predictor, the same
+/// warm start of `λ_k`, and `λ_{k+1}` in closed form.
+#[derive(Clone, Copy, Default)]
+struct HandSection2 {
+    mu: f64,
+    offset: f64,
+    steps: u64,
+}
+
+/// `M ∇K` at `z` for `K = H + μ g` (gradient `(q₁μ, q₂μ, p₁, p₂)`) and `μ`, `1/D`.
+#[inline(always)]
+fn section2_field(z: &[f64; 4]) -> ([f64; 4], f64, f64) {
+    let inv_d = 1.0 / (z[0] * z[0] + 2.0 * z[1] * z[1]);
+    let mu = (z[2] * z[2] + z[3] * z[3]) * inv_d;
+    ([z[2], z[3], -z[0] * mu, -2.0 * z[1] * mu], mu, inv_d)
+}
+
+/// LU factors of a 5 × 5 matrix with partial pivoting, in place (`piv[c]` the row swapped
+/// with row `c`); `false` when a pivot vanishes.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)]
+fn factor5(a: &mut [[f64; 5]; 5], piv: &mut [usize; 5]) -> bool {
+    for c in 0..5 {
+        let mut p = c;
+        for r in c + 1..5 {
+            if a[r][c].abs() > a[p][c].abs() {
+                p = r;
+            }
+        }
+        piv[c] = p;
+        a.swap(c, p);
+        if a[c][c] == 0.0 {
+            return false;
+        }
+        for r in c + 1..5 {
+            let f = a[r][c] / a[c][c];
+            a[r][c] = f;
+            for j in c + 1..5 {
+                a[r][j] -= f * a[c][j];
+            }
+        }
+    }
+    true
+}
+
+/// Solves with the factors of [`factor5`], in place.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)]
+fn solve5(lu: &[[f64; 5]; 5], piv: &[usize; 5], b: &mut [f64; 5]) {
+    for c in 0..5 {
+        b.swap(c, piv[c]);
+    }
+    for r in 0..5 {
+        for j in 0..r {
+            b[r] -= lu[r][j] * b[j];
+        }
+    }
+    for r in (0..5).rev() {
+        for j in r + 1..5 {
+            b[r] -= lu[r][j] * b[j];
+        }
+        b[r] /= lu[r][r];
+    }
+}
+
+impl HandSection2 {
+    #[inline]
+    fn step(&mut self, h: f64, x: &mut V) {
+        let eps = f64::EPSILON;
+        let (ftol, half) = (2.0 * eps, 0.5 * h);
+        let (x1, x2, x3, x4) = (x[0], x[1], x[2], x[3]);
+        // x̂ = x + (h/2) λ M Gᵀ = (x1, x2, x3 − (h/2) λ x1, x4 − h λ x2).
+        let xhat = |l: f64| [x1, x2, x3 - half * l * x1, x4 - h * l * x2];
+        let mut l = self.mu + h * self.offset;
+        let (f0, _, _) = section2_field(&xhat(l));
+        let mut delta = f0.map(|f| h * f);
+        let amax = |v: &[f64]| v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        let tol1 = eps * (2.0 * amax(x.as_slice()) + 8.0 * amax(&delta));
+        let (inv_tol1, inv_ftol) = (1.0 / tol1, 1.0 / ftol);
+        let (mut jac, mut piv) = ([[0.0; 5]; 5], [0usize; 5]);
+        let (mut have, mut prev, mut last_update) = (false, f64::INFINITY, f64::INFINITY);
+        let mut y;
+        let mut it = 0;
+        loop {
+            let xh = xhat(l);
+            let xbar: [f64; 4] = core::array::from_fn(|i| xh[i] + 0.5 * delta[i]);
+            let (f, mu, inv_d) = section2_field(&xbar);
+            let r1: [f64; 4] = core::array::from_fn(|i| delta[i] - h * f[i]);
+            y = [
+                xh[0] + delta[0],
+                xh[1] + delta[1],
+                xh[2] + delta[2],
+                xh[3] + delta[3],
+            ];
+            let g = 0.5 * (y[0] * y[0] + y[1] * y[1] - 1.0);
+            let scaled = (amax(&r1) * inv_tol1).max(g.abs() * inv_ftol);
+            if scaled <= 1.0 || (scaled <= 100.0 && scaled >= 0.5 * prev) || it == 25 {
+                break;
+            }
+            if !have || scaled > 0.25 * prev {
+                // J f at x̄: rows 3, 4 from ∇μ = (−2q₁μ, −4q₂μ, 2p₁, 2p₂)/D.
+                let (q1, q2, p1, p2) = (xbar[0], xbar[1], xbar[2], xbar[3]);
+                let dmu = [
+                    -2.0 * q1 * mu * inv_d,
+                    -4.0 * q2 * mu * inv_d,
+                    2.0 * p1 * inv_d,
+                    2.0 * p2 * inv_d,
+                ];
+                let mut jf = [[0.0; 4]; 4];
+                jf[0][2] = 1.0;
+                jf[1][3] = 1.0;
+                for j in 0..4 {
+                    jf[2][j] = -q1 * dmu[j];
+                    jf[3][j] = -2.0 * q2 * dmu[j];
+                }
+                jf[2][0] -= mu;
+                jf[3][1] -= 2.0 * mu;
+                // ∂F₁/∂δ = I − (h/2) J f; ∂F₁/∂λ = −h J f (h/2) d, d = (0, 0, −x1, −2x2);
+                // ∂F₂/∂δ = (y1, y2, 0, 0); ∂F₂/∂λ = 0.
+                let d = [0.0, 0.0, -x1, -2.0 * x2];
+                for i in 0..4 {
+                    for j in 0..4 {
+                        jac[i][j] = if i == j { 1.0 } else { 0.0 } - half * jf[i][j];
+                    }
+                    jac[i][4] = -h * half * (jf[i][2] * d[2] + jf[i][3] * d[3]);
+                }
+                jac[4] = [y[0], y[1], 0.0, 0.0, 0.0];
+                assert!(factor5(&mut jac, &mut piv), "singular Newton matrix");
+                have = true;
+            }
+            prev = scaled;
+            let mut b = [-r1[0], -r1[1], -r1[2], -r1[3], -g];
+            solve5(&jac, &piv, &mut b);
+            for i in 0..4 {
+                delta[i] += b[i];
+            }
+            l += b[4];
+            it += 1;
+            let update = amax(&b[..4]) * inv_tol1;
+            if update < last_update && update * update <= 0.5 * (last_update - update) {
+                let xh = xhat(l);
+                y = [
+                    xh[0] + delta[0],
+                    xh[1] + delta[1],
+                    xh[2] + delta[2],
+                    xh[3] + delta[3],
+                ];
+                if (0.5 * (y[0] * y[0] + y[1] * y[1] - 1.0)).abs() <= ftol {
+                    break;
+                }
+            }
+            last_update = update;
+        }
+        if self.steps > 0 {
+            self.offset = (l - self.mu) / h;
+        }
+        // λ_{k+1} in closed form, as in the §3 hand-written step.
+        let (y1, y2, y3, y4) = (y[0], y[1], y[2], y[3]);
+        let mu = (y1 * y3 + y2 * y4) / (half * (y1 * y1 + 2.0 * y2 * y2));
+        self.mu = mu;
+        self.steps += 1;
+        *x = V::new(y1, y2, y3 - half * y1 * mu, y4 - h * y2 * mu);
+    }
+}
+
 fn check_same_algorithm() {
     let x0: V = paper::initial_state();
     let mut generic = paper::drift()
@@ -128,6 +298,25 @@ fn check_same_algorithm() {
     assert!(
         d < 1e-12,
         "generic and hand-written schemes differ by {d:e}"
+    );
+    // The §2 scheme, generic (ProjectedMidpoint) and hand-written.
+    let mut generic: ProjectedMidpoint<V, _, _, _, _> = ProjectedMidpoint::try_new(
+        paper::system(),
+        paper::modified_energy(),
+        &x0,
+        ProjectionOptions::default(),
+    )
+    .unwrap();
+    let mut hand = HandSection2::default();
+    let (mut a, mut b) = (x0, x0);
+    for _ in 0..1000 {
+        generic.step(0.1, &mut a).unwrap();
+        hand.step(0.1, &mut b);
+    }
+    let d = (a - b).amax();
+    assert!(
+        d < 1e-12,
+        "generic and hand-written §2 schemes differ by {d:e}"
     );
     // The compositions: generic (fused), hand-written stage by stage and fused.
     let mut generic = paper::drift()
@@ -222,6 +411,11 @@ fn bench(c: &mut Criterion) {
     let mut x = x0;
     group.bench_function("section2_joint", |b| {
         b.iter(|| joint.step(black_box(0.1), &mut x).unwrap())
+    });
+    let mut hand = HandSection2::default();
+    let mut x = x0;
+    group.bench_function("section2_hand_written", |b| {
+        b.iter(|| hand.step(black_box(0.1), &mut x))
     });
     let mut x = x0;
     group.bench_function("section3_projection", |b| {
