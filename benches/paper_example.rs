@@ -257,7 +257,10 @@ impl HandSection2 {
             l += b[4];
             it += 1;
             let update = amax(&b[..4]) * inv_tol1;
-            if update < last_update && update * update <= 0.5 * (last_update - update) {
+            if last_update.is_finite()
+                && update < last_update
+                && update * update <= 0.5 * (last_update - update)
+            {
                 let xh = xhat(l);
                 y = [
                     xh[0] + delta[0],

@@ -238,6 +238,20 @@ fn agrees_with_the_nested_form_on_other_models() {
         300,
     );
     assert!(d <= 7e-13, "2-link chain: forms differ by {d:e}");
+    // Three and four constraints (the last through the SMALL_MAX branch), n = 12 and 16 (the
+    // dense LU above the stack solver's 8).
+    for links in [3, 4] {
+        let chain = PendulumChain::<f64>::uniform(2, links).unwrap();
+        let x0: faer::Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
+        let d = nested_vs_joint(
+            || chain.system(),
+            chain.projection_options(),
+            &x0,
+            0.01,
+            300,
+        );
+        assert!(d <= 7e-13, "{links}-link chain: forms differ by {d:e}");
+    }
 
     let damped = DampedPendulum::try_new(0.3).unwrap();
     let x0: V = damped.state(1.2, 0.5);
@@ -265,4 +279,81 @@ fn agrees_with_the_nested_form_on_other_models() {
         300,
     );
     assert!(d <= 7e-13, "H_N1 by differences: forms differ by {d:e}");
+}
+
+/// `x₁ − x₂/2 = 1`: a linear constraint, so one joint Newton update puts `g` at round-off while
+/// the increment of a non-quadratic `K` is still off by the predictor's error squared; the
+/// contraction-based stop must wait for a second update to measure a rate.
+#[derive(Debug, Clone, Copy)]
+struct Line;
+
+impl HolonomicConstraint<V> for Line {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn residual(&self, x: &V, out: &mut [f64]) {
+        out[0] = x[0] - 0.5 * x[1] - 1.0;
+    }
+    fn jacobian_apply(&self, _x: &V, v: &V, out: &mut [f64]) {
+        out[0] = v[0] - 0.5 * v[1];
+    }
+    fn jacobian_transpose_apply_add(&self, _x: &V, mu: &[f64], alpha: f64, out: &mut V) {
+        out[0] += alpha * mu[0];
+        out[1] -= 0.5 * alpha * mu[0];
+    }
+}
+
+#[test]
+fn agrees_with_the_nested_form_under_a_linear_constraint() {
+    // On g = 0 and φ = x₃ − x₄/2 = 0 (the paper's M maps Gᵀ to (0, 0, −1, 1)).
+    let x0: V = paper::state(&[1.0, 0.0, 0.3, 0.6]);
+    let d = nested_vs_joint(
+        || System::new(paper::Structure, paper::modified_energy(), Line),
+        ProjectionOptions::default(),
+        &x0,
+        0.1,
+        300,
+    );
+    assert!(d <= 7e-13, "linear constraint: forms differ by {d:e}");
+}
+
+/// The cost the docs quote (docs/method.md §11), per step at h = 0.1 on the paper's §2 scheme:
+/// 3 joint Newton updates and one for λ_{k+1}, 4 residual evaluations, 2 factorizations.
+#[test]
+fn work_per_step_is_what_the_docs_say() {
+    let x0: V = paper::initial_state();
+    let mut f = joint(paper::modified_energy(), &x0);
+    let mut x = x0;
+    let n = 1000;
+    for _ in 0..n {
+        f.step(0.1, &mut x).unwrap();
+    }
+    let s = f.stats();
+    let per = |v: u64| v as f64 / n as f64;
+    assert!(per(s.newton_iterations) <= 4.0, "{s:?}");
+    assert!(per(s.residual_evaluations) <= 4.0, "{s:?}");
+    assert!(per(s.factorizations) <= 2.0, "{s:?}");
+}
+
+/// More than four constraints, the non-degenerate case, and 2m > n are refused.
+#[test]
+fn other_cases_are_refused() {
+    use lieflow::models::PendulumChain;
+    let chain = PendulumChain::<f64>::uniform(2, 5).unwrap();
+    let x0: faer::Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
+    let r = ProjectedMidpoint::<faer::Col<f64>, _, _, _, _>::try_new(
+        chain.system(),
+        chain.clone(),
+        &x0,
+        chain.projection_options(),
+    );
+    assert!(matches!(r, Err(SetupError::Dimension { .. })), "{r:?}");
+    let x0: V = paper::initial_state();
+    let r = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+        paper::system(),
+        paper::Energy,
+        &x0,
+        ProjectionOptions::default().with_case(Case::NonDegenerate),
+    );
+    assert!(matches!(r, Err(SetupError::Dimension { .. })), "{r:?}");
 }

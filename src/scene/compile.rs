@@ -1299,14 +1299,25 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             with_table_backward(mid, table, backward)
         } else {
             scheme_name = "projection around the implicit midpoint rule";
-            let system = System::new(model.clone(), model.clone(), model.clone());
+            let system = || System::new(model.clone(), model.clone(), model.clone());
             let options = projection_options(&model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
-            with_table_backward(
-                mid.projected(system, &x0, options).map_err(setup)?,
-                table,
-                backward,
-            )
+            // The same map with the midpoint increment and λ_k as one Newton system where that
+            // path applies (decoupled, at most 4 constraints); nested solves otherwise.
+            match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
+                system(),
+                model.clone(),
+                &x0,
+                options,
+            ) {
+                Ok(joint) => with_table_backward(joint, table, backward),
+                Err(SetupError::Dimension { .. }) => with_table_backward(
+                    mid.projected(system(), &x0, options).map_err(setup)?,
+                    table,
+                    backward,
+                ),
+                Err(e) => return Err(setup(e)),
+            }
         }
     } else if file.integrator.scheme == "modified" {
         return Err(err(

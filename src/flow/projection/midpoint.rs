@@ -20,8 +20,8 @@ use num_traits::{One, Zero};
 /// The stage name errors of the joint solve carry.
 const STAGE_JOINT: &str = "(increment, lambda_k) from the midpoint rule and g(x_{k+1}) = 0";
 
-/// Residuals below this many times their tolerance may be at their round-off floor (the same
-/// rule as [`Newton`](crate::nonlinear::Newton)'s).
+/// Residuals below this many times their tolerance may be at their round-off floor (the factor
+/// [`Newton`](crate::nonlinear::Newton) uses).
 const NOISE_FACTOR: f64 = 100.0;
 
 /// The decoupled projected step of Zhang & Deng (2004, §3; RATTLE for an arbitrary structure
@@ -53,17 +53,20 @@ const NOISE_FACTOR: f64 = 100.0;
 /// ```
 ///
 /// which is exactly Newton's update for the joint system. `A`, `c_j` and `S` are built at the
-/// first iterate and kept (a chord iteration) while each iteration contracts the scaled
-/// residual at least fourfold; otherwise they are rebuilt where the iteration stands.
+/// first iterate and kept while each iteration contracts the scaled residual at least
+/// fourfold, otherwise rebuilt where the iteration stands (with a kept matrix the update is an
+/// inexact Newton step: `S` holds `G` where it was built, the right-hand side `G(y)` at the
+/// current iterate; the fixed point is the same).
 ///
-/// Stopping: `‖F₂‖∞ ≤ ftol` and `‖F₁‖∞ ≤ ε (2‖x‖∞ + 8‖δ₀‖∞)` with `δ₀` the explicit Euler
-/// predictor (the increment resolved below the rounding of the state and of `h M∇K`);
+/// Stopping: `‖F₂‖∞ ≤ ftol` and `‖F₁‖∞ ≤ max(ε (2‖x‖∞ + 8‖δ₀‖∞), 4ε|h| ‖M∇²K(x) x‖∞)` with
+/// `δ₀` the explicit Euler predictor (the increment resolved below the rounding of the state
+/// and of `h M∇K`, whose stiff terms round at their Hessian times the state's rounding);
 /// or, once the iteration contracts at a rate `ρ` (the ratio of the last two updates of `δ`),
 /// when the error it leaves in `δ`, about `ρ/(1 − ρ)` times the last update, is below half that
 /// tolerance and `‖g(y)‖∞ ≤ ftol` is measured (Hairer & Wanner, *Solving Ordinary Differential
 /// Equations II*, §IV.8: the stopping rule of implicit Runge–Kutta codes, which saves the last
 /// evaluation of `M∇K`); or, within 100 times both, a residual that no
-/// longer halves (the round-off floor). `λ_{k+1}` is solved as in `Projected`'s small path
+/// longer halves after an update with a freshly built matrix (the round-off floor). `λ_{k+1}` is solved as in `Projected`'s small path
 /// (one linear solve when `φ` is affine in it).
 ///
 /// Limits: the degenerate, decoupled case (probed at `x0` as in `Projected`; a step whose
@@ -133,12 +136,13 @@ where
     /// The projection of `system` around the implicit midpoint rule of `inner` (with the
     /// system's structure matrix), for states shaped like `x0`. `options` as for
     /// [`Projected`](super::Projected) (its case and coupling must be the degenerate and
-    /// decoupled ones, which are decided at `x0` when not given; its Newton options set the
-    /// tolerances and the iteration limit of both solves).
+    /// decoupled ones, which are decided at `x0` when not given). Of its Newton options the
+    /// joint solve uses `ftol` and `max_iterations` (no line search: a Newton matrix rebuilt
+    /// where the iteration stands instead); the `λ_{k+1}` solve uses them as `Projected` does.
     ///
     /// Errors: those of `Projected` (non-finite or off-manifold `x0`, singular brackets), and
     /// [`SetupError::Dimension`] for the cases this path does not cover — the non-degenerate
-    /// or coupled case, more than [`SMALL_MAX`] constraints.
+    /// or coupled case, `2m > n`, more than [`SMALL_MAX`] constraints.
     pub fn try_new(
         system: System<Ms, H, C>,
         inner: K,
@@ -344,10 +348,20 @@ where
                 *d = h * f;
             }
         }
-        // The tolerance of F₁ at the predictor's scale, fixed for the solve: ε (2‖x‖∞ + 8‖δ‖∞).
-        let tol1 = eps
+        // The tolerance of F₁ at the predictor's scale, fixed for the solve: ε (2‖x‖∞ + 8‖δ‖∞),
+        // and not below the rounding floor of h M∇K itself: a stiff term's gradient rounds at
+        // its Hessian times the state's rounding, ε |h| ‖M ∇²K(x) x‖∞ (as in IncrementFlow).
+        let mut tol1 = eps
             * (V::Real::lit(2.0) * ops::norm_inf(x.as_slice())
                 + V::Real::lit(8.0) * ops::norm_inf(self.w.delta.as_slice()));
+        {
+            let w = &mut self.w;
+            if self.inner.hessian_apply(x, x, &mut w.hv) {
+                self.system.structure.apply(x, &w.hv, &mut w.t2);
+                let floor = V::Real::lit(4.0) * eps * h.abs() * ops::norm_inf(w.t2.as_slice());
+                tol1 = tol1.max(floor);
+            }
+        }
         let (inv_tol1, inv_ftol) = (
             one / tol1.max(V::Real::min_positive_value()),
             one / opts.ftol.max(V::Real::min_positive_value()),
@@ -356,6 +370,8 @@ where
         let mut have_matrix = false;
         let mut prev = V::Real::infinity();
         let mut last_update = V::Real::infinity();
+        // The last update used a matrix built at its own iterate; the larger raw residual norm.
+        let (mut fresh, mut last_residual) = (false, V::Real::infinity());
         let mut g = [V::Real::zero(); M];
         for it in 0..=opts.max_iterations {
             // Residuals at (δ, λ): F₁ = δ − h M∇K(x̄), F₂ = g(x̂ + δ).
@@ -382,7 +398,11 @@ where
                 return Err(fail(NewtonError::NonFinite { iteration: it }));
             }
             let scaled = (n1 * inv_tol1).max(n2 * inv_ftol);
-            if scaled <= one || (scaled <= noise && scaled >= V::Real::lit(0.5) * prev) {
+            last_residual = n1.max(n2);
+            // Converged; or at the round-off floor: near the tolerances, and an update with a
+            // freshly built matrix no longer halved the residual (with a kept matrix slow
+            // contraction says nothing about round-off: the matrix is rebuilt below).
+            if scaled <= one || (fresh && scaled <= noise && scaled >= V::Real::lit(0.5) * prev) {
                 report.residual = n2;
                 self.stats.record(&report);
                 *fixed_mut(self.z.as_mut_slice()) = lam;
@@ -392,7 +412,8 @@ where
                 break;
             }
             // A kept matrix that contracts less than fourfold is rebuilt here.
-            if !have_matrix || scaled > V::Real::lit(0.25) * prev {
+            fresh = !have_matrix || scaled > V::Real::lit(0.25) * prev;
+            if fresh {
                 self.build_matrix::<M>(h, &mut s)
                     .map_err(|e| fail(NewtonError::Linear(e)))?;
                 report.factorizations += 1;
@@ -431,12 +452,14 @@ where
             }
             half_step(&mut w.xhat, x, half, &lam, fixed::<V, M>(&w.d));
             report.iterations += 1;
-            // Once the iteration contracts (rate ρ from the last two updates), the error left
-            // in δ is about ρ/(1 − ρ) times this update: below the tolerance of F₁, only g
-            // needs measuring (Hairer & Wanner, Solving ODEs II, §IV.8).
+            // Once the iteration contracts (rate ρ from the last two updates: from the second
+            // update on), the error left in δ is about ρ/(1 − ρ) times this update: below the
+            // tolerance of F₁, only g needs measuring (Hairer & Wanner, Solving ODEs II,
+            // §IV.8). ρ u ≤ (1 − ρ)/2 with ρ = u/u_last, without a division.
             let update = update * inv_tol1;
-            // ρ u ≤ (1 − ρ)/2 with ρ = u/u_last, without a division.
-            if update < last_update && update * update <= V::Real::lit(0.5) * (last_update - update)
+            if last_update.is_finite()
+                && update < last_update
+                && update * update <= V::Real::lit(0.5) * (last_update - update)
             {
                 {
                     ops::add_scaled(
@@ -459,7 +482,7 @@ where
         }
         Err(fail(NewtonError::NotConverged {
             iterations: report.iterations,
-            residual: prev.to_f64_lossy(),
+            residual: last_residual.to_f64_lossy(),
         }))
     }
 
