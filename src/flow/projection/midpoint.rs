@@ -58,9 +58,11 @@ const NOISE_FACTOR: f64 = 100.0;
 /// inexact Newton step: `S` holds `G` where it was built, the right-hand side `G(y)` at the
 /// current iterate; the fixed point is the same).
 ///
-/// Stopping: `‖F₂‖∞ ≤ ftol` and `‖F₁‖∞ ≤ max(ε (2‖x‖∞ + 8‖δ₀‖∞), 4ε|h| ‖M∇²K(x) x‖∞)` with
-/// `δ₀` the explicit Euler predictor (the increment resolved below the rounding of the state
-/// and of `h M∇K`, whose stiff terms round at their Hessian times the state's rounding);
+/// Stopping: `‖F₂‖∞ ≤ ftol` and `‖F₁‖∞ ≤ ε (2‖x‖∞ + 8‖δ₀‖∞)` with `δ₀` the explicit Euler
+/// predictor (the increment resolved below the rounding of the state and of `h M∇K`), raised
+/// after two updates that did not reach it to `4ε|h| ‖M∇²K(x) x‖∞` when that is larger (the
+/// rounding floor of a stiff `h M∇K`: its gradient rounds at its Hessian times the state's
+/// rounding);
 /// or, once the iteration contracts at a rate `ρ` (the ratio of the last two updates of `δ`),
 /// when the error it leaves in `δ`, about `ρ/(1 − ρ)` times the last update, is below half that
 /// tolerance and `‖g(y)‖∞ ≤ ftol` is measured (Hairer & Wanner, *Solving Ordinary Differential
@@ -348,24 +350,16 @@ where
                 *d = h * f;
             }
         }
-        // The tolerance of F₁ at the predictor's scale, fixed for the solve: ε (2‖x‖∞ + 8‖δ‖∞),
-        // and not below the rounding floor of h M∇K itself: a stiff term's gradient rounds at
-        // its Hessian times the state's rounding, ε |h| ‖M ∇²K(x) x‖∞ (as in IncrementFlow).
-        let mut tol1 = eps
+        // The tolerance of F₁ at the predictor's scale: ε (2‖x‖∞ + 8‖δ‖∞); raised below to
+        // the rounding floor of h M∇K itself when the iteration stays above it.
+        let tol1 = eps
             * (V::Real::lit(2.0) * ops::norm_inf(x.as_slice())
                 + V::Real::lit(8.0) * ops::norm_inf(self.w.delta.as_slice()));
-        {
-            let w = &mut self.w;
-            if self.inner.hessian_apply(x, x, &mut w.hv) {
-                self.system.structure.apply(x, &w.hv, &mut w.t2);
-                let floor = V::Real::lit(4.0) * eps * h.abs() * ops::norm_inf(w.t2.as_slice());
-                tol1 = tol1.max(floor);
-            }
-        }
-        let (inv_tol1, inv_ftol) = (
+        let (mut inv_tol1, inv_ftol) = (
             one / tol1.max(V::Real::min_positive_value()),
             one / opts.ftol.max(V::Real::min_positive_value()),
         );
+        let mut floor_known = false;
         let mut s = [[V::Real::zero(); M]; M];
         let mut have_matrix = false;
         let mut prev = V::Real::infinity();
@@ -397,7 +391,22 @@ where
             if !(n1.is_finite() && n2.is_finite()) {
                 return Err(fail(NewtonError::NonFinite { iteration: it }));
             }
-            let scaled = (n1 * inv_tol1).max(n2 * inv_ftol);
+            let mut scaled = (n1 * inv_tol1).max(n2 * inv_ftol);
+            if scaled > one && it >= 2 && !floor_known {
+                // Two updates and still above the tolerances: not below the rounding floor of
+                // h M∇K, where a stiff term's gradient rounds at its Hessian times the state's
+                // rounding, 4ε |h| ‖M ∇²K(x) x‖∞ (as in IncrementFlow; computed only here, off
+                // the common path).
+                floor_known = true;
+                if self.inner.hessian_apply(x, x, &mut w.hv) {
+                    self.system.structure.apply(x, &w.hv, &mut w.t2);
+                    let floor = V::Real::lit(4.0) * eps * h.abs() * ops::norm_inf(w.t2.as_slice());
+                    if floor > tol1 {
+                        inv_tol1 = one / floor;
+                        scaled = (n1 * inv_tol1).max(n2 * inv_ftol);
+                    }
+                }
+            }
             last_residual = n1.max(n2);
             // Converged; or at the round-off floor: near the tolerances, and an update with a
             // freshly built matrix no longer halved the residual (with a kept matrix slow
