@@ -169,24 +169,21 @@ fn dissipative_and_general_flows_allocate_nothing_per_step() {
     assert_eq!(section2_allocations(paper::modified_hamiltonian::<V>()), 0);
     assert_eq!(section2_allocations(paper::modified_energy()), 0);
     // ... and as one Newton system (ProjectedMidpoint), on stack and heap storage.
-    let mut x: V = paper::initial_state();
-    let mut f: ProjectedMidpoint<V, _, _, _, _> = ProjectedMidpoint::try_new(
+    assert_eq!(joint_section2_allocations::<V>(), 0);
+    assert_eq!(joint_section2_allocations::<Col<f64>>(), 0);
+}
+
+/// Allocations of 1000 steps of the §2 scheme as one Newton system (`ProjectedMidpoint`).
+fn joint_section2_allocations<W: Vector<Real = f64>>() -> u64 {
+    let mut x: W = paper::initial_state();
+    let mut f: ProjectedMidpoint<W, _, _, _, _> = ProjectedMidpoint::try_new(
         paper::system(),
         paper::modified_energy(),
         &x,
         ProjectionOptions::default(),
     )
     .unwrap();
-    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
-    let mut x: Col<f64> = paper::initial_state();
-    let mut f: ProjectedMidpoint<Col<f64>, _, _, _, _> = ProjectedMidpoint::try_new(
-        paper::system(),
-        paper::modified_energy(),
-        &x,
-        ProjectionOptions::default(),
-    )
-    .unwrap();
-    assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
+    allocations_per_run(&mut f, &mut x, 0.1)
 }
 
 /// Allocations of 1000 steps of the paper's §2 scheme (projection around the implicit midpoint

@@ -1,7 +1,7 @@
 //! The decoupled projected step around the implicit midpoint rule, with the inner increment and
 //! `λ_k` found by one Newton iteration ([`ProjectedMidpoint`]).
 
-use super::small::{SecondHalf, fixed, fixed_mut, half_step};
+use super::small::{SecondHalf, fixed, fixed_mut, half_step, solve_second_half};
 use super::warm::WarmStart;
 use super::{EntryCheck, ProjectionOptions, STAGE_LAMBDA_K1};
 use crate::error::{LinearSolveError, NewtonError, SetupError, StepError};
@@ -531,14 +531,7 @@ where
             t2: &mut w.t2,
         };
         let z: &mut [V::Real; M] = fixed_mut(&mut self.z.as_mut_slice()[M..]);
-        let result = if self.affine_k1 {
-            let r = self.newton_k1.solve_affine_fixed(&mut problem, z);
-            half_step(problem.x_next, problem.y, half, &*z, d);
-            r
-        } else {
-            self.newton_k1.solve_fixed(&mut problem, z)
-        };
-        match result {
+        match solve_second_half(&self.newton_k1, self.affine_k1, &mut problem, z) {
             Ok(report) => self.stats.record(&report),
             Err(e) => return Err(StepError::from_newton(STAGE_LAMBDA_K1, e)),
         }

@@ -40,7 +40,7 @@ use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
 use small::{FirstHalf, SmallPath};
-pub(crate) use small::{SecondHalf, fixed_mut, half_step};
+pub(crate) use small::{SecondHalf, fixed_mut, half_step, solve_second_half};
 use stage::{Mode, Stage};
 use warm::WarmStart;
 
@@ -552,14 +552,7 @@ where
                 t2: &mut w.t2,
             };
             let z: &mut [V::Real; K] = fixed_mut(&mut w.z.as_mut_slice()[K..]);
-            let result = if small.affine_k1 {
-                // One linear solve; x_{k+1} at the solution is formed here, not by Newton.
-                let r = small.newton_k1.solve_affine_fixed(&mut problem, z);
-                half_step(problem.x_next, problem.y, half, &*z, d);
-                r
-            } else {
-                small.newton_k1.solve_fixed(&mut problem, z)
-            };
+            let result = solve_second_half(&small.newton_k1, small.affine_k1, &mut problem, z);
             (result, STAGE_LAMBDA_K1)
         } else {
             // w_j = (h/2)(d_j + h M(x) ∇²H(x) d_j), so that G(y) w_j is column j of ∂g/∂λ_k.

@@ -3,9 +3,10 @@
 //! (`λ_k` from `g = 0`) and [`SecondHalf`] (`λ_{k+1}` from `φ = 0`, also the hidden-constraint
 //! projection of the constrained discrete gradient).
 
+use crate::error::NewtonError;
 use crate::error::StepError;
 use crate::flow::Flow;
-use crate::nonlinear::{NewtonOptions, NonlinearProblem, SMALL_MAX, SmallNewton};
+use crate::nonlinear::{NewtonOptions, NonlinearProblem, SMALL_MAX, SmallNewton, SolveReport};
 use crate::system::{
     Hamiltonian, HolonomicConstraint, StructureMatrix, System, half_step_keeps_jacobian,
 };
@@ -236,5 +237,31 @@ where
         sys.constraint.jacobian_apply(&*self.x_next, &*self.t2, out);
         out.iter_mut().for_each(|v| *v = *v * self.half);
         true
+    }
+}
+
+/// Solves the `λ_{k+1}` system `problem` for `z` (the warm start in, the solution out): by one
+/// linear solve when `φ` is affine in `λ_{k+1}` — forming `x_{k+1}` at the solution, where
+/// that solve does not evaluate — and by full Newton otherwise (`x_{k+1}` from its last
+/// evaluation).
+#[inline(always)]
+pub(crate) fn solve_second_half<V, Ms, H, C, const K: usize>(
+    newton: &SmallNewton<V::Real>,
+    affine: bool,
+    problem: &mut SecondHalf<'_, V, Ms, H, C, K>,
+    z: &mut [V::Real; K],
+) -> Result<SolveReport<V::Real>, NewtonError<StepError>>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    if affine {
+        let r = newton.solve_affine_fixed(problem, z);
+        half_step(problem.x_next, problem.y, problem.half, &*z, problem.e);
+        r
+    } else {
+        newton.solve_fixed(problem, z)
     }
 }
