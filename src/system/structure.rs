@@ -245,7 +245,7 @@ pub struct MomentumDamping<T> {
 }
 
 impl<T: Real> MomentumDamping<T> {
-    /// `R = c · diag(0, I)`; [`SetupError::InvalidParameter`] unless `c` is finite and `c ≥ 0`
+    /// `R = c · diag(0, I)`; [`SetupError::InvalidParameter`](crate::error::SetupError::InvalidParameter) unless `c` is finite and `c ≥ 0`
     /// (so that `R ⪰ 0`).
     pub fn new(c: T) -> Result<Self, crate::error::SetupError> {
         if c.is_finite() && c >= T::zero() {
