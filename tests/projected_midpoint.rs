@@ -425,3 +425,48 @@ fn state_dependent_structure() {
     eprintln!("state-dependent M: {per_step} Newton iterations per step");
     assert!(per_step <= 5.0, "{:?}", f.stats());
 }
+
+/// Random states on the manifold with speeds from 1e-3 to 1e3 and steps from ±1e-4 to ±1e2
+/// (deterministic xorshift): every step either succeeds with finite values and `g` within
+/// the solve's acceptance (`100 ftol = 200ε`, the round-off floor rule, plus rounding) or
+/// fails with a typed error that leaves the state as it was — never a panic, never garbage.
+#[test]
+fn random_states_and_steps_succeed_or_fail_cleanly() {
+    let mut seed: u64 = 12345;
+    let mut uniform = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut ok, mut failed) = (0, 0);
+    for _ in 0..2000 {
+        let angle = uniform() * std::f64::consts::TAU;
+        let speed = (uniform() - 0.5) * 10f64.powf(uniform() * 6.0 - 3.0);
+        let h = (uniform() - 0.5) * 10f64.powf(uniform() * 6.0 - 4.0);
+        let (c, s) = (angle.cos(), angle.sin());
+        let x0: V = paper::state(&[c, s, -s * speed, c * speed]);
+        let mut f = joint(paper::modified_energy(), &x0);
+        let mut x = x0;
+        for _ in 0..5 {
+            let before = x;
+            match f.step(h, &mut x) {
+                Ok(()) => {
+                    ok += 1;
+                    assert!(x.iter().all(|v| v.is_finite()), "{x:?}");
+                    assert!(g(&x).abs() <= 256.0 * f64::EPSILON, "g = {:e}", g(&x));
+                }
+                Err(_) => {
+                    failed += 1;
+                    assert_eq!(x, before);
+                    break;
+                }
+            }
+        }
+    }
+    eprintln!("{ok} steps succeeded, {failed} failed with a typed error");
+    assert!(
+        ok > 5000,
+        "most of these steps are within the method's reach"
+    );
+}
