@@ -18,7 +18,7 @@ use crate::flow::{
     ImplicitMidpoint, Projected, ProjectedMidpoint, ProjectionOptions, Scheme, from_fn,
 };
 use crate::linalg::LinearSolver;
-use crate::nonlinear::NewtonOptions;
+use crate::nonlinear::{NewtonOptions, SMALL_MAX};
 use crate::real::Real;
 use crate::system::{Case, HolonomicConstraint, System, Unconstrained};
 use crate::vector::Vector;
@@ -1287,36 +1287,48 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         // The implicit midpoint rule for all of H under M (dense Newton on n unknowns), projected
         // when there are constraints: the §3 scheme with a general inner flow.
         let setup = |e: SetupError| setup_error(&model, e);
-        let mid = ImplicitMidpoint::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
-            model.clone(),
-            model.clone(),
-            &x0,
-            NewtonOptions::default(),
-        )
-        .map_err(setup)?;
+        let midpoint = || {
+            ImplicitMidpoint::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
+                model.clone(),
+                model.clone(),
+                &x0,
+                NewtonOptions::default(),
+            )
+            .map_err(setup)
+        };
         if m == 0 {
             scheme_name = "implicit midpoint rule";
-            with_table_backward(mid, table, backward)
+            with_table_backward(midpoint()?, table, backward)
         } else {
             scheme_name = "projection around the implicit midpoint rule";
             let system = || System::new(model.clone(), model.clone(), model.clone());
             let options = projection_options(&model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
             // The same map with the midpoint increment and λ_k as one Newton system where that
-            // path applies (decoupled, at most 4 constraints); nested solves otherwise.
-            match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
-                system(),
-                model.clone(),
-                &x0,
-                options,
-            ) {
-                Ok(joint) => with_table_backward(joint, table, backward),
-                Err(SetupError::Dimension { .. }) => with_table_backward(
-                    mid.projected(system(), &x0, options).map_err(setup)?,
+            // path applies (decoupled, at most SMALL_MAX constraints); nested solves otherwise.
+            let joint = if m <= SMALL_MAX {
+                match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
+                    system(),
+                    model.clone(),
+                    &x0,
+                    options,
+                ) {
+                    Ok(joint) => Some(joint),
+                    Err(SetupError::Dimension { .. }) => None,
+                    Err(e) => return Err(setup(e)),
+                }
+            } else {
+                None
+            };
+            match joint {
+                Some(joint) => with_table_backward(joint, table, backward),
+                None => with_table_backward(
+                    midpoint()?
+                        .projected(system(), &x0, options)
+                        .map_err(setup)?,
                     table,
                     backward,
                 ),
-                Err(e) => return Err(setup(e)),
             }
         }
     } else if file.integrator.scheme == "modified" {

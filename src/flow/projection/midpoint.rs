@@ -1,7 +1,9 @@
 //! The decoupled projected step around the implicit midpoint rule, with the inner increment and
 //! `λ_k` found by one Newton iteration ([`ProjectedMidpoint`]).
 
-use super::small::{SecondHalf, fixed, fixed_mut, half_step, solve_second_half};
+use super::small::{
+    SecondHalf, fixed, fixed_mut, half_step, second_half_is_affine, solve_second_half,
+};
 use super::warm::WarmStart;
 use super::{EntryCheck, ProjectionOptions, STAGE_LAMBDA_K1};
 use crate::error::{LinearSolveError, NewtonError, SetupError, StepError};
@@ -11,7 +13,7 @@ use crate::nonlinear::{NewtonOptions, SMALL_MAX, SmallNewton, SolveReport, solve
 use crate::real::Real;
 use crate::system::{
     Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System, check_initial_state,
-    half_step_keeps_jacobian, probe_decoupled,
+    probe_decoupled,
 };
 use crate::vector::{Vector, ops};
 use num_traits::Float as _;
@@ -67,9 +69,9 @@ const NOISE_FACTOR: f64 = 100.0;
 /// when the error it leaves in `δ`, about `ρ/(1 − ρ)` times the last update, is below half that
 /// tolerance and `‖g(y)‖∞ ≤ ftol` is measured (Hairer & Wanner, *Solving Ordinary Differential
 /// Equations II*, §IV.8: the stopping rule of implicit Runge–Kutta codes, which saves the last
-/// evaluation of `M∇K`); or, within 100 times both, a residual that no
-/// longer halves after an update with a freshly built matrix (the round-off floor). `λ_{k+1}` is solved as in `Projected`'s small path
-/// (one linear solve when `φ` is affine in it).
+/// evaluation of `M∇K`); or, within 100 times both, a residual that no longer halves after an
+/// update with a freshly built matrix (the round-off floor). `λ_{k+1}` is solved as in
+/// `Projected`'s small path (one linear solve when `φ` is affine in it).
 ///
 /// Limits: the degenerate, decoupled case (probed at `x0` as in `Projected`; a step whose
 /// second half-step moves `g` fails with [`StepError::CouplingViolated`]) and at most
@@ -151,19 +153,25 @@ where
         x0: &V,
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
-        let (case, _) =
-            check_initial_state::<V, Ms, H, C, L>(&system, x0, &options.initial_checks(), true)?;
         let (n, m) = (x0.len(), system.constraint.dim());
         let unsupported = |what: &str| {
             Err(SetupError::Dimension {
                 what: format!("ProjectedMidpoint: {what}; use Projected around ImplicitMidpoint"),
             })
         };
-        if case != Case::Degenerate {
-            return unsupported("the non-degenerate case (<g,g> invertible)");
-        }
+        // The counts first: the initial-state analysis below costs O(m² n).
+        let Some(newton_k1) = SmallNewton::new(m, options.newton) else {
+            return unsupported(&format!(
+                "{m} constraints (this path takes 1 to {SMALL_MAX})"
+            ));
+        };
         if 2 * m > n {
             return unsupported("need 2m <= n");
+        }
+        let (case, _) =
+            check_initial_state::<V, Ms, H, C, L>(&system, x0, &options.initial_checks(), true)?;
+        if case != Case::Degenerate {
+            return unsupported("the non-degenerate case (<g,g> invertible)");
         }
         let decoupled = match options.coupling {
             Some(super::Coupling::Decoupled) => true,
@@ -173,16 +181,7 @@ where
         if !decoupled {
             return unsupported("the coupled case (the second half-step moves g or its direction)");
         }
-        let Some(newton_k1) = SmallNewton::new(m, options.newton) else {
-            return unsupported(&format!(
-                "{m} constraints (this path takes 1 to {SMALL_MAX})"
-            ));
-        };
-        let mut probe = x0.zeros_like();
-        let affine_k1 = system.hamiltonian.is_quadratic()
-            && system.structure.is_constant()
-            && system.hamiltonian.hessian_apply(x0, x0, &mut probe)
-            && half_step_keeps_jacobian(&system, x0);
+        let affine_k1 = second_half_is_affine(&system, x0);
         let zeros = x0.zeros_like();
         let w = Work {
             d: vec![zeros.clone(); m],
@@ -412,10 +411,7 @@ where
             // freshly built matrix no longer halved the residual (with a kept matrix slow
             // contraction says nothing about round-off: the matrix is rebuilt below).
             if scaled <= one || (fresh && scaled <= noise && scaled >= V::Real::lit(0.5) * prev) {
-                report.residual = n2;
-                self.stats.record(&report);
-                *fixed_mut(self.z.as_mut_slice()) = lam;
-                return Ok(g);
+                return Ok(self.accept(report, n2, lam, g));
             }
             if it == opts.max_iterations {
                 break;
@@ -470,21 +466,16 @@ where
                 && update < last_update
                 && update * update <= V::Real::lit(0.5) * (last_update - update)
             {
-                {
-                    ops::add_scaled(
-                        w.y.as_mut_slice(),
-                        w.xhat.as_slice(),
-                        one,
-                        w.delta.as_slice(),
-                    );
-                    self.system.constraint.residual(&w.y, &mut g);
-                    let n2 = ops::norm_inf(&g);
-                    if n2 <= opts.ftol {
-                        report.residual = n2;
-                        self.stats.record(&report);
-                        *fixed_mut(self.z.as_mut_slice()) = lam;
-                        return Ok(g);
-                    }
+                ops::add_scaled(
+                    w.y.as_mut_slice(),
+                    w.xhat.as_slice(),
+                    one,
+                    w.delta.as_slice(),
+                );
+                self.system.constraint.residual(&w.y, &mut g);
+                let n2 = ops::norm_inf(&g);
+                if n2 <= opts.ftol {
+                    return Ok(self.accept(report, n2, lam, g));
                 }
             }
             last_update = update;
@@ -495,30 +486,46 @@ where
         }))
     }
 
+    /// The joint solve converged with `λ_k = lam` and `g(y) = g` (`‖g‖∞ = n2`): counted, `λ_k`
+    /// into `z[..M]`.
+    #[inline(always)]
+    fn accept<const M: usize>(
+        &mut self,
+        mut report: SolveReport<V::Real>,
+        n2: V::Real,
+        lam: [V::Real; M],
+        g: [V::Real; M],
+    ) -> [V::Real; M] {
+        report.residual = n2;
+        self.stats.record(&report);
+        *fixed_mut(self.z.as_mut_slice()) = lam;
+        g
+    }
+
+    /// `d_j = M(base) G(base)ᵀ e_j` (`M` of them), the directions of a half-step from `base`.
+    #[inline(always)]
+    fn directions<const M: usize>(system: &System<Ms, H, C>, base: &V, tmp: &mut V, d: &mut [V]) {
+        let mut unit = [V::Real::zero(); M];
+        for (j, dj) in d.iter_mut().enumerate() {
+            unit[j] = V::Real::one();
+            system.constraint_force(base, &unit, tmp, dj);
+            unit[j] = V::Real::zero();
+        }
+    }
+
     /// One step from `x` with `M` constraints; the result is left in `w.x_next`.
     #[inline(always)]
     fn step_impl<const M: usize>(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         let half = h * V::Real::lit(0.5);
-        let mut unit = [V::Real::zero(); M];
-        for j in 0..M {
-            unit[j] = V::Real::one();
-            let w = &mut self.w;
-            self.system
-                .constraint_force(x, &unit, &mut w.t1, &mut w.d[j]);
-            unit[j] = V::Real::zero();
-        }
+        let w = &mut self.w;
+        Self::directions::<M>(&self.system, x, &mut w.t1, &mut w.d);
         self.warm.predict_lambda_k(M, h, self.z.as_mut_slice());
         let g_y = self.solve_joint::<M>(h, x)?;
         self.warm.record_lambda_k(M, h, self.z.as_slice());
         self.warm.predict_lambda_k1(M, h, self.z.as_mut_slice());
         // The second half-step along M Gᵀ(y).
         let w = &mut self.w;
-        for j in 0..M {
-            unit[j] = V::Real::one();
-            self.system
-                .constraint_force(&w.y, &unit, &mut w.t1, &mut w.d[j]);
-            unit[j] = V::Real::zero();
-        }
+        Self::directions::<M>(&self.system, &w.y, &mut w.t1, &mut w.d);
         let d = fixed::<V, M>(&w.d);
         let mut problem = SecondHalf {
             h,

@@ -53,9 +53,7 @@ impl<V: Vector> SmallPath<V> {
         if !system.hamiltonian.hessian_apply(x0, x0, &mut out) {
             return None;
         }
-        let affine_k1 = system.hamiltonian.is_quadratic()
-            && system.structure.is_constant()
-            && half_step_keeps_jacobian(system, x0);
+        let affine_k1 = second_half_is_affine(system, x0);
         Some(Self {
             newton_k,
             newton_k1,
@@ -65,6 +63,22 @@ impl<V: Vector> SmallPath<V> {
             affine_k1,
         })
     }
+}
+
+/// `φ(y + (h/2) Σ λ_j e_j)` is affine in `λ_{k+1}`: a quadratic `H` with a Hessian, a constant
+/// `M`, and `G` unchanged along the second half-step (probed at `x0`).
+pub(super) fn second_half_is_affine<V, Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> bool
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    let mut out = x0.zeros_like();
+    system.hamiltonian.is_quadratic()
+        && system.structure.is_constant()
+        && system.hamiltonian.hessian_apply(x0, x0, &mut out)
+        && half_step_keeps_jacobian(system, x0)
 }
 
 /// `&mut v[..K]` as an array; `v` has at least `K` entries (the small path sizes its vectors
