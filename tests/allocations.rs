@@ -171,6 +171,18 @@ fn dissipative_and_general_flows_allocate_nothing_per_step() {
     // ... and as one Newton system (ProjectedMidpoint), on stack and heap storage.
     assert_eq!(joint_section2_allocations::<V>(), 0);
     assert_eq!(joint_section2_allocations::<Col<f64>>(), 0);
+    // Its general path (more than four constraints: Newton on n + m unknowns).
+    use lieflow::models::PendulumChain;
+    let chain = PendulumChain::<f64>::uniform(2, 6).unwrap();
+    let mut x: Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
+    let mut f: ProjectedMidpoint<Col<f64>, _, _, _, _> = ProjectedMidpoint::try_new(
+        chain.system(),
+        chain.clone(),
+        &x,
+        chain.projection_options(),
+    )
+    .unwrap();
+    assert_eq!(allocations_per_run(&mut f, &mut x, 0.01), 0);
 }
 
 /// Allocations of 1000 steps of the §2 scheme as one Newton system (`ProjectedMidpoint`).

@@ -331,19 +331,75 @@ fn work_per_step_is_what_the_docs_say() {
     assert!(per(s.factorizations) <= 2.0, "{s:?}");
 }
 
-/// More than four constraints, the non-degenerate case, and 2m > n are refused.
+/// More than four constraints take the general path (Newton on the `n + m` unknowns, the
+/// `λ_{k+1}` projection by Newton on `m`): the same map as the nested form, to the same bound as
+/// the small path (5 links: n = 20, m = 5; 8 links: n = 32, m = 8), with `g` at round-off.
+#[test]
+fn more_than_four_constraints_take_the_general_path() {
+    use lieflow::models::PendulumChain;
+    for links in [5, 8] {
+        let chain = PendulumChain::<f64>::uniform(2, links).unwrap();
+        let x0: faer::Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
+        let d = nested_vs_joint(
+            || chain.system(),
+            || chain.clone(),
+            chain.projection_options(),
+            &x0,
+            0.01,
+            300,
+        );
+        assert!(d <= 7e-13, "{links}-link chain: forms differ by {d:e}");
+        let mut flow = ProjectedMidpoint::<faer::Col<f64>, _, _, _, _>::try_new(
+            chain.system(),
+            chain.clone(),
+            &x0,
+            chain.projection_options(),
+        )
+        .unwrap();
+        let (mut x, mut r) = (x0.clone(), vec![0.0; links]);
+        for _ in 0..100 {
+            flow.step(0.01, &mut x).unwrap();
+            chain.system().constraint.residual(&x, &mut r);
+            // Positions of size up to `links` (link length 1): g = |Δq|²/2 − 1/2 rounds at
+            // ~2ε|Δq|² ≈ 2ε; 2ε more from the tolerance.
+            let worst = r.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            assert!(
+                worst <= 4.0 * f64::EPSILON,
+                "{links} links: |g| = {worst:e}"
+            );
+        }
+        let (lk, lk1) = flow.multipliers();
+        assert_eq!((lk.len(), lk1.len()), (links, links));
+        // Steps far too large, or from a state off the manifold: a typed error and the state
+        // (and the flow, which then steps on as before) unchanged — or a finite result on g = 0.
+        let mut failures = 0;
+        for h in [50.0, -200.0, 1e4, f64::MAX] {
+            let before = x.clone();
+            match flow.step(h, &mut x) {
+                Err(_) => {
+                    failures += 1;
+                    assert_eq!(x, before, "h = {h:e}: a failed step moved the state");
+                }
+                Ok(()) => {
+                    chain.system().constraint.residual(&x, &mut r);
+                    let worst = r.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                    assert!(worst <= 1e-9, "h = {h:e}: |g| = {worst:e}");
+                }
+            }
+        }
+        assert!(failures > 0, "{links} links: every huge step succeeded");
+        let mut off = x.clone();
+        off[0] += 1e-3;
+        let before = off.clone();
+        assert!(flow.step(0.01, &mut off).is_err());
+        assert_eq!(off, before);
+        flow.step(0.01, &mut x).unwrap();
+    }
+}
+
+/// The non-degenerate case is refused.
 #[test]
 fn other_cases_are_refused() {
-    use lieflow::models::PendulumChain;
-    let chain = PendulumChain::<f64>::uniform(2, 5).unwrap();
-    let x0: faer::Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
-    let r = ProjectedMidpoint::<faer::Col<f64>, _, _, _, _>::try_new(
-        chain.system(),
-        chain.clone(),
-        &x0,
-        chain.projection_options(),
-    );
-    assert!(matches!(r, Err(SetupError::Dimension { .. })), "{r:?}");
     let x0: V = paper::initial_state();
     let r = ProjectedMidpoint::<V, _, _, _, _>::try_new(
         paper::system(),

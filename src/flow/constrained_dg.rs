@@ -444,14 +444,18 @@ where
     }
 }
 
-/// `F(ν) = φ(x' + M(x') G(x')ᵀ ν)`: the hidden-constraint projection.
-struct Hidden<'a, V: Vector, Ms, H, C> {
-    base: &'a V,
+/// `F(ν) = φ(x' + M(x') G(x')ᵀ ν)`: the hidden-constraint projection (also the `λ_{k+1}`
+/// system of [`ProjectedMidpoint`](super::ProjectedMidpoint)'s general path, `ν = (h/2) λ_{k+1}`).
+pub(super) struct Hidden<'a, V: Vector, Ms, H, C> {
+    pub(super) base: &'a V,
     /// `M(x') G(x')ᵀ` applied to `ν` lands here: `x = base + dir(ν)`.
-    x: &'a mut V,
-    t1: &'a mut V,
-    t2: &'a mut V,
-    system: &'a System<Ms, H, C>,
+    pub(super) x: &'a mut V,
+    pub(super) t1: &'a mut V,
+    pub(super) t2: &'a mut V,
+    pub(super) system: &'a System<Ms, H, C>,
+    /// Scratch for closed-form Jacobian columns (a state and `m` multipliers), for a caller
+    /// whose case makes them exact (see `jacobian_column`); `None`: differences.
+    pub(super) columns: Option<(&'a mut V, &'a mut [V::Real])>,
 }
 
 impl<V, Ms, H, C> Hidden<'_, V, Ms, H, C>
@@ -462,7 +466,7 @@ where
     C: HolonomicConstraint<V>,
 {
     /// `x = base + M(base) G(base)ᵀ ν`.
-    fn place(&mut self, nu: &[V::Real]) {
+    pub(super) fn place(&mut self, nu: &[V::Real]) {
         self.system
             .constraint_force(self.base, nu, self.t1, self.t2);
         ops::add_scaled(
@@ -491,6 +495,29 @@ where
         self.place(nu);
         self.system.hidden_constraint(self.x, self.t1, self.t2, out);
         Ok(())
+    }
+    /// `∂φ(x)/∂ν_j = G(x) M(x) ∇²H(x) M(x') G(x')ᵀ e_j`: exact in the decoupled case, where
+    /// `G` and `M Gᵀ` do not change along the projection (as `SecondHalf`'s columns).
+    fn jacobian_column(&mut self, nu: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
+        if self.columns.is_none() {
+            return false;
+        }
+        if j == 0 {
+            self.place(nu);
+        }
+        let Some((scratch, unit)) = self.columns.as_mut() else {
+            return false;
+        };
+        unit.iter_mut().for_each(|u| *u = V::Real::zero());
+        unit[j] = V::Real::one();
+        let sys = self.system;
+        sys.constraint_force(self.base, unit, self.t1, self.t2);
+        if !sys.hamiltonian.hessian_apply(&*self.x, &*self.t2, self.t1) {
+            return false;
+        }
+        sys.structure.apply(&*self.x, &*self.t1, scratch);
+        sys.constraint.jacobian_apply(&*self.x, scratch, out);
+        true
     }
 }
 
@@ -603,6 +630,7 @@ where
                     t1: &mut self.tmp,
                     t2: &mut self.t2,
                     system: &self.system,
+                    columns: None,
                 };
                 let report = newton.solve(&mut problem, &mut self.nu)?;
                 problem.place(&self.nu);

@@ -18,7 +18,7 @@ use crate::flow::{
     ImplicitMidpoint, Projected, ProjectedMidpoint, ProjectionOptions, Scheme, from_fn,
 };
 use crate::linalg::LinearSolver;
-use crate::nonlinear::{NewtonOptions, SMALL_MAX};
+use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
 use crate::system::{Case, HolonomicConstraint, System, Unconstrained};
 use crate::vector::Vector;
@@ -1305,20 +1305,16 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             let options = projection_options(&model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
             // The same map with the midpoint increment and λ_k as one Newton system where that
-            // path applies (decoupled, at most SMALL_MAX constraints); nested solves otherwise.
-            let joint = if m <= SMALL_MAX {
-                match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
-                    system(),
-                    model.clone(),
-                    &x0,
-                    options,
-                ) {
-                    Ok(joint) => Some(joint),
-                    Err(SetupError::Dimension { .. }) => None,
-                    Err(e) => return Err(setup(e)),
-                }
-            } else {
-                None
+            // path applies (the decoupled case); nested solves otherwise.
+            let joint = match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
+                system(),
+                model.clone(),
+                &x0,
+                options,
+            ) {
+                Ok(joint) => Some(joint),
+                Err(SetupError::Dimension { .. }) => None,
+                Err(e) => return Err(setup(e)),
             };
             match joint {
                 Some(joint) => with_table_backward(joint, table, backward),

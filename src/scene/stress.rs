@@ -791,6 +791,25 @@ pub fn stiff_spring_scene(k: f64, scheme: &str) -> String {
     )
 }
 
+/// The stiff spring of [`stiff_spring_scene`] with three more pinned bodies: 8 constraints
+/// (the projected midpoint rule's general path) and still a quadratic energy, which the
+/// midpoint rule conserves to its solve's tolerance.
+pub fn stiff_spring_among_pins_scene(k: f64, scheme: &str) -> String {
+    let spring = stiff_spring_scene(k, scheme);
+    let (bodies, integrator) = spring
+        .split_once("[integrator]")
+        .unwrap_or((spring.as_str(), ""));
+    let mut text = bodies.to_owned();
+    for i in 0..3 {
+        text += &format!(
+            "[[bodies]]\nname = \"p{i}\"\nmass = 1.0\nposition = [0.0, {}]\n\
+             [[constraints]]\ntype = \"pin\"\nbodies = [\"p{i}\"]\n",
+            2.0 + i as f64
+        );
+    }
+    text + "[integrator]" + integrator
+}
+
 /// A chain of `links` (even) links of length 0.1 pinned at both ends, the anchors on a
 /// horizontal line `slack` (relatively) closer than the chain's length: it starts as a shallow
 /// "V" (each half at angle `θ`, `cos θ = 1 − slack`, on the constraints exactly) and hangs
@@ -913,6 +932,16 @@ pub fn cases() -> Vec<Case> {
             "spring k / m = 1e8 at h = 0.01 (omega h = 100), implicit midpoint rule",
             "issue 12, case 5",
             stiff_spring_scene(1e8, "midpoint"),
+            Expect::Stable {
+                g_bound: 1e-12,
+                energy: EnergyRule::Bounded { rel: 1e-6 },
+            },
+        ),
+        scene_case(
+            "spring-1e8-midpoint-8c",
+            "the same spring among three pinned bodies (8 constraints), implicit midpoint rule",
+            "issue 12, case 5",
+            stiff_spring_among_pins_scene(1e8, "midpoint"),
             Expect::Stable {
                 g_bound: 1e-12,
                 energy: EnergyRule::Bounded { rel: 1e-6 },

@@ -1,6 +1,8 @@
 //! The decoupled projected step around the implicit midpoint rule, with the inner increment and
 //! `λ_k` found by one Newton iteration ([`ProjectedMidpoint`]).
 
+mod general;
+
 use super::small::{
     SecondHalf, fixed, fixed_mut, half_step, second_half_is_affine, solve_second_half,
 };
@@ -83,7 +85,10 @@ pub struct ProjectedMidpoint<V: Vector, Ms, H, C, K, L = <V as Vector>::Solver> 
     inner: K,
     m: usize,
     newton: NewtonOptions<V::Real>,
-    newton_k1: SmallNewton<V::Real>,
+    /// The `λ_{k+1}` solver of the small path (`None` on the general path).
+    newton_k1: Option<SmallNewton<V::Real>>,
+    /// The general path (more than [`SMALL_MAX`] constraints).
+    general: Option<general::General<V::Real>>,
     /// `φ` is affine in `λ_{k+1}` (quadratic `H`, constant `M`, `G` unchanged along the second
     /// half-step): one linear solve.
     affine_k1: bool,
@@ -160,11 +165,9 @@ where
             })
         };
         // The counts first: the initial-state analysis below costs O(m² n).
-        let Some(newton_k1) = SmallNewton::new(m, options.newton) else {
-            return unsupported(&format!(
-                "{m} constraints (this path takes 1 to {SMALL_MAX})"
-            ));
-        };
+        if m == 0 {
+            return unsupported("no constraints");
+        }
         if 2 * m > n {
             return unsupported("need 2m <= n");
         }
@@ -182,10 +185,17 @@ where
             return unsupported("the coupled case (the second half-step moves g or its direction)");
         }
         let affine_k1 = second_half_is_affine(&system, x0);
+        // A few constraints on stack arrays; more by Newton on n + m unknowns.
+        let newton_k1 = SmallNewton::new(m, options.newton);
+        let general = match newton_k1 {
+            Some(_) => None,
+            None => Some(general::General::new(n, m, options.newton)?),
+        };
+        let small = if general.is_none() { m } else { 0 };
         let zeros = x0.zeros_like();
         let w = Work {
-            d: vec![zeros.clone(); m],
-            c: vec![zeros.clone(); m],
+            d: vec![zeros.clone(); small],
+            c: vec![zeros.clone(); small],
             delta: zeros.clone(),
             xhat: zeros.clone(),
             xbar: zeros.clone(),
@@ -203,9 +213,10 @@ where
             m,
             newton: options.newton,
             newton_k1,
+            general,
             affine_k1,
             guard_tol: options.newton.ftol,
-            lu: L::with_dim(n)?,
+            lu: L::with_dim(if small > 0 { n } else { 0 })?,
             w,
             z: V::zeros(2 * m),
             warm: WarmStart::new(m, 2 * m),
@@ -538,7 +549,10 @@ where
             t2: &mut w.t2,
         };
         let z: &mut [V::Real; M] = fixed_mut(&mut self.z.as_mut_slice()[M..]);
-        match solve_second_half(&self.newton_k1, self.affine_k1, &mut problem, z) {
+        let Some(newton_k1) = self.newton_k1.as_ref() else {
+            unreachable!("the small path without its solver");
+        };
+        match solve_second_half(newton_k1, self.affine_k1, &mut problem, z) {
             Ok(report) => self.stats.record(&report),
             Err(e) => return Err(StepError::from_newton(STAGE_LAMBDA_K1, e)),
         }
@@ -546,13 +560,7 @@ where
         // The decoupling assumption: the second half-step left g where it was.
         let mut g_next = [V::Real::zero(); M];
         self.system.constraint.residual(&self.w.x_next, &mut g_next);
-        let change = ops::dist_inf(&g_next, &g_y);
-        if change.is_nan() || change > self.guard_tol {
-            return Err(StepError::CouplingViolated {
-                residual: change.to_f64_lossy(),
-            });
-        }
-        Ok(())
+        guard(self.guard_tol, &g_next, &g_y)
     }
 }
 
@@ -583,18 +591,17 @@ where
         }
         if !from_last {
             let w = &mut self.w;
-            let mut r = [V::Real::zero(); SMALL_MAX];
-            self.entry.check(
-                &self.system,
-                x,
-                true,
-                &mut r[..self.m],
-                &mut w.t1,
-                &mut w.t2,
-            )?;
+            let mut small = [V::Real::zero(); SMALL_MAX];
+            let r = match self.general.as_mut() {
+                Some(general) => &mut general.g_next[..],
+                None => &mut small[..self.m],
+            };
+            self.entry
+                .check(&self.system, x, true, r, &mut w.t1, &mut w.t2)?;
         }
         let stats = self.stats;
         let result = match self.m {
+            _ if self.general.is_some() => self.step_general(h, x),
             1 => self.step_impl::<1>(h, x),
             2 => self.step_impl::<2>(h, x),
             3 => self.step_impl::<3>(h, x),
@@ -629,4 +636,16 @@ where
     fn dissipates(&self) -> bool {
         self.system.structure.is_dissipative()
     }
+}
+
+/// The decoupling assumption: the second half-step left `g` where it was (`g(x_{k+1})` against
+/// `g(y)`, within `tol`).
+fn guard<T: Real>(tol: T, g_next: &[T], g_y: &[T]) -> Result<(), StepError> {
+    let change = ops::dist_inf(g_next, g_y);
+    if change.is_nan() || change > tol {
+        return Err(StepError::CouplingViolated {
+            residual: change.to_f64_lossy(),
+        });
+    }
+    Ok(())
 }
