@@ -18,8 +18,9 @@ use crate::flow::{
     ImplicitMidpoint, Projected, ProjectedMidpoint, ProjectionOptions, Scheme, from_fn,
 };
 use crate::linalg::LinearSolver;
-use crate::nonlinear::NewtonOptions;
+use crate::nonlinear::{NewtonOptions, SMALL_MAX};
 use crate::real::Real;
+use crate::scene::precision::DENSE_MAX_DIM;
 use crate::system::{Case, HolonomicConstraint, System, Unconstrained};
 use crate::vector::Vector;
 use faer::Col;
@@ -1305,16 +1306,22 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             let options = projection_options(&model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
             // The same map with the midpoint increment and λ_k as one Newton system where that
-            // path applies (the decoupled case); nested solves otherwise.
-            let joint = match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
-                system(),
-                model.clone(),
-                &x0,
-                options,
-            ) {
-                Ok(joint) => Some(joint),
-                Err(SetupError::Dimension { .. }) => None,
-                Err(e) => return Err(setup(e)),
+            // path applies (the decoupled case; above 4 constraints its general path factors
+            // a dense (n + m)-square matrix at every step, so only up to DENSE_MAX_DIM
+            // unknowns); nested solves otherwise.
+            let joint = if m <= SMALL_MAX || x0.nrows() + m <= DENSE_MAX_DIM {
+                match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
+                    system(),
+                    model.clone(),
+                    &x0,
+                    options,
+                ) {
+                    Ok(joint) => Some(joint),
+                    Err(SetupError::Dimension { .. }) => None,
+                    Err(e) => return Err(setup(e)),
+                }
+            } else {
+                None
             };
             match joint {
                 Some(joint) => with_table_backward(joint, table, backward),

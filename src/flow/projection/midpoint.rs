@@ -75,19 +75,19 @@ const NOISE_FACTOR: f64 = 100.0;
 /// update with a freshly built matrix (the round-off floor). `λ_{k+1}` is solved as in
 /// `Projected`'s small path (one linear solve when `φ` is affine in it).
 ///
-**More than [`SMALL_MAX`] constraints** take the general path: the same equations, predictor
-and tolerances, solved by [`Newton`](crate::nonlinear::Newton) on the `n + m` unknowns
-`(δ, λ_k)` at once (dense, heap storage, its Jacobian in closed form from the same model
-derivatives — differences without them — rebuilt at each step), the increment rows accepted at
-their tolerance (the problem's noise floor) and `g` at `ftol`; `λ_{k+1}` by Newton on
-`ν = (h/2) λ_{k+1}` with the exact columns `G M ∇²H M Gᵀ e_j` of the decoupled case.
-
-Limits: the degenerate, decoupled case (probed at `x0` as in `Projected`; a step whose
-second half-step moves `g` fails with [`StepError::CouplingViolated`]) and `2m ≤ n`; `A` (or
-the joint matrix) is factored densely, `O(n³)` per factorization, so this is a path for models
-of up to a few hundred unknowns — large sparse ones belong to `Projected` with a closed-form or
-explicit inner flow. On any error the state, the warm start and the counters are unchanged. No
-allocation per step.
+/// **More than [`SMALL_MAX`] constraints** take the general path: the same equations, predictor
+/// and tolerances, solved by [`Newton`](crate::nonlinear::Newton) on the `n + m` unknowns
+/// `(δ, λ_k)` at once (dense, heap storage, its Jacobian in closed form from the same model
+/// derivatives — differences without them — rebuilt at each step), the increment rows accepted at
+/// their tolerance (the problem's noise floor) and `g` at `ftol`; `λ_{k+1}` by Newton on
+/// `ν = (h/2) λ_{k+1}` with the exact columns `G M ∇²H M Gᵀ e_j` of the decoupled case.
+///
+/// Limits: the degenerate, decoupled case (probed at `x0` as in `Projected`; a step whose
+/// second half-step moves `g` fails with [`StepError::CouplingViolated`]) and `2m ≤ n`; `A` (or
+/// the joint matrix) is factored densely, `O(n³)` per factorization, so this is a path for models
+/// of up to a few hundred unknowns — large sparse ones belong to `Projected` with a closed-form or
+/// explicit inner flow. On any error the state, the warm start and the counters are unchanged. No
+/// allocation per step.
 pub struct ProjectedMidpoint<V: Vector, Ms, H, C, K, L = <V as Vector>::Solver> {
     system: System<Ms, H, C>,
     inner: K,
