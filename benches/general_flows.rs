@@ -118,7 +118,7 @@ fn bench(c: &mut Criterion) {
         )
         .unwrap();
         let mut nested = midpoint.projected(chain.system(), &x0, options).unwrap();
-        let mut run = |flow: &mut dyn Flow<Col<f64>>| {
+        let run = |flow: &mut dyn Flow<Col<f64>>| {
             let mut x = x0.clone();
             for _ in 0..100 {
                 flow.step(black_box(0.01), &mut x).unwrap();
