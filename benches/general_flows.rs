@@ -5,9 +5,9 @@
 //! The implicit midpoint rule and the discrete gradient conserve both, at the price of a Newton
 //! solve per step. Second group: the damped pendulum (constrained, dissipative), projection
 //! around the exact affine flow against the constrained discrete gradient. Third group: the
-//! projected implicit midpoint rule on planar pendulum chains of 4, 5 and 8 links, as one Newton
-//! system (`ProjectedMidpoint`: its small path for 4 constraints, its general path above)
-//! against the nested form (`Projected` around `ImplicitMidpoint`), the same map.
+//! projected implicit midpoint rule on planar pendulum chains of 4, 5, 8 and 20 links, as one
+//! Newton system (`ProjectedMidpoint`: its small path for 4 constraints, its general path
+//! above) against the nested form (`Projected` around `ImplicitMidpoint`), the same map.
 //!
 //! ```text
 //! cargo bench --bench general_flows
@@ -104,7 +104,7 @@ fn bench(c: &mut Criterion) {
     // The projected implicit midpoint rule on chains (n = 4 links, m = links), h = 0.01: 100
     // steps per iteration from the same state.
     let mut group = c.benchmark_group("chain_projected_midpoint_100_steps");
-    for links in [4, 5, 8] {
+    for links in [4, 5, 8, 20] {
         let chain = PendulumChain::<f64>::uniform(2, links).unwrap();
         let x0: Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
         let options = chain.projection_options();
