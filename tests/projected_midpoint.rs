@@ -211,6 +211,26 @@ where
     worst
 }
 
+/// A planar chain of `links` unit links at rest at angles 0.4, 0.7, … on heap storage.
+fn chain(links: usize) -> (lieflow::models::PendulumChain<f64>, faer::Col<f64>) {
+    let chain = lieflow::models::PendulumChain::<f64>::uniform(2, links).unwrap();
+    let x0 = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
+    (chain, x0)
+}
+
+/// The largest distance between the two forms over 300 steps of 0.01 on [`chain`]`(links)`.
+fn chain_difference(links: usize) -> f64 {
+    let (chain, x0) = chain(links);
+    nested_vs_joint(
+        || chain.system(),
+        || chain.clone(),
+        chain.projection_options(),
+        &x0,
+        0.01,
+        300,
+    )
+}
+
 /// Two constraints (a 2-link planar pendulum chain, 8 unknowns, a non-quadratic H through
 /// gravity only) on heap storage; a dissipative, non-canonical M = J − R (the damped
 /// pendulum); and an H_N1 without a Hessian (the generic ModifiedHamiltonian), where both forms
@@ -218,31 +238,13 @@ where
 /// round-off accumulated over the steps (bound as in `agrees_with_the_nested_form`).
 #[test]
 fn agrees_with_the_nested_form_on_other_models() {
-    use lieflow::models::{DampedPendulum, PendulumChain};
-    let chain = PendulumChain::<f64>::uniform(2, 2).unwrap();
-    let x0: faer::Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
-    let d = nested_vs_joint(
-        || chain.system(),
-        || chain.clone(),
-        chain.projection_options(),
-        &x0,
-        0.01,
-        300,
-    );
+    use lieflow::models::DampedPendulum;
+    let d = chain_difference(2);
     assert!(d <= 7e-13, "2-link chain: forms differ by {d:e}");
     // Three and four constraints (the last through the SMALL_MAX branch), n = 12 and 16 (the
     // dense LU above the stack solver's 8).
     for links in [3, 4] {
-        let chain = PendulumChain::<f64>::uniform(2, links).unwrap();
-        let x0: faer::Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
-        let d = nested_vs_joint(
-            || chain.system(),
-            || chain.clone(),
-            chain.projection_options(),
-            &x0,
-            0.01,
-            300,
-        );
+        let d = chain_difference(links);
         assert!(d <= 7e-13, "{links}-link chain: forms differ by {d:e}");
     }
 
@@ -336,19 +338,10 @@ fn work_per_step_is_what_the_docs_say() {
 /// the small path (5 links: n = 20, m = 5; 8 links: n = 32, m = 8), with `g` at round-off.
 #[test]
 fn more_than_four_constraints_take_the_general_path() {
-    use lieflow::models::PendulumChain;
     for links in [5, 8] {
-        let chain = PendulumChain::<f64>::uniform(2, links).unwrap();
-        let x0: faer::Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
-        let d = nested_vs_joint(
-            || chain.system(),
-            || chain.clone(),
-            chain.projection_options(),
-            &x0,
-            0.01,
-            300,
-        );
+        let d = chain_difference(links);
         assert!(d <= 7e-13, "{links}-link chain: forms differ by {d:e}");
+        let (chain, x0) = chain(links);
         let mut flow = ProjectedMidpoint::<faer::Col<f64>, _, _, _, _>::try_new(
             chain.system(),
             chain.clone(),

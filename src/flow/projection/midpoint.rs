@@ -350,7 +350,7 @@ where
     ) -> Result<[V::Real; M], StepError> {
         let half = h * V::Real::lit(0.5);
         let opts = self.newton;
-        let (eps, one) = (V::Real::epsilon(), V::Real::one());
+        let one = V::Real::one();
         let noise = V::Real::lit(NOISE_FACTOR);
         let fail = |source: NewtonError| StepError::Newton {
             stage: STAGE_JOINT,
@@ -370,9 +370,7 @@ where
         }
         // The tolerance of F₁ at the predictor's scale: ε (2‖x‖∞ + 8‖δ‖∞); raised below to
         // the rounding floor of h M∇K itself when the iteration stays above it.
-        let tol1 = eps
-            * (V::Real::lit(2.0) * ops::norm_inf(x.as_slice())
-                + V::Real::lit(8.0) * ops::norm_inf(self.w.delta.as_slice()));
+        let tol1 = increment_tolerance(x.as_slice(), self.w.delta.as_slice());
         let (mut inv_tol1, inv_ftol) = (
             one / tol1.max(V::Real::min_positive_value()),
             one / opts.ftol.max(V::Real::min_positive_value()),
@@ -416,13 +414,10 @@ where
                 // rounding, 4ε |h| ‖M ∇²K(x) x‖∞ (as in IncrementFlow; computed only here, off
                 // the common path).
                 floor_known = true;
-                if self.inner.hessian_apply(x, x, &mut w.hv) {
-                    self.system.structure.apply(x, &w.hv, &mut w.t2);
-                    let floor = V::Real::lit(4.0) * eps * h.abs() * ops::norm_inf(w.t2.as_slice());
-                    if floor > tol1 {
-                        inv_tol1 = one / floor;
-                        scaled = (n1 * inv_tol1).max(n2 * inv_ftol);
-                    }
+                let floor = stiff_floor(&self.system, &self.inner, h, x, &mut w.hv, &mut w.t2);
+                if let Some(floor) = floor.filter(|&f| f > tol1) {
+                    inv_tol1 = one / floor;
+                    scaled = (n1 * inv_tol1).max(n2 * inv_ftol);
                 }
             }
             last_residual = n1.max(n2);
@@ -656,4 +651,34 @@ fn guard<T: Real>(tol: T, g_next: &[T], g_y: &[T]) -> Result<(), StepError> {
         });
     }
     Ok(())
+}
+
+/// The tolerance of the midpoint increment's residual at the predictor's scale,
+/// `ε (2‖x‖∞ + 8‖δ₀‖∞)`: the increment resolved below the rounding of the state and of `h M∇K`.
+#[inline(always)]
+fn increment_tolerance<T: Real>(x: &[T], delta0: &[T]) -> T {
+    T::epsilon() * (T::lit(2.0) * ops::norm_inf(x) + T::lit(8.0) * ops::norm_inf(delta0))
+}
+
+/// The rounding floor of a stiff `h M∇K`, `4ε |h| ‖M ∇²K(x) x‖∞` (a stiff term's gradient
+/// rounds at its Hessian times the state's rounding; as in `IncrementFlow`); `None` without
+/// [`Hamiltonian::hessian_apply`]. `hv`, `out` are scratch.
+fn stiff_floor<V, Ms, H, C, K>(
+    system: &System<Ms, H, C>,
+    inner: &K,
+    h: V::Real,
+    x: &V,
+    hv: &mut V,
+    out: &mut V,
+) -> Option<V::Real>
+where
+    V: Vector,
+    Ms: StructureMatrix<V>,
+    K: Hamiltonian<V>,
+{
+    if !inner.hessian_apply(x, x, hv) {
+        return None;
+    }
+    system.structure.apply(x, hv, out);
+    Some(V::Real::lit(4.0) * V::Real::epsilon() * h.abs() * ops::norm_inf(out.as_slice()))
 }

@@ -2,7 +2,7 @@
 //! constraints: [`Newton`] on the `n + m` unknowns `(δ, λ_k)` with the closed-form Jacobian
 //! (dense), and the `λ_{k+1}` projection by [`Newton`] on `m` unknowns.
 
-use super::{ProjectedMidpoint, STAGE_JOINT, guard};
+use super::{ProjectedMidpoint, STAGE_JOINT, guard, increment_tolerance, stiff_floor};
 use crate::error::{LinearSolveError, StepError};
 use crate::flow::constrained_dg::Hidden;
 use crate::flow::projection::STAGE_LAMBDA_K1;
@@ -216,7 +216,6 @@ where
         };
         let (n, m) = (x.len(), self.m);
         let half = h * V::Real::lit(0.5);
-        let eps = V::Real::epsilon();
         self.warm.predict_lambda_k(m, h, self.z.as_mut_slice());
         let w = &mut self.w;
         let mut problem = Joint {
@@ -246,15 +245,9 @@ where
         }
         // The tolerance of the increment rows: ε (2‖x‖∞ + 8‖δ₀‖∞), or the rounding floor of a
         // stiff h M∇K, 4ε |h| ‖M ∇²K(x) x‖∞, when that is larger (as on the small path).
-        let mut tol1 = eps
-            * (V::Real::lit(2.0) * ops::norm_inf(x.as_slice())
-                + V::Real::lit(8.0) * ops::norm_inf(&z[..n]));
-        if self.inner.hessian_apply(x, x, problem.hv) {
-            self.system.structure.apply(x, problem.hv, problem.t2);
-            let floor = V::Real::lit(4.0) * eps * h.abs() * ops::norm_inf(problem.t2.as_slice());
-            tol1 = tol1.max(floor);
-        }
-        problem.noise = tol1 * V::Real::lit(0.25);
+        let tol1 = increment_tolerance(x.as_slice(), &z[..n]);
+        let floor = stiff_floor(&self.system, &self.inner, h, x, problem.hv, problem.t2);
+        problem.noise = tol1.max(floor.unwrap_or(tol1)) * V::Real::lit(0.25);
         let report = match general.newton.solve(&mut problem, z) {
             Ok(report) => report,
             Err(e) => {
