@@ -26,26 +26,29 @@ fn plan(dts: &[f64], orders: &[u32]) -> PrecisionPlan {
     p
 }
 
-fn slopes_of(scene: &Scene, plan: &PrecisionPlan) -> Vec<(String, f64)> {
+/// The fitted slopes of the rows with errors in `[floor, 1e-2]`.
+fn slopes_of(scene: &Scene, plan: &PrecisionPlan, floor: f64) -> Vec<(String, f64)> {
     let r = reference(scene, plan).unwrap();
     let rows = work_precision(scene, plan, &r, &mut |_| {});
     assert!(rows.iter().all(|r| r.status == "ok"), "{rows:?}");
-    // Errors above 1e-11 only: below, the accumulated round-off of 10⁴ steps competes.
-    fitted_slopes(&rows, 1e-11, 1e-2)
+    fitted_slopes(&rows, floor, 1e-2)
 }
 
-/// Against the closed-form solution, step sizes in each scheme's asymptotic range (the order-8
-/// composition needs the long horizon to lift its errors above round-off).
+/// Against the closed-form solution, step sizes in each scheme's asymptotic range, every error
+/// far above the accumulated round-off. The order-8 composition needs the long horizon to lift
+/// its errors above round-off, and there the round-off of 10⁴–10⁵ steps is 2e-11 to 6e-11 (the
+/// whole error at h ≤ 0.5, which moves with any change of rounding): its floor is 2e-10, and
+/// its steps (errors 2.4e-7 … 8e-10) stay above it. Fitted there: 8.25.
 #[test]
 fn fitted_slopes_are_the_orders_on_the_paper_example() {
-    let cases: [(f64, &[f64], u32); 4] = [
-        (100.0, &[0.4, 0.2, 0.1, 0.05], 2),
-        (100.0, &[0.4, 0.2, 0.1, 0.05], 4),
-        (100.0, &[1.25, 0.625, 0.3125, 0.15625], 6),
-        (10000.0, &[2.0, 1.0, 0.5], 8),
+    let cases: [(f64, &[f64], u32, f64); 4] = [
+        (100.0, &[0.4, 0.2, 0.1, 0.05], 2, 1e-11),
+        (100.0, &[0.4, 0.2, 0.1, 0.05], 4, 1e-11),
+        (100.0, &[1.25, 0.625, 0.3125, 0.15625], 6, 1e-11),
+        (10000.0, &[1.6, 1.25, 1.0, 0.8], 8, 2e-10),
     ];
-    for (t_end, dts, order) in cases {
-        let slopes = slopes_of(&paper(t_end), &plan(dts, &[order]));
+    for (t_end, dts, order, floor) in cases {
+        let slopes = slopes_of(&paper(t_end), &plan(dts, &[order]), floor);
         assert_eq!(slopes.len(), 1);
         let (name, slope) = &slopes[0];
         assert_eq!(name, &format!("lieflow order {order}"));
@@ -58,7 +61,7 @@ fn fitted_slopes_are_the_orders_on_the_paper_example() {
     let mut p = plan(&[0.4, 0.2, 0.1, 0.05], &[]);
     p.midpoint = true;
     p.modified = true;
-    for (name, slope) in slopes_of(&paper(100.0), &p) {
+    for (name, slope) in slopes_of(&paper(100.0), &p, 1e-11) {
         assert!((slope - 2.0).abs() < 0.1, "{name}: {slope}");
     }
 }

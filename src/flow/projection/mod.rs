@@ -479,19 +479,19 @@ where
             _ => &mut self.newton,
         };
         let result = newton.solve(&mut problem, &mut z.as_mut_slice()[range]);
-        self.finish_solve(result, stage)
+        Self::finish_solve(&mut self.stats, result, stage)
     }
 
-    /// Counts a successful multiplier solve; turns a failed one into the step's error.
+    /// Counts a successful multiplier solve in `stats`; turns a failed one into the step's error.
     #[inline(always)]
     fn finish_solve(
-        &mut self,
+        stats: &mut FlowStats,
         result: Result<SolveReport<V::Real>, NewtonError<StepError>>,
         stage: &'static str,
     ) -> Result<(), StepError> {
         match result {
             Ok(report) => {
-                self.stats.record(&report);
+                stats.record(&report);
                 Ok(())
             }
             Err(e) => Err(StepError::from_newton(stage, e)),
@@ -507,6 +507,7 @@ where
         second: bool,
         h: V::Real,
         base: Base<'_, V>,
+        tally: &mut FlowStats,
     ) -> Result<(), StepError> {
         let Some(small) = self.small.as_mut() else {
             unreachable!("solve_small without a small path");
@@ -531,11 +532,15 @@ where
             )
         };
         let [t1, t2] = t;
-        // The directions of this half-step, fixed for the whole solve.
+        // The directions of this half-step, fixed for the whole solve: `M Gᵀ e_j` for the
+        // second half-step, `(h/2) M Gᵀ e_j` for the first, whose Newton iterations then form
+        // `x + Σ λ_j d_j` without scaling `λ` first (one multiplication less on the latency
+        // chain of every evaluation).
         let base = if second { &w.y } else { x };
+        let scale = if second { V::Real::one() } else { half };
         let mut unit = [V::Real::zero(); K];
         for (j, dj) in d.iter_mut().enumerate() {
-            unit[j] = V::Real::one();
+            unit[j] = scale;
             self.system.constraint_force(base, &unit, t1, dj);
             unit[j] = V::Real::zero();
         }
@@ -555,7 +560,7 @@ where
             let result = solve_second_half(&small.newton_k1, small.affine_k1, &mut problem, z);
             (result, STAGE_LAMBDA_K1)
         } else {
-            // w_j = (h/2)(d_j + h M(x) ∇²H(x) d_j), so that G(y) w_j is column j of ∂g/∂λ_k.
+            // w_j = d_j + h M(x) ∇²H(x) d_j, so that G(y) w_j is column j of ∂g/∂λ_k.
             let mut exact = true;
             for (dj, wj) in d.iter().zip(cols.iter_mut()) {
                 if !self.system.hamiltonian.hessian_apply(x, dj, t1) {
@@ -565,12 +570,11 @@ where
                 self.system.structure.apply(x, t1, t2);
                 let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), t2.as_slice());
                 for ((o, &dv), &tv) in wj.iter_mut().zip(dj).zip(t2) {
-                    *o = half * (dv + h * tv);
+                    *o = dv + h * tv;
                 }
             }
             let mut problem = FirstHalf {
                 h,
-                half,
                 x,
                 inner: &mut self.inner,
                 constraint: &self.system.constraint,
@@ -583,30 +587,39 @@ where
             let z: &mut [V::Real; K] = fixed_mut(w.z.as_mut_slice());
             (small.newton_k.solve_fixed(&mut problem, z), STAGE_LAMBDA_K)
         };
-        self.finish_solve(result, stage)
+        Self::finish_solve(tally, result, stage)
     }
 
     /// The `λ_k` system from `base`: on the small path for `K = m`, the general one for `K = 0`.
+    /// The small path counts its work in `tally` (a local of the step, kept in registers), the
+    /// general one in the flow's statistics.
     #[inline(always)]
     fn solve_lambda_k<const K: usize>(
         &mut self,
         h: V::Real,
         base: Base<'_, V>,
+        tally: &mut FlowStats,
     ) -> Result<(), StepError> {
         if K == 0 {
             self.solve(Mode::LambdaK, h, base, STAGE_LAMBDA_K)
         } else {
-            self.solve_small::<K>(false, h, base)
+            self.solve_small::<K>(false, h, base, tally)
         }
     }
 
-    /// The `λ_{k+1}` system from `y`: on the small path for `K = m`, the general one for `K = 0`.
+    /// The `λ_{k+1}` system from `y`: on the small path for `K = m`, the general one for `K = 0`
+    /// (`tally` as for [`Self::solve_lambda_k`]).
     #[inline(always)]
-    fn solve_lambda_k1<const K: usize>(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
+    fn solve_lambda_k1<const K: usize>(
+        &mut self,
+        h: V::Real,
+        x: &V,
+        tally: &mut FlowStats,
+    ) -> Result<(), StepError> {
         if K == 0 {
             self.solve(Mode::LambdaK1, h, Base::Given(x), STAGE_LAMBDA_K1)
         } else {
-            self.solve_small::<K>(true, h, Base::Given(x))
+            self.solve_small::<K>(true, h, Base::Given(x), tally)
         }
     }
 
@@ -615,12 +628,26 @@ where
     /// `K = 0` on the general one.
     #[inline(always)]
     fn step_decoupled<const K: usize>(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
+        let mut tally = FlowStats::default();
+        let result = self.step_decoupled_counted::<K>(h, x, &mut tally);
+        self.stats = self.stats + tally;
+        result
+    }
+
+    /// [`Self::step_decoupled`], counting the small path's work in `tally`.
+    #[inline(always)]
+    fn step_decoupled_counted<const K: usize>(
+        &mut self,
+        h: V::Real,
+        x: &V,
+        tally: &mut FlowStats,
+    ) -> Result<(), StepError> {
         let m = if K == 0 { self.m } else { K };
         self.w.warm.predict_lambda_k(m, h, self.w.z.as_mut_slice());
-        self.solve_lambda_k::<K>(h, Base::Given(x))?;
+        self.solve_lambda_k::<K>(h, Base::Given(x), tally)?;
         self.w.warm.record_lambda_k(m, h, self.w.z.as_slice());
         self.w.warm.predict_lambda_k1(m, h, self.w.z.as_mut_slice());
-        self.solve_lambda_k1::<K>(h, x)?;
+        self.solve_lambda_k1::<K>(h, x, tally)?;
         self.w.warm.record_lambda_k1(m, h, self.w.z.as_slice());
         self.decoupling_guard::<K>(m)
     }
@@ -661,13 +688,28 @@ where
         table: &CompositionTable,
         x: &V,
     ) -> Result<V::Real, StepError> {
+        let mut tally = FlowStats::default();
+        let result = self.step_fused_counted::<K>(h, table, x, &mut tally);
+        self.stats = self.stats + tally;
+        result
+    }
+
+    /// [`Self::step_fused`], counting the small path's work and the interior stages in `tally`.
+    #[inline(always)]
+    fn step_fused_counted<const K: usize>(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &V,
+        tally: &mut FlowStats,
+    ) -> Result<V::Real, StepError> {
         let m = if K == 0 { self.m } else { K };
         let one = V::Real::one();
         let mut h_prev = table.gamma_in::<V::Real>(0) * h;
         self.w
             .warm
             .predict_lambda_k(m, h_prev, self.w.z.as_mut_slice());
-        self.solve_lambda_k::<K>(h_prev, Base::Given(x))?;
+        self.solve_lambda_k::<K>(h_prev, Base::Given(x), tally)?;
         self.w.warm.record_lambda_k(m, h_prev, self.w.z.as_slice());
         for i in 1..table.stages {
             let hi = table.gamma_in::<V::Real>(i) * h;
@@ -684,7 +726,7 @@ where
                 *f = *v;
                 *v = *v * grow;
             }
-            self.solve_lambda_k::<K>(hi, Base::Prev)?;
+            self.solve_lambda_k::<K>(hi, Base::Prev, tally)?;
             // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate (the
             // previous one when the stages nearly cancel, h_prev ≈ −h_i).
             let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
@@ -693,7 +735,7 @@ where
             } else {
                 z[..m].copy_from_slice(&force[..m]);
             }
-            self.stats.projected_steps += 1;
+            tally.projected_steps += 1;
             h_prev = hi;
         }
         // The last stage's λ_{k+1}, predicted as the force estimate.
@@ -702,7 +744,7 @@ where
             let (a, b) = z.split_at_mut(m);
             b[..m].copy_from_slice(a);
         }
-        self.solve_lambda_k1::<K>(h_prev, x)?;
+        self.solve_lambda_k1::<K>(h_prev, x, tally)?;
         self.decoupling_guard::<K>(m)?;
         Ok(h_prev)
     }

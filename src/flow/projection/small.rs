@@ -22,9 +22,10 @@ use num_traits::Zero;
 pub(super) struct SmallPath<V: Vector> {
     pub(super) newton_k: SmallNewton<V::Real>,
     pub(super) newton_k1: SmallNewton<V::Real>,
-    /// `d_j = M Gᵀ e_j` at the half-step's base point (`x_k`, then `y`).
+    /// The half-step directions at the half-step's base point: `d_j = (h/2) M Gᵀ e_j` at
+    /// `x_k` (first half-step), `M Gᵀ e_j` at `y` (second).
     pub(super) d: Vec<V>,
-    /// `w_j = (h/2)(d_j + h M ∇²H d_j)` at `x_k`.
+    /// `w_j = d_j + h M ∇²H d_j` at `x_k`.
     pub(super) w: Vec<V>,
     /// `g(y)` at the solution of the `λ_k` system (for the decoupling guard).
     pub(super) g_y: [V::Real; SMALL_MAX],
@@ -120,13 +121,23 @@ pub(crate) fn half_step<V: Vector, const K: usize>(
     }
 }
 
-/// `λ_k ↦ g(Φ_h(x + (h/2) Σ λ_j d_j))` with the columns `G(y) w_j` (small path).
+/// `out = x + Σ_j z_j d_j`.
+#[inline(always)]
+pub(crate) fn shift<V: Vector, const K: usize>(out: &mut V, x: &V, z: &[V::Real], d: &[V; K]) {
+    ops::add_scaled(out.as_mut_slice(), x.as_slice(), z[0], d[0].as_slice());
+    for j in 1..K {
+        ops::axpy(out.as_mut_slice(), z[j], d[j].as_slice());
+    }
+}
+
+/// `λ_k ↦ g(Φ_h(x + Σ λ_j d_j))`, `d_j = (h/2) M Gᵀ e_j`, with the columns `G(y) w_j` (small
+/// path).
 pub(super) struct FirstHalf<'a, V: Vector, F, C, const K: usize> {
     pub(crate) h: V::Real,
-    pub(crate) half: V::Real,
     pub(crate) x: &'a V,
     pub(crate) inner: &'a mut F,
     pub(crate) constraint: &'a C,
+    /// The half-step directions `(h/2) M Gᵀ e_j` at `x`.
     pub(super) d: &'a [V; K],
     pub(super) w: Option<&'a [V; K]>,
     pub(crate) y: &'a mut V,
@@ -156,12 +167,12 @@ where
             // A stack state: work on a local copy the compiler can keep in registers through
             // the half-step, the inner flow and the constraint, and store it once.
             let mut y = self.x.clone();
-            half_step(&mut y, self.x, self.half, z, self.d);
+            shift(&mut y, self.x, z, self.d);
             self.inner.step(self.h, &mut y)?;
             self.constraint.residual(&y, f);
             *self.y = y;
         } else {
-            half_step(self.y, self.x, self.half, z, self.d);
+            shift(self.y, self.x, z, self.d);
             self.inner.step(self.h, self.y)?;
             self.constraint.residual(&*self.y, f);
         }
@@ -170,18 +181,17 @@ where
         }
         Ok(())
     }
-    /// `∂g(y)/∂λ_j = G(y) DΦ_h (h/2) d_j` with `DΦ_h ≈ I + h M ∇²H` at `x`: exact when the
-    /// inner flow's tangent map is that (a drift, or a kick–drift–kick with a potential linear
-    /// in the constrained coordinates), `O(h²)` relative otherwise.
+    /// `∂g(y)/∂λ_j = G(y) DΦ_h d_j` with `DΦ_h ≈ I + h M ∇²H` at `x`: exact when the inner
+    /// flow's tangent map is that (a drift, or a kick–drift–kick with a potential linear in the
+    /// constrained coordinates), `O(h²)` relative otherwise.
     ///
     /// An inner flow that applies its own tangent map ([`Flow::tangent_apply`], at the point of
-    /// the last evaluation) gives the exact column `G(y) DΦ_h (h/2) d_j` instead.
+    /// the last evaluation) gives the exact column `G(y) DΦ_h d_j` instead.
     #[inline(always)]
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
         if self.inner.tangent_apply(&self.d[j], self.scratch) {
             self.constraint
                 .jacobian_apply(&*self.y, &*self.scratch, out);
-            out.iter_mut().for_each(|v| *v = *v * self.half);
             return true;
         }
         match self.w {
