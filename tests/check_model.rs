@@ -1,6 +1,6 @@
 //! The model checker (issue 13): the built-in models pass it at arbitrary states; a model with a
-//! wrong gradient, Hessian, `Gᵀ`, Jacobian entry or an energy-creating structure fails the check
-//! that names it; the hints are reported.
+//! wrong gradient, Hessian, `Gᵀ` (accumulated or direct), Jacobian entry or an energy-creating
+//! structure fails the check that names it; the hints are reported.
 
 use lieflow::linalg::Sink;
 use lieflow::models::{
@@ -58,6 +58,8 @@ struct Faulty {
     entries: f64,
     friction: f64,
     declared: bool,
+    /// `Gᵀ μ` written directly but leaving the entries it does not set as they were.
+    stale: bool,
 }
 
 impl Hamiltonian<V4> for Faulty {
@@ -86,6 +88,14 @@ impl HolonomicConstraint<V4> for Faulty {
     fn jacobian_transpose_apply_add(&self, x: &V4, mu: &[f64], alpha: f64, out: &mut V4) {
         out[0] += alpha * mu[0] * (x[0] + self.transpose);
         out[1] += alpha * mu[0] * x[1];
+    }
+    fn jacobian_transpose_apply(&self, x: &V4, mu: &[f64], out: &mut V4) {
+        out[0] = mu[0] * (x[0] + self.transpose);
+        out[1] = mu[0] * x[1];
+        if !self.stale {
+            out[2] = 0.0;
+            out[3] = 0.0;
+        }
     }
     fn jacobian_entries(&self, x: &V4, sink: &mut dyn Sink<f64>) -> bool {
         sink.add(0, 0, x[0]);
@@ -163,6 +173,14 @@ fn each_wrong_part_is_named() {
             ..Default::default()
         }),
         ["v^T M v <= 0 (no energy created)"]
+    );
+    // A direct Gᵀ μ that forgets to clear what it does not set.
+    assert_eq!(
+        failures(Faulty {
+            stale: true,
+            ..Default::default()
+        }),
+        ["M v, G^T mu written directly vs accumulated"]
     );
 }
 

@@ -43,6 +43,16 @@ impl<V: Vector> StructureMatrix<V> for Structure {
         o[2] = o[2] - alpha * v[0];
         o[3] = o[3] - alpha * two * v[1];
     }
+    /// `out = M v = (v₃, v₄, −v₁, −2v₂)`, written directly.
+    #[inline(always)]
+    fn apply(&self, _x: &V, v: &V, out: &mut V) {
+        let v = v.as_slice();
+        let o = out.as_mut_slice();
+        o[0] = v[2];
+        o[1] = v[3];
+        o[2] = -v[0];
+        o[3] = -(V::Real::lit(2.0) * v[1]);
+    }
     fn is_constant(&self) -> bool {
         true
     }
@@ -99,6 +109,16 @@ impl<V: Vector> HolonomicConstraint<V> for Circle {
         let o = out.as_mut_slice();
         o[0] = o[0] + alpha * mu[0] * x[0];
         o[1] = o[1] + alpha * mu[0] * x[1];
+    }
+    /// `out = Gᵀ μ = μ (x₁, x₂, 0, 0)`, written directly.
+    #[inline(always)]
+    fn jacobian_transpose_apply(&self, x: &V, mu: &[V::Real], out: &mut V) {
+        let x = x.as_slice();
+        let o = out.as_mut_slice();
+        o[0] = mu[0] * x[0];
+        o[1] = mu[0] * x[1];
+        o[2] = V::Real::zero();
+        o[3] = V::Real::zero();
     }
 }
 

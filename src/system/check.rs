@@ -139,6 +139,14 @@ fn axpy_new<V: Vector>(x: &V, a: V::Real, v: &V) -> V {
     y
 }
 
+/// `max |a_i − b_i|`.
+fn distance<V: Vector>(a: &V, b: &V) -> f64 {
+    a.as_slice()
+        .iter()
+        .zip(b.as_slice())
+        .fold(0.0f64, |m, (p, q)| m.max((*p - *q).abs().to_f64_lossy()))
+}
+
 fn max_abs<T: Real>(a: &[T]) -> f64 {
     ops::norm_inf(a).to_f64_lossy()
 }
@@ -190,6 +198,9 @@ impl Worst {
 /// - `∇²H v` (if provided) against `(∇H(x + δv) − ∇H(x − δv)) / 2δ`;
 /// - `G v` against `(g(x + δv) − g(x − δv)) / 2δ`;
 /// - `⟨G v, μ⟩ = ⟨v, Gᵀ μ⟩` for dense `v`, `μ` (the transpose is the adjoint);
+/// - the direct forms `M v` ([`StructureMatrix::apply`]) and `Gᵀ μ`
+///   ([`HolonomicConstraint::jacobian_transpose_apply`]), which a model may write itself,
+///   against the accumulating ones into a zeroed vector, whatever `out` held before;
 /// - the Jacobian entries (if provided) applied to `v` against `G v`, all inside `m × n`;
 /// - `DM(x)[u] w` (if provided, `M` not constant) against `(M(x + δu) − M(x − δu)) w / 2δ`;
 /// - for a structure that says it is dissipative ([`StructureMatrix::is_dissipative`]),
@@ -229,6 +240,7 @@ where
     let mut w_entries = Worst::new("Jacobian entries vs G v");
     let mut w_dm = Worst::new("DM[u] w vs structure differences");
     let mut w_sign = Worst::new("v^T M v <= 0 (no energy created)");
+    let mut w_direct = Worst::new("M v, G^T mu written directly vs accumulated");
     let mut entries = m > 0;
     let mut structure_derivative = true;
     let (mut dissipates_seen, mut creates_seen) = (false, false);
@@ -285,6 +297,13 @@ where
                 .collect();
             let mut gt = x.zeros_like();
             c.jacobian_transpose_apply_add(x, &mu, V::Real::one(), &mut gt);
+            // The direct form, into a vector holding something else first.
+            let mut direct = axpy_new(&v, V::Real::one(), &v);
+            c.jacobian_transpose_apply(x, &mu, &mut direct);
+            w_direct.add(
+                distance(&direct, &gt),
+                exact * (1.0 + ops::norm_inf(gt.as_slice()).to_f64_lossy()),
+            );
             let lhs = ops::dot(&gv, &mu);
             let rhs = ops::dot(v.as_slice(), gt.as_slice());
             let mag: V::Real = gv
@@ -330,8 +349,14 @@ where
                 }
             }
         }
-        // Structure: sign, and its derivative.
+        // Structure: the direct form against the accumulating one; sign; derivative.
         s.apply(x, &v, &mut mv);
+        ops::fill_zero(mp.as_mut_slice());
+        s.apply_add(x, &v, V::Real::one(), &mut mp);
+        w_direct.add(
+            distance(&mv, &mp),
+            exact * (1.0 + ops::norm_inf(mp.as_slice()).to_f64_lossy()),
+        );
         let q = ops::dot(v.as_slice(), mv.as_slice());
         let mag: V::Real = v
             .as_slice()
@@ -371,7 +396,7 @@ where
         structure_derivative: s.is_constant() || structure_derivative,
         dissipative: s.is_dissipative(),
     };
-    let mut checks = vec![w_grad.done()];
+    let mut checks = vec![w_grad.done(), w_direct.done()];
     if hints.hessian {
         checks.push(w_hess.done());
     }

@@ -1,5 +1,6 @@
 use crate::linalg::Sink;
-use crate::vector::Vector;
+use crate::vector::{Vector, ops};
+use num_traits::One as _;
 
 /// Holonomic constraints `g: Rⁿ → Rᵐ`, `g(x) = 0`, with their Jacobian `G = ∂g/∂x` (m × n)
 /// applied to vectors. Multipliers and residuals are plain slices of length `m`.
@@ -12,6 +13,16 @@ pub trait HolonomicConstraint<V: Vector> {
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [V::Real]);
     /// `out += α G(x)ᵀ μ`.
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[V::Real], alpha: V::Real, out: &mut V);
+    /// `out = G(x)ᵀ μ`. The default zeroes `out` and calls
+    /// [`jacobian_transpose_apply_add`](Self::jacobian_transpose_apply_add); a model that writes
+    /// the entries directly saves that pass and, for a small state, the additions to zero on
+    /// the latency chain of a projection's half-step direction `M Gᵀ μ` (the compiler may not
+    /// drop `0 + a`, which is `+0` for `a = −0`).
+    #[inline]
+    fn jacobian_transpose_apply(&self, x: &V, mu: &[V::Real], out: &mut V) {
+        ops::fill_zero(out.as_mut_slice());
+        self.jacobian_transpose_apply_add(x, mu, V::Real::one(), out);
+    }
     /// Writes the structurally non-zero entries of `G(x)` — `(constraint, state index, value)` —
     /// into `sink` and returns `true`; the same positions in the same order for every `x`.
     /// The default returns `false`: `G` is then treated as dense.

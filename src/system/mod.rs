@@ -30,8 +30,7 @@ pub use structure::{
     Canonical, Constant, JMinusR, LiePoissonSo3, MomentumDamping, StructureMatrix,
 };
 
-use crate::vector::{Vector, ops};
-use num_traits::One;
+use crate::vector::Vector;
 
 /// A constrained generalized Hamiltonian system: structure matrix, Hamiltonian and constraint.
 #[derive(Debug, Clone)]
@@ -63,9 +62,7 @@ impl<Ms, H, C> System<Ms, H, C> {
         Ms: StructureMatrix<V>,
         C: HolonomicConstraint<V>,
     {
-        ops::fill_zero(tmp.as_mut_slice());
-        self.constraint
-            .jacobian_transpose_apply_add(x, lambda, V::Real::one(), tmp);
+        self.constraint.jacobian_transpose_apply(x, lambda, tmp);
         self.structure.apply(x, tmp, out);
     }
 
