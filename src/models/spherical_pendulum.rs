@@ -146,6 +146,18 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Sphere<T> {
             o[i] = o[i] + c * s[i];
         }
     }
+    /// `Gᵀ μ = μ (q, 0)`, written directly.
+    #[inline]
+    fn jacobian_transpose_apply(&self, x: &V, mu: &[T], out: &mut V) {
+        let s = x.as_slice();
+        let o = out.as_mut_slice();
+        for i in 0..3 {
+            o[i] = mu[0] * s[i];
+        }
+        for v in &mut o[3..] {
+            *v = T::zero();
+        }
+    }
 }
 
 impl<T: Real> Default for SphericalPendulum<T> {
