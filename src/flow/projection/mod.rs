@@ -626,17 +626,10 @@ where
     /// The decoupled step (RATTLE-like): `λ_k` from `g(x_{k+1}) = 0`, then `λ_{k+1}` from
     /// `φ(x_{k+1}) = 0`. `K = m` on the small path (every loop over the multipliers unrolls),
     /// `K = 0` on the general one.
+    ///
+    /// The small path's work is counted in `tally` (see [`Self::tallied`]).
     #[inline(always)]
-    fn step_decoupled<const K: usize>(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
-        let mut tally = FlowStats::default();
-        let result = self.step_decoupled_counted::<K>(h, x, &mut tally);
-        self.stats = self.stats + tally;
-        result
-    }
-
-    /// [`Self::step_decoupled`], counting the small path's work in `tally`.
-    #[inline(always)]
-    fn step_decoupled_counted<const K: usize>(
+    fn step_decoupled<const K: usize>(
         &mut self,
         h: V::Real,
         x: &V,
@@ -681,22 +674,11 @@ where
     /// point the composition never returns) does not change the result. One multiplier solve
     /// per stage, plus the last stage's `λ_{k+1}` so that the result is on `g = 0`, `φ = 0`:
     /// the same map as the stage-by-stage composition, up to the Newton tolerance.
+    ///
+    /// The small path's work and the interior stages are counted in `tally` (see
+    /// [`Self::tallied`]).
     #[inline(always)]
     fn step_fused<const K: usize>(
-        &mut self,
-        h: V::Real,
-        table: &CompositionTable,
-        x: &V,
-    ) -> Result<V::Real, StepError> {
-        let mut tally = FlowStats::default();
-        let result = self.step_fused_counted::<K>(h, table, x, &mut tally);
-        self.stats = self.stats + tally;
-        result
-    }
-
-    /// [`Self::step_fused`], counting the small path's work and the interior stages in `tally`.
-    #[inline(always)]
-    fn step_fused_counted<const K: usize>(
         &mut self,
         h: V::Real,
         table: &CompositionTable,
@@ -821,26 +803,37 @@ where
         x: &V,
     ) -> Result<V::Real, StepError> {
         self.w.y_valid = false;
-        match (self.small.is_some(), self.m) {
-            (false, _) => self.step_fused::<0>(h, table, x),
-            (true, 1) => self.step_fused::<1>(h, table, x),
-            (true, 2) => self.step_fused::<2>(h, table, x),
-            (true, 3) => self.step_fused::<3>(h, table, x),
-            (true, _) => self.step_fused::<SMALL_MAX>(h, table, x),
-        }
+        self.tallied(|flow, t| match (flow.small.is_some(), flow.m) {
+            (false, _) => flow.step_fused::<0>(h, table, x, t),
+            (true, 1) => flow.step_fused::<1>(h, table, x, t),
+            (true, 2) => flow.step_fused::<2>(h, table, x, t),
+            (true, 3) => flow.step_fused::<3>(h, table, x, t),
+            (true, _) => flow.step_fused::<SMALL_MAX>(h, table, x, t),
+        })
+    }
+
+    /// Runs `work` with a local tally of solves and stages, added to the flow's statistics
+    /// once afterwards, failed or not: a local stays in registers, where updating the
+    /// statistics after every solve was a read-modify-write of memory per counter.
+    #[inline(always)]
+    fn tallied<R>(&mut self, work: impl FnOnce(&mut Self, &mut FlowStats) -> R) -> R {
+        let mut tally = FlowStats::default();
+        let result = work(self, &mut tally);
+        self.stats = self.stats + tally;
+        result
     }
 
     /// One step from `x`; the result is left in `w.x_next`.
     fn step_impl(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         self.w.y_valid = false;
         match self.scheme {
-            Scheme::Decoupled => match (self.small.is_some(), self.m) {
-                (false, _) => self.step_decoupled::<0>(h, x),
-                (true, 1) => self.step_decoupled::<1>(h, x),
-                (true, 2) => self.step_decoupled::<2>(h, x),
-                (true, 3) => self.step_decoupled::<3>(h, x),
-                (true, _) => self.step_decoupled::<SMALL_MAX>(h, x),
-            },
+            Scheme::Decoupled => self.tallied(|flow, t| match (flow.small.is_some(), flow.m) {
+                (false, _) => flow.step_decoupled::<0>(h, x, t),
+                (true, 1) => flow.step_decoupled::<1>(h, x, t),
+                (true, 2) => flow.step_decoupled::<2>(h, x, t),
+                (true, 3) => flow.step_decoupled::<3>(h, x, t),
+                (true, _) => flow.step_decoupled::<SMALL_MAX>(h, x, t),
+            }),
             Scheme::Coupled => self.solve(
                 Mode::Coupled,
                 h,
