@@ -80,8 +80,7 @@ where
     C: HolonomicConstraint<V>,
 {
     move |x, mu, out| {
-        ops::fill_zero(out.as_mut_slice());
-        c.jacobian_transpose_apply_add(x, mu, V::Real::one(), out);
+        c.jacobian_transpose_apply(x, mu, out);
     }
 }
 
@@ -210,8 +209,7 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
         for j in 0..m {
             e.iter_mut().for_each(|v| *v = V::Real::zero());
             e[j] = V::Real::one();
-            ops::fill_zero(gt.as_mut_slice());
-            c.jacobian_transpose_apply_add(x, &e, V::Real::one(), &mut gt);
+            c.jacobian_transpose_apply(x, &e, &mut gt);
             self.sys.structure.apply(x, &gt, &mut mgt);
             gmax = gmax.max(ops::norm_inf(gt.as_slice()));
             mgmax = mgmax.max(ops::norm_inf(mgt.as_slice()));
@@ -238,8 +236,7 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
                     for j in 0..m {
                         e.iter_mut().for_each(|v| *v = V::Real::zero());
                         e[j] = V::Real::one();
-                        ops::fill_zero(gt.as_mut_slice());
-                        c.jacobian_transpose_apply_add(x, &e, V::Real::one(), &mut gt);
+                        c.jacobian_transpose_apply(x, &e, &mut gt);
                         c.jacobian_apply(x, &gt, &mut ggt[j * m..(j + 1) * m]);
                     }
                     Err(match small_lu(m, ggt, rcond) {

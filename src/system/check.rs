@@ -139,14 +139,6 @@ fn axpy_new<V: Vector>(x: &V, a: V::Real, v: &V) -> V {
     y
 }
 
-/// `max |a_i − b_i|`.
-fn distance<V: Vector>(a: &V, b: &V) -> f64 {
-    a.as_slice()
-        .iter()
-        .zip(b.as_slice())
-        .fold(0.0f64, |m, (p, q)| m.max((*p - *q).abs().to_f64_lossy()))
-}
-
 fn max_abs<T: Real>(a: &[T]) -> f64 {
     ops::norm_inf(a).to_f64_lossy()
 }
@@ -301,7 +293,7 @@ where
             let mut direct = axpy_new(&v, V::Real::one(), &v);
             c.jacobian_transpose_apply(x, &mu, &mut direct);
             w_direct.add(
-                distance(&direct, &gt),
+                ops::dist_inf(direct.as_slice(), gt.as_slice()).to_f64_lossy(),
                 exact * (1.0 + ops::norm_inf(gt.as_slice()).to_f64_lossy()),
             );
             let lhs = ops::dot(&gv, &mu);
@@ -354,7 +346,7 @@ where
         ops::fill_zero(mp.as_mut_slice());
         s.apply_add(x, &v, V::Real::one(), &mut mp);
         w_direct.add(
-            distance(&mv, &mp),
+            ops::dist_inf(mv.as_slice(), mp.as_slice()).to_f64_lossy(),
             exact * (1.0 + ops::norm_inf(mp.as_slice()).to_f64_lossy()),
         );
         let q = ops::dot(v.as_slice(), mv.as_slice());

@@ -292,7 +292,7 @@ fn gradient_rows<V: Vector, C: HolonomicConstraint<V>>(c: &C, x: &V) -> Vec<Vec<
         .map(|i| {
             let mut row = x.zeros_like();
             unit[i] = V::Real::one();
-            c.jacobian_transpose_apply_add(x, &unit, V::Real::one(), &mut row);
+            c.jacobian_transpose_apply(x, &unit, &mut row);
             unit[i] = V::Real::zero();
             row.as_slice().to_vec()
         })

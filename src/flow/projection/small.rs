@@ -110,15 +110,8 @@ pub(crate) fn half_step<V: Vector, const K: usize>(
     z: &[V::Real],
     d: &[V; K],
 ) {
-    ops::add_scaled(
-        out.as_mut_slice(),
-        x.as_slice(),
-        half * z[0],
-        d[0].as_slice(),
-    );
-    for j in 1..K {
-        ops::axpy(out.as_mut_slice(), half * z[j], d[j].as_slice());
-    }
+    let scaled: [V::Real; K] = core::array::from_fn(|j| half * z[j]);
+    shift(out, x, &scaled, d);
 }
 
 /// `out = x + Σ_j z_j d_j`.
