@@ -209,8 +209,16 @@ pub mod ops {
     }
 
     /// Index of the first NaN or infinite entry.
+    ///
+    /// A branch-free pass first (an OR of the entries' tests, which the compiler vectorizes),
+    /// and the search for the index only when it finds one: states are checked every step and
+    /// are almost always finite.
     #[inline]
     pub fn first_non_finite<T: Real>(x: &[T]) -> Option<usize> {
-        x.iter().position(|v| !v.is_finite())
+        if x.iter().fold(false, |bad, v| bad | !v.is_finite()) {
+            x.iter().position(|v| !v.is_finite())
+        } else {
+            None
+        }
     }
 }

@@ -227,7 +227,7 @@ where
             lu: L::with_dim(if small > 0 { n } else { 0 })?,
             w,
             z: V::zeros(2 * m),
-            warm: WarmStart::new(m, 2 * m),
+            warm: WarmStart::new(m, 2 * m, affine_k1 && small > 0),
             entry: EntryCheck {
                 tol: options.manifold_tol,
                 last: x0.clone(),

@@ -341,6 +341,7 @@ where
         } else {
             2 * m
         };
+        let k1_exact = small.as_ref().is_some_and(|s| s.affine_k1);
         let zeros = x0.zeros_like();
         let w = Work {
             y: zeros.clone(),
@@ -349,7 +350,7 @@ where
             t1: zeros.clone(),
             t2: zeros,
             z: V::zeros(k_z),
-            warm: WarmStart::new(m, k_z),
+            warm: WarmStart::new(m, k_z, k1_exact),
             a_cached: V::zeros(m),
             y_valid: false,
             r: V::zeros(m),

@@ -14,6 +14,10 @@
 //!   `λ_k` at working precision (the smooth tension mode of a long chain at small `h`), `λ_k` is
 //!   accepted wherever the warm start put it and `λ_{k+1}` compensates, so the two alternate
 //!   from step to step while `S` stays smooth.
+//!
+//! When the `λ_{k+1}` system is affine and solved by one linear solve (the small path with a
+//! quadratic `H` and a constant `M`), any start gives the same root: it starts from zero — the
+//! closed form `λ_{k+1} = −J⁻¹ φ(y)` — and no sum or trend is kept.
 
 use crate::real::Real;
 use crate::vector::Vector;
@@ -33,11 +37,15 @@ pub(super) struct WarmStart<V: Vector> {
     /// The last successful step size, and how many steps succeeded.
     last_h: V::Real,
     steps: u64,
+    /// `λ_{k+1}` is solved exactly from any start (affine, one linear solve): no prediction.
+    k1_exact: bool,
 }
 
 impl<V: Vector> WarmStart<V> {
     /// Zero multipliers and trends for `m` constraints; `k_z` entries for the multipliers.
-    pub(super) fn new(m: usize, k_z: usize) -> Self {
+    /// `k1_exact`: the `λ_{k+1}` system is solved exactly from any start (see the module
+    /// documentation), so it is not predicted.
+    pub(super) fn new(m: usize, k_z: usize, k1_exact: bool) -> Self {
         Self {
             last: V::zeros(k_z),
             offset: V::zeros(m),
@@ -48,6 +56,7 @@ impl<V: Vector> WarmStart<V> {
             trend_next: V::zeros(m),
             last_h: V::Real::zero(),
             steps: 0,
+            k1_exact,
         }
     }
 
@@ -85,9 +94,14 @@ impl<V: Vector> WarmStart<V> {
         z.copy_from(&self.last);
     }
 
-    /// `λ_{k+1} ≈ S + s S' − λ_k` into `z[m..2m]` (the last `λ_{k+1}` before the first step).
+    /// `λ_{k+1} ≈ S + s S' − λ_k` into `z[m..2m]` (the last `λ_{k+1}` before the first step;
+    /// zero when it is solved exactly from any start).
     #[inline(always)]
     pub(super) fn predict_lambda_k1(&self, m: usize, h: V::Real, z: &mut [V::Real]) {
+        if self.k1_exact {
+            z[m..2 * m].iter_mut().for_each(|v| *v = V::Real::zero());
+            return;
+        }
         if self.steps == 0 {
             z[m..2 * m].copy_from_slice(&self.last.as_slice()[m..2 * m]);
             return;
@@ -99,9 +113,13 @@ impl<V: Vector> WarmStart<V> {
         }
     }
 
-    /// Records `S = λ_k + λ_{k+1}` of the solved step and its change per unit step.
+    /// Records `S = λ_k + λ_{k+1}` of the solved step and its change per unit step (nothing
+    /// when `λ_{k+1}` is not predicted).
     #[inline(always)]
     pub(super) fn record_lambda_k1(&mut self, m: usize, h: V::Real, z: &[V::Real]) {
+        if self.k1_exact {
+            return;
+        }
         let spacing = self.spacing(h);
         let first = self.steps == 0 || spacing == V::Real::zero();
         let sum = self.sum.as_slice();
@@ -133,8 +151,10 @@ impl<V: Vector> WarmStart<V> {
             if self.steps > 0 {
                 core::mem::swap(&mut self.offset, &mut self.offset_next);
             }
-            core::mem::swap(&mut self.sum, &mut self.sum_next);
-            core::mem::swap(&mut self.trend, &mut self.trend_next);
+            if !self.k1_exact {
+                core::mem::swap(&mut self.sum, &mut self.sum_next);
+                core::mem::swap(&mut self.trend, &mut self.trend_next);
+            }
         }
         self.last_h = h;
         self.steps += 1;
