@@ -210,15 +210,35 @@ pub mod ops {
 
     /// Index of the first NaN or infinite entry.
     ///
-    /// A branch-free pass first (an OR of the entries' tests, which the compiler vectorizes),
-    /// and the search for the index only when it finds one: states are checked every step and
-    /// are almost always finite.
+    /// A pass without branches first — `v · 0` is `±0` for a finite `v` and NaN otherwise, so
+    /// the sum of those products is zero exactly when every entry is finite; four independent
+    /// sums, which the compiler keeps in vector registers — and the search for the index only
+    /// when it fails: states are checked every step and are almost always finite.
     #[inline]
     pub fn first_non_finite<T: Real>(x: &[T]) -> Option<usize> {
-        if x.iter().fold(false, |bad, v| bad | !v.is_finite()) {
-            x.iter().position(|v| !v.is_finite())
-        } else {
-            None
+        let zero = T::zero();
+        let mut sums = [zero; 4];
+        let mut chunks = x.chunks_exact(4);
+        for c in &mut chunks {
+            for (s, &v) in sums.iter_mut().zip(c) {
+                *s = *s + v * zero;
+            }
         }
+        let mut total = (sums[0] + sums[1]) + (sums[2] + sums[3]);
+        for &v in chunks.remainder() {
+            total = total + v * zero;
+        }
+        if total == zero {
+            None
+        } else {
+            x.iter().position(|v| !v.is_finite())
+        }
+    }
+
+    /// `x == y` entry by entry as floats (`±0` alike, NaN never equal), without a branch per
+    /// entry: an AND of the comparisons, which the compiler vectorizes.
+    #[inline]
+    pub fn equal<T: Real>(x: &[T], y: &[T]) -> bool {
+        x.len() == y.len() && x.iter().zip(y).fold(true, |eq, (&a, &b)| eq & (a == b))
     }
 }

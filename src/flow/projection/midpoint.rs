@@ -585,7 +585,7 @@ where
             });
         }
         let nonzero = crate::flow::check_step_size(h)?;
-        let from_last = self.entry.valid && x.as_slice() == self.entry.last.as_slice();
+        let from_last = self.entry.valid && ops::equal(x.as_slice(), self.entry.last.as_slice());
         if !from_last && let Some(component) = ops::first_non_finite(x.as_slice()) {
             return Err(StepError::NonFinite { component });
         }
@@ -618,7 +618,7 @@ where
             self.stats = stats;
             return Err(e);
         }
-        core::mem::swap(x, &mut self.w.x_next);
+        super::warm::take(x, &mut self.w.x_next);
         self.entry.record(x);
         self.warm.commit(&mut self.z, h, true);
         self.stats.projected_steps += 1;

@@ -754,7 +754,7 @@ where
         // The flow's own last result (equal as floats; ±0 alike, which changes no residual)
         // was checked finite and on the manifold when it was made: no scan, no residual.
         let nonzero = super::check_step_size(h)?;
-        let from_last = self.entry.valid && x.as_slice() == self.entry.last.as_slice();
+        let from_last = self.entry.valid && ops::equal(x.as_slice(), self.entry.last.as_slice());
         if !from_last && let Some(component) = ops::first_non_finite(x.as_slice()) {
             return Err(StepError::NonFinite { component });
         }
@@ -772,7 +772,7 @@ where
             });
         match result {
             Ok(r) => {
-                core::mem::swap(x, &mut self.w.x_next);
+                warm::take(x, &mut self.w.x_next);
                 self.entry.record(x);
                 Ok(Some(r))
             }
