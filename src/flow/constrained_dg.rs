@@ -1,7 +1,7 @@
 //! The discrete-gradient method with holonomic constraints (Gonzalez 1999).
 
 use super::implicit::{GonzalezRule, GradientRule, noise_image};
-use super::projection::{SecondHalf, fixed_mut, half_step};
+use super::projection::{SecondHalf, fixed_mut, solve_second_half};
 use super::{Flow, FlowStats, ProjectionOptions};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::nonlinear::{
@@ -600,27 +600,18 @@ where
                         .constraint_force(&self.after_step, &unit, &mut self.tmp, ej);
                     unit[j] = V::Real::zero();
                 }
-                let e: &[V; K] = e;
                 // x = x' + M Gᵀ ν: a half-step of "h = 2".
-                let two = V::Real::lit(2.0);
                 let mut problem = SecondHalf {
-                    h: two,
-                    half: V::Real::one(),
+                    h: V::Real::lit(2.0),
                     y: &self.after_step,
                     system: &self.system,
-                    e,
+                    d: e,
                     x_next: &mut self.xe,
                     t1: &mut self.tmp,
                     t2: &mut self.t2,
                 };
                 let nu: &mut [V::Real; K] = fixed_mut(&mut self.nu);
-                if *affine {
-                    let report = newton.solve_affine_fixed(&mut problem, nu)?;
-                    half_step(problem.x_next, problem.y, V::Real::one(), &*nu, e);
-                    Ok(report)
-                } else {
-                    newton.solve_fixed(&mut problem, nu)
-                }
+                solve_second_half(newton, *affine, &mut problem, nu)
             }
             HiddenSolver::Small { .. } => unreachable!("the small hidden solver runs with K = m"),
             HiddenSolver::General(newton) => {

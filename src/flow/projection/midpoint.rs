@@ -516,12 +516,19 @@ where
         g
     }
 
-    /// `d_j = M(base) G(base)ᵀ e_j` (`M` of them), the directions of a half-step from `base`.
+    /// `d_j = s M(base) G(base)ᵀ e_j` (`M` of them), the directions of a half-step from `base`
+    /// scaled by `s`.
     #[inline(always)]
-    fn directions<const M: usize>(system: &System<Ms, H, C>, base: &V, tmp: &mut V, d: &mut [V]) {
+    fn directions<const M: usize>(
+        system: &System<Ms, H, C>,
+        base: &V,
+        s: V::Real,
+        tmp: &mut V,
+        d: &mut [V],
+    ) {
         let mut unit = [V::Real::zero(); M];
         for (j, dj) in d.iter_mut().enumerate() {
-            unit[j] = V::Real::one();
+            unit[j] = s;
             system.constraint_force(base, &unit, tmp, dj);
             unit[j] = V::Real::zero();
         }
@@ -532,21 +539,20 @@ where
     fn step_impl<const M: usize>(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         let half = h * V::Real::lit(0.5);
         let w = &mut self.w;
-        Self::directions::<M>(&self.system, x, &mut w.t1, &mut w.d);
+        Self::directions::<M>(&self.system, x, V::Real::one(), &mut w.t1, &mut w.d);
         self.warm.predict_lambda_k(M, h, self.z.as_mut_slice());
         let g_y = self.solve_joint::<M>(h, x)?;
         self.warm.record_lambda_k(M, h, self.z.as_slice());
         self.warm.predict_lambda_k1(M, h, self.z.as_mut_slice());
-        // The second half-step along M Gᵀ(y).
+        // The second half-step along (h/2) M Gᵀ(y).
         let w = &mut self.w;
-        Self::directions::<M>(&self.system, &w.y, &mut w.t1, &mut w.d);
+        Self::directions::<M>(&self.system, &w.y, half, &mut w.t1, &mut w.d);
         let d = fixed::<V, M>(&w.d);
         let mut problem = SecondHalf {
             h,
-            half,
             y: &w.y,
             system: &self.system,
-            e: d,
+            d,
             x_next: &mut w.x_next,
             t1: &mut w.t1,
             t2: &mut w.t2,

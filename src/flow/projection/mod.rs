@@ -40,7 +40,7 @@ use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
 use small::{FirstHalf, SmallPath};
-pub(crate) use small::{SecondHalf, fixed_mut, half_step, solve_second_half};
+pub(crate) use small::{SecondHalf, fixed_mut, solve_second_half};
 use stage::{Mode, Stage};
 use warm::WarmStart;
 
@@ -533,15 +533,14 @@ where
             )
         };
         let [t1, t2] = t;
-        // The directions of this half-step, fixed for the whole solve: `M Gᵀ e_j` for the
-        // second half-step, `(h/2) M Gᵀ e_j` for the first, whose Newton iterations then form
+        // The directions of this half-step, fixed for the whole solve: `(h/2) M Gᵀ e_j` at
+        // `x` for the first half-step, at `y` for the second, so that Newton forms
         // `x + Σ λ_j d_j` without scaling `λ` first (one multiplication less on the latency
         // chain of every evaluation).
         let base = if second { &w.y } else { x };
-        let scale = if second { V::Real::one() } else { half };
         let mut unit = [V::Real::zero(); K];
         for (j, dj) in d.iter_mut().enumerate() {
-            unit[j] = scale;
+            unit[j] = half;
             self.system.constraint_force(base, &unit, t1, dj);
             unit[j] = V::Real::zero();
         }
@@ -549,10 +548,9 @@ where
         let (result, stage) = if second {
             let mut problem = SecondHalf {
                 h,
-                half,
                 y: &w.y,
                 system: &self.system,
-                e: d,
+                d,
                 x_next: &mut w.x_next,
                 t1: &mut w.t1,
                 t2: &mut w.t2,

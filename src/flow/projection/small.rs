@@ -197,13 +197,17 @@ where
     }
 }
 
-/// `λ_{k+1} ↦ φ(y + (h/2) Σ λ_j e_j)` with exact columns (small path).
+/// `λ_{k+1} ↦ φ(y + Σ λ_j d_j)`, `d_j = (h/2) M Gᵀ(y) e_j`, with exact columns (small path).
+///
+/// At `λ = 0` the residual is `φ(y)` itself: no shift along `d` (whose `y + 0 · d` the
+/// compiler must compute), two operations less on the latency chain of the affine solve,
+/// which starts there.
 pub(crate) struct SecondHalf<'a, V: Vector, Ms, H, C, const K: usize> {
     pub(crate) h: V::Real,
-    pub(crate) half: V::Real,
     pub(crate) y: &'a V,
     pub(crate) system: &'a System<Ms, H, C>,
-    pub(crate) e: &'a [V; K],
+    /// The half-step directions `(h/2) M Gᵀ(y) e_j`.
+    pub(crate) d: &'a [V; K],
     pub(crate) x_next: &'a mut V,
     pub(crate) t1: &'a mut V,
     pub(crate) t2: &'a mut V,
@@ -226,41 +230,47 @@ where
     }
     #[inline(always)]
     fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
+        let at_y = z.iter().all(|v| v.is_zero());
         if V::CLONE_IS_COPY {
             // Stack states: local copies the compiler can keep in registers (see FirstHalf).
             let (mut x_next, mut t1, mut t2) = (self.y.clone(), self.y.clone(), self.y.clone());
-            half_step(&mut x_next, self.y, self.half, z, self.e);
+            if !at_y {
+                shift(&mut x_next, self.y, z, self.d);
+            }
             self.system.hidden_constraint(&x_next, &mut t1, &mut t2, f);
             *self.x_next = x_next;
         } else {
-            half_step(self.x_next, self.y, self.half, z, self.e);
+            if at_y {
+                self.x_next.copy_from(self.y);
+            } else {
+                shift(self.x_next, self.y, z, self.d);
+            }
             self.system
                 .hidden_constraint(&*self.x_next, self.t1, self.t2, f);
         }
         Ok(())
     }
-    /// `∂φ(x')/∂λ_j = (h/2) G(x') M(x') ∇²H(x') e_j`: exact in the decoupled case, where `G`
-    /// and `M Gᵀ` do not change along the second half-step.
+    /// `∂φ(x')/∂λ_j = G(x') M(x') ∇²H(x') d_j`: exact in the decoupled case, where `G` and
+    /// `M Gᵀ` do not change along the second half-step.
     #[inline(always)]
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
         let sys = self.system;
         if !sys
             .hamiltonian
-            .hessian_apply(&*self.x_next, &self.e[j], self.t1)
+            .hessian_apply(&*self.x_next, &self.d[j], self.t1)
         {
             return false;
         }
         sys.structure.apply(&*self.x_next, &*self.t1, self.t2);
         sys.constraint.jacobian_apply(&*self.x_next, &*self.t2, out);
-        out.iter_mut().for_each(|v| *v = *v * self.half);
         true
     }
 }
 
 /// Solves the `λ_{k+1}` system `problem` for `z` (the warm start in, the solution out): by one
-/// linear solve when `φ` is affine in `λ_{k+1}` — forming `x_{k+1}` at the solution, where
-/// that solve does not evaluate — and by full Newton otherwise (`x_{k+1}` from its last
-/// evaluation).
+/// linear solve from zero when `φ` is affine in `λ_{k+1}` (the closed form; the warm start is
+/// not read) — forming `x_{k+1}` at the solution, where that solve does not evaluate — and by
+/// full Newton otherwise (`x_{k+1}` from its last evaluation).
 #[inline(always)]
 pub(crate) fn solve_second_half<V, Ms, H, C, const K: usize>(
     newton: &SmallNewton<V::Real>,
@@ -275,8 +285,10 @@ where
     C: HolonomicConstraint<V>,
 {
     if affine {
+        // From zero: the closed form `λ_{k+1} = −J⁻¹ φ(y)`, any start giving the same root.
+        z.iter_mut().for_each(|v| *v = V::Real::zero());
         let r = newton.solve_affine_fixed(problem, z);
-        half_step(problem.x_next, problem.y, problem.half, &*z, problem.e);
+        shift(problem.x_next, problem.y, &*z, problem.d);
         r
     } else {
         newton.solve_fixed(problem, z)

@@ -16,8 +16,8 @@
 //!   from step to step while `S` stays smooth.
 //!
 //! When the `λ_{k+1}` system is affine and solved by one linear solve (the small path with a
-//! quadratic `H` and a constant `M`), any start gives the same root: it starts from zero — the
-//! closed form `λ_{k+1} = −J⁻¹ φ(y)` — and no sum or trend is kept.
+//! quadratic `H` and a constant `M`), any start gives the same root: the solve starts from
+//! zero — the closed form `λ_{k+1} = −J⁻¹ φ(y)` — and no prediction, sum or trend is kept.
 
 use crate::real::Real;
 use crate::vector::Vector;
@@ -95,11 +95,10 @@ impl<V: Vector> WarmStart<V> {
     }
 
     /// `λ_{k+1} ≈ S + s S' − λ_k` into `z[m..2m]` (the last `λ_{k+1}` before the first step;
-    /// zero when it is solved exactly from any start).
+    /// nothing when it is solved exactly from any start).
     #[inline(always)]
     pub(super) fn predict_lambda_k1(&self, m: usize, h: V::Real, z: &mut [V::Real]) {
         if self.k1_exact {
-            z[m..2 * m].iter_mut().for_each(|v| *v = V::Real::zero());
             return;
         }
         if self.steps == 0 {
