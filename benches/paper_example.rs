@@ -2,7 +2,9 @@
 //! model-specific loop of the same algorithm (same multiplier equations, same tolerance, same
 //! warm start), in the same process.
 //!
-//! Also the paper's §2 scheme against its §3 scheme, same process.
+//! Also the paper's §2 scheme against its §3 scheme, same process: generic (nested and one
+//! Newton system), written by hand as the same algorithm, and optimized by hand with the
+//! model's structure (what the scheme costs at best).
 //!
 //! ```text
 //! cargo bench --bench paper_example
@@ -286,6 +288,179 @@ impl HandSection2 {
     }
 }
 
+/// The §2 step above optimized by hand, to measure what the scheme costs at best: the same
+/// Newton iteration, predictor, stopping rules, warm start and closed-form `λ_{k+1}`, with the
+/// model's structure used in the linear algebra. Rows 0 and 1 of `J f` are unit rows
+/// (`f₁ = p₁`, `f₂ = p₂`), so the first two equations give `Δδ₁`, `Δδ₂` in terms of the
+/// others and the 5 × 5 Newton system reduces to 3 × 3 (`Δδ₃`, `Δδ₄`, `Δλ`), factored with
+/// partial pivoting and reciprocal pivots (no division in the solves).
+#[derive(Clone, Copy, Default)]
+struct FastSection2 {
+    mu: f64,
+    offset: f64,
+    steps: u64,
+}
+
+impl FastSection2 {
+    #[inline]
+    #[allow(clippy::needless_range_loop)] // index loops read best for elimination
+    fn step(&mut self, h: f64, x: &mut V) {
+        let eps = f64::EPSILON;
+        let (ftol, half) = (2.0 * eps, 0.5 * h);
+        let (x1, x2, x3, x4) = (x[0], x[1], x[2], x[3]);
+        // x̂(λ) = x + λ (0, 0, e₃, e₄) = x + (h/2) λ M Gᵀ.
+        let (e3, e4) = (-half * x1, -h * x2);
+        let xhat = |l: f64| [x1, x2, x3 + l * e3, x4 + l * e4];
+        let mut l = self.mu + h * self.offset;
+        let (f0, _, _) = section2_field(&xhat(l));
+        let mut delta = f0.map(|f| h * f);
+        let amax = |v: &[f64]| v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        let tol1 = eps * (2.0 * amax(x.as_slice()) + 8.0 * amax(&delta));
+        let (inv_tol1, inv_ftol) = (1.0 / tol1, 1.0 / ftol);
+        // The λ column of rows 0, 1: −h (J f)ᵢ · ∂x̂/∂λ.
+        let (c0, c1) = (-h * e3, -h * e4);
+        // The reduced matrix's factors, its reciprocal pivots, and the entries of the full
+        // matrix the right-hand side is reduced with (J₂₀, J₂₁, J₃₀, J₃₁, y₁, y₂).
+        let (mut r, mut rinv, mut piv, mut w) =
+            ([[0.0f64; 3]; 3], [0.0f64; 3], [0usize; 3], [0.0; 6]);
+        let (mut have, mut prev, mut last_update) = (false, f64::INFINITY, f64::INFINITY);
+        let mut y;
+        let mut it = 0;
+        loop {
+            let xh = xhat(l);
+            let xbar: [f64; 4] = core::array::from_fn(|i| xh[i] + 0.5 * delta[i]);
+            let (f, mu, inv_d) = section2_field(&xbar);
+            let r1: [f64; 4] = core::array::from_fn(|i| delta[i] - h * f[i]);
+            y = core::array::from_fn::<f64, 4, _>(|i| xh[i] + delta[i]);
+            let g = 0.5 * (y[0] * y[0] + y[1] * y[1] - 1.0);
+            let scaled = (amax(&r1) * inv_tol1).max(g.abs() * inv_ftol);
+            if scaled <= 1.0 || (scaled <= 100.0 && scaled >= 0.5 * prev) || it == 25 {
+                break;
+            }
+            if !have || scaled > 0.25 * prev {
+                let (q1, q2, p1, p2) = (xbar[0], xbar[1], xbar[2], xbar[3]);
+                let dmu = [
+                    -2.0 * q1 * mu * inv_d,
+                    -4.0 * q2 * mu * inv_d,
+                    2.0 * p1 * inv_d,
+                    2.0 * p2 * inv_d,
+                ];
+                let (mut jf2, mut jf3) = ([0.0; 4], [0.0; 4]);
+                for j in 0..4 {
+                    jf2[j] = -q1 * dmu[j];
+                    jf3[j] = -2.0 * q2 * dmu[j];
+                }
+                jf2[0] -= mu;
+                jf3[1] -= 2.0 * mu;
+                // Rows 2 and 3 of the Newton matrix and their λ column.
+                let j2 = [
+                    -half * jf2[0],
+                    -half * jf2[1],
+                    1.0 - half * jf2[2],
+                    -half * jf2[3],
+                ];
+                let j3 = [
+                    -half * jf3[0],
+                    -half * jf3[1],
+                    -half * jf3[2],
+                    1.0 - half * jf3[3],
+                ];
+                let c2 = -h * (jf2[2] * e3 + jf2[3] * e4);
+                let c3 = -h * (jf3[2] * e3 + jf3[3] * e4);
+                // Δδ₁ = b₀ + (h/2) Δδ₃ − c₀ Δλ and Δδ₂ = b₁ + (h/2) Δδ₄ − c₁ Δλ substituted
+                // into rows 2, 3 and the constraint row (y₁, y₂, 0, 0, 0).
+                r = [
+                    [
+                        j2[2] + half * j2[0],
+                        j2[3] + half * j2[1],
+                        c2 - j2[0] * c0 - j2[1] * c1,
+                    ],
+                    [
+                        j3[2] + half * j3[0],
+                        j3[3] + half * j3[1],
+                        c3 - j3[0] * c0 - j3[1] * c1,
+                    ],
+                    [half * y[0], half * y[1], -(y[0] * c0 + y[1] * c1)],
+                ];
+                w = [j2[0], j2[1], j3[0], j3[1], y[0], y[1]];
+                for c in 0..3 {
+                    let mut p = c;
+                    for i in c + 1..3 {
+                        if r[i][c].abs() > r[p][c].abs() {
+                            p = i;
+                        }
+                    }
+                    piv[c] = p;
+                    r.swap(c, p);
+                    assert!(r[c][c] != 0.0, "singular Newton matrix");
+                    rinv[c] = 1.0 / r[c][c];
+                    for i in c + 1..3 {
+                        let m = r[i][c] * rinv[c];
+                        r[i][c] = m;
+                        for j in c + 1..3 {
+                            r[i][j] -= m * r[c][j];
+                        }
+                    }
+                }
+                have = true;
+            }
+            prev = scaled;
+            let b = [-r1[0], -r1[1], -r1[2], -r1[3], -g];
+            let mut rb = [
+                b[2] - w[0] * b[0] - w[1] * b[1],
+                b[3] - w[2] * b[0] - w[3] * b[1],
+                b[4] - w[4] * b[0] - w[5] * b[1],
+            ];
+            for c in 0..3 {
+                rb.swap(c, piv[c]);
+            }
+            for i in 1..3 {
+                for j in 0..i {
+                    rb[i] -= r[i][j] * rb[j];
+                }
+            }
+            for i in (0..3).rev() {
+                for j in i + 1..3 {
+                    rb[i] -= r[i][j] * rb[j];
+                }
+                rb[i] *= rinv[i];
+            }
+            let (u2, u3, ul) = (rb[0], rb[1], rb[2]);
+            let u = [
+                b[0] + half * u2 - c0 * ul,
+                b[1] + half * u3 - c1 * ul,
+                u2,
+                u3,
+            ];
+            for i in 0..4 {
+                delta[i] += u[i];
+            }
+            l += ul;
+            it += 1;
+            let update = amax(&u) * inv_tol1;
+            if last_update.is_finite()
+                && update < last_update
+                && update * update <= 0.5 * (last_update - update)
+            {
+                let xh = xhat(l);
+                y = core::array::from_fn(|i| xh[i] + delta[i]);
+                if (0.5 * (y[0] * y[0] + y[1] * y[1] - 1.0)).abs() <= ftol {
+                    break;
+                }
+            }
+            last_update = update;
+        }
+        if self.steps > 0 {
+            self.offset = (l - self.mu) / h;
+        }
+        let (y1, y2, y3, y4) = (y[0], y[1], y[2], y[3]);
+        let mu = (y1 * y3 + y2 * y4) / (half * (y1 * y1 + 2.0 * y2 * y2));
+        self.mu = mu;
+        self.steps += 1;
+        *x = V::new(y1, y2, y3 - half * y1 * mu, y4 - h * y2 * mu);
+    }
+}
+
 fn check_same_algorithm() {
     let x0: V = paper::initial_state();
     let mut generic = paper::drift()
@@ -320,6 +495,16 @@ fn check_same_algorithm() {
     assert!(
         d < 1e-12,
         "generic and hand-written §2 schemes differ by {d:e}"
+    );
+    let mut fast = FastSection2::default();
+    let mut c = x0;
+    for _ in 0..1000 {
+        fast.step(0.1, &mut c);
+    }
+    let d = (a - c).amax();
+    assert!(
+        d < 1e-12,
+        "generic and optimized hand-written §2 schemes differ by {d:e}"
     );
     // The compositions: generic (fused), hand-written stage by stage and fused.
     let mut generic = paper::drift()
@@ -419,6 +604,11 @@ fn bench(c: &mut Criterion) {
     let mut x = x0;
     group.bench_function("section2_hand_written", |b| {
         b.iter(|| hand.step(black_box(0.1), &mut x))
+    });
+    let mut fast = FastSection2::default();
+    let mut x = x0;
+    group.bench_function("section2_hand_optimized", |b| {
+        b.iter(|| fast.step(black_box(0.1), &mut x))
     });
     let mut x = x0;
     group.bench_function("section3_projection", |b| {
