@@ -37,6 +37,16 @@ fn the_built_in_models_pass() {
     let chain = PendulumChain::<f64>::uniform(3, 40).unwrap();
     let r = check_model(&chain.system(), &dense(chain.state_len(), 1.0));
     assert!(r.passed() && r.hints.jacobian_entries, "chain:\n{r}");
+    // A planar chain with extra rods (one to the pin, one closing a loop): its direct `Gᵀ μ`
+    // walks the links and then accumulates the extra rods.
+    let looped = PendulumChain::<f64>::uniform(2, 12)
+        .unwrap()
+        .with_rod(None, 5, 0.4)
+        .unwrap()
+        .with_rod(Some(2), 9, 0.3)
+        .unwrap();
+    let r = check_model(&looped.system(), &dense(looped.state_len(), 1.0));
+    assert!(r.passed(), "chain with extra rods:\n{r}");
     let shells = SphereParticles::<f64>::row(12, 3.0).unwrap();
     let r = check_model(&shells.system(), &dense(shells.state_len(), 2.0));
     assert!(r.passed(), "sphere particles:\n{r}");

@@ -45,6 +45,8 @@ pub struct PendulumChain<T> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChainLinks<T> {
     dim: usize,
+    /// The number of the chain's own links (rods `0..links`, rod `i` from `i − 1` to `i`).
+    links: usize,
     /// `(a, b, length)`, `a = usize::MAX` for the pin.
     rods: Vec<(usize, usize, T)>,
 }
@@ -154,6 +156,7 @@ impl<T: Real> PendulumChain<T> {
             self.clone(),
             ChainLinks {
                 dim: self.dim,
+                links: self.links(),
                 rods: (0..self.links())
                     .map(|i| (i.wrapping_sub(1), i, self.lengths[i]))
                     .chain(
@@ -332,15 +335,39 @@ impl<T: Real> ChainLinks<T> {
         }
     }
 
+    /// `Gᵀ μ` written directly (positions; zero momenta), one pass over the state: along the
+    /// chain, particle `j` is the end of link `j` and the start of link `j + 1`, so its entry
+    /// is `μ_j r_j − μ_{j+1} r_{j+1}`, formed from the last particle back; extra rods are then
+    /// accumulated.
     #[inline]
-    fn jacobian_transpose_apply_add_d<const D: usize>(
+    fn jacobian_transpose_apply_d<const D: usize>(&self, q: &[T], mu: &[T], o: &mut [T]) {
+        let nq = self.links * D;
+        let (oq, op) = o.split_at_mut(nq);
+        op.iter_mut().for_each(|v| *v = T::zero());
+        let mut next = [T::zero(); D];
+        for j in (0..self.links).rev() {
+            let r = Self::rod::<D>(q, j.wrapping_sub(1), j);
+            let oj = &mut oq[j * D..j * D + D];
+            for k in 0..D {
+                let c = mu[j] * r[k];
+                oj[k] = c - next[k];
+                next[k] = c;
+            }
+        }
+        self.transpose_add_d::<D>(q, mu, T::one(), o, self.links);
+    }
+
+    /// The part of `α Gᵀ μ` from rods `from..`, added to `o`.
+    #[inline]
+    fn transpose_add_d<const D: usize>(
         &self,
         q: &[T],
         mu: &[T],
         alpha: T,
         o: &mut [T],
+        from: usize,
     ) {
-        for (&m, &(a, b, _)) in mu.iter().zip(&self.rods) {
+        for (&m, &(a, b, _)) in mu.iter().zip(&self.rods).skip(from) {
             let r = Self::rod::<D>(q, a, b);
             let c = alpha * m;
             for k in 0..D {
@@ -371,11 +398,18 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for ChainLinks<T> {
             _ => self.jacobian_apply_d::<3>(x.as_slice(), v.as_slice(), out),
         }
     }
+    fn jacobian_transpose_apply(&self, x: &V, mu: &[T], out: &mut V) {
+        let (q, o) = (x.as_slice(), out.as_mut_slice());
+        match self.dim {
+            2 => self.jacobian_transpose_apply_d::<2>(q, mu, o),
+            _ => self.jacobian_transpose_apply_d::<3>(q, mu, o),
+        }
+    }
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
         let (q, o) = (x.as_slice(), out.as_mut_slice());
         match self.dim {
-            2 => self.jacobian_transpose_apply_add_d::<2>(q, mu, alpha, o),
-            _ => self.jacobian_transpose_apply_add_d::<3>(q, mu, alpha, o),
+            2 => self.transpose_add_d::<2>(q, mu, alpha, o, 0),
+            _ => self.transpose_add_d::<3>(q, mu, alpha, o, 0),
         }
     }
     /// `∂gᵢ/∂q_b = q_b − q_a`, `∂gᵢ/∂q_a = −(q_b − q_a)`: `2d` entries per rod (`d` at the pin).
