@@ -327,16 +327,32 @@ where
         sys.constraint.residual(self.xe, self.g1);
         sys.constraint
             .jacobian_transpose_apply_add(self.xm, ell, V::Real::one(), self.grad);
+        // The rounding noise of grad along δ/|δ|: the energy's correction (scaled by h), and
+        // the constraints' below.
+        let mut noise = self.h.abs() * noise;
         if let Some(d2) = self.corrected(delta) {
             for (t, &d) in self.tmp.as_mut_slice().iter_mut().zip(delta) {
                 *t = d;
             }
             sys.constraint.jacobian_apply(self.xm, self.tmp, self.gd);
-            let mut lc = V::Real::zero();
-            for (((&l, &g1), &g0), &gd) in ell.iter().zip(&*self.g1).zip(self.g0).zip(&*self.gd) {
+            // G(x̄) x̄ bounds the size of the terms each gᵢ is formed from (|rᵢ|² for a rod),
+            // so each difference gᵢ(x') − gᵢ(x) − (G δ)ᵢ rounds at about ε times that.
+            sys.constraint.jacobian_apply(self.xm, self.xm, self.em);
+            let (mut lc, mut lc_abs) = (V::Real::zero(), V::Real::zero());
+            for ((((&l, &g1), &g0), &gd), &e) in ell
+                .iter()
+                .zip(&*self.g1)
+                .zip(self.g0)
+                .zip(&*self.gd)
+                .zip(&*self.em)
+            {
                 lc = lc + l * (g1 - g0 - gd);
+                lc_abs = lc_abs + l.abs() * (g1.abs() + g0.abs() + gd.abs() + e.abs());
             }
             ops::axpy(self.grad.as_mut_slice(), lc / d2, delta);
+            // Near rest |δ| is small and the correction (exactly zero for a quadratic g) is
+            // that rounding divided by |δ|: above the tolerance, and no iterate reduces it.
+            noise = noise + V::Real::epsilon() * lc_abs / d2.sqrt();
         }
         sys.structure.apply(self.xm, self.grad, self.f);
         self.noise = noise_image(
@@ -344,7 +360,7 @@ where
             self.xm,
             delta,
             noise,
-            self.h,
+            V::Real::one(),
             self.tmp,
             self.xe,
         );

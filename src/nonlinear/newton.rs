@@ -370,10 +370,15 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             r.residual_evaluations += 1;
             Ok::<_, NewtonError<P::Error>>(ops::norm_inf(&f.as_slice()[..k]))
         };
-        let mut r = eval(problem, z, &mut self.f, &mut report)?;
-        if !r.is_finite() {
+        let mut raw = eval(problem, z, &mut self.f, &mut report)?;
+        if !raw.is_finite() {
             return Err(NewtonError::NonFinite { iteration: 0 });
         }
+        // Decisions (convergence, damping, stalls, contraction) use the effective residual,
+        // which does not count rows within the problem's noise floor: a step that brings the
+        // exact rows down while the noisy ones move within their noise is progress, not growth
+        // to be halved away. `report.residual` is the plain ‖F‖∞.
+        let mut r = effective_residual(problem, &self.f.as_slice()[..k]);
         let opts = self.options;
         let one = V::Real::one();
         let scale = problem.jacobian_scale();
@@ -384,8 +389,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             self.have_jacobian = false;
         }
         for it in 0..opts.max_iterations {
-            report.residual = r;
-            if effective_residual(problem, &self.f.as_slice()[..k]) <= opts.ftol {
+            report.residual = raw;
+            if r <= opts.ftol {
                 return Ok(report);
             }
             let fresh = !self.have_jacobian
@@ -416,7 +421,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             }
             ops::axpy(z, one, dz);
             report.iterations += 1;
-            let mut r_new = eval(problem, z, &mut self.f, &mut report)?;
+            raw = eval(problem, z, &mut self.f, &mut report)?;
+            let mut r_new = effective_residual(problem, &self.f.as_slice()[..k]);
             let noise = V::Real::lit(NOISE_FACTOR) * opts.ftol;
             // Damping: with a fresh Jacobian the direction is a descent direction of ‖F‖, so a
             // short enough step decreases the residual; halve until it does.
@@ -429,17 +435,17 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                     ops::axpy(z, -one, dz);
                     halvings += 1;
                     report.halvings += 1;
-                    r_new = eval(problem, z, &mut self.f, &mut report)?;
+                    raw = eval(problem, z, &mut self.f, &mut report)?;
+                    r_new = effective_residual(problem, &self.f.as_slice()[..k]);
                 }
             }
             let dz = &self.dz.as_slice()[..k];
             let step = ops::norm_inf(dz);
-            if !r_new.is_finite() && fresh {
+            if !raw.is_finite() && fresh {
                 return Err(NewtonError::NonFinite { iteration: it + 1 });
             }
-            report.residual = r_new;
-            let r_eff = effective_residual(problem, &self.f.as_slice()[..k]);
-            if r_eff <= opts.ftol {
+            report.residual = raw;
+            if r_new <= opts.ftol {
                 return Ok(report);
             }
             // The update test needs a full step that reduced the residual: a damped or
@@ -464,8 +470,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             let at_roundoff = step <= opts.xtol * (one + ops::norm_inf(z));
             let stalled = r_new >= V::Real::lit(0.5) * r;
             if fresh
-                && ((r_eff <= noise && (at_roundoff || stalled))
-                    || (r_eff <= V::Real::lit(NOISE_FACTOR) * noise
+                && ((r_new <= noise && (at_roundoff || stalled))
+                    || (r_new <= V::Real::lit(NOISE_FACTOR) * noise
                         && halvings == 0
                         && at_roundoff
                         && stalled))
@@ -475,7 +481,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             if !fresh && (r_new.is_nan() || r_new >= r) {
                 // A kept Jacobian made things worse (or non-finite): go back, rebuild it there.
                 ops::axpy(z, -one, &self.dz.as_slice()[..k]);
-                r = eval(problem, z, &mut self.f, &mut report)?;
+                raw = eval(problem, z, &mut self.f, &mut report)?;
+                r = effective_residual(problem, &self.f.as_slice()[..k]);
                 self.have_jacobian = false;
                 continue;
             }
@@ -493,7 +500,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
         }
         Err(NewtonError::NotConverged {
             iterations: report.iterations,
-            residual: r.to_f64_lossy(),
+            residual: raw.to_f64_lossy(),
         })
     }
 }
