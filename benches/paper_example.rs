@@ -185,9 +185,46 @@ fn solve5(lu: &[[f64; 5]; 5], piv: &[usize; 5], b: &mut [f64; 5]) {
     }
 }
 
+/// The iterate at which a §2 Newton matrix is built: `x̄`, `μ(x̄)`, `1/D(x̄)` and `y`.
+struct Section2Iterate {
+    xbar: [f64; 4],
+    mu: f64,
+    inv_d: f64,
+    y: [f64; 4],
+}
+
+impl Section2Iterate {
+    /// `J f` at `x̄`: rows 0, 1 unit rows (`f₁ = p₁`, `f₂ = p₂`), rows 2, 3 from
+    /// `∇μ = (−2q₁μ, −4q₂μ, 2p₁, 2p₂)/D`.
+    #[inline(always)]
+    fn jf(&self) -> [[f64; 4]; 4] {
+        let (mu, inv_d) = (self.mu, self.inv_d);
+        let [q1, q2, p1, p2] = self.xbar;
+        let dmu = [
+            -2.0 * q1 * mu * inv_d,
+            -4.0 * q2 * mu * inv_d,
+            2.0 * p1 * inv_d,
+            2.0 * p2 * inv_d,
+        ];
+        let mut jf = [[0.0; 4]; 4];
+        jf[0][2] = 1.0;
+        jf[1][3] = 1.0;
+        for j in 0..4 {
+            jf[2][j] = -q1 * dmu[j];
+            jf[3][j] = -2.0 * q2 * dmu[j];
+        }
+        jf[2][0] -= mu;
+        jf[3][1] -= 2.0 * mu;
+        jf
+    }
+}
+
 impl HandSection2 {
-    #[inline]
-    fn step(&mut self, h: f64, x: &mut V) {
+    /// One §2 step: the Newton iteration on `(δ, λ_k)` and the closed-form `λ_{k+1}`, with the
+    /// linear algebra left to `solver`, so that the plain and the optimized hand-written steps
+    /// run the same iteration.
+    #[inline(always)]
+    fn step_with(&mut self, h: f64, x: &mut V, solver: &mut impl Section2Solver) {
         let eps = f64::EPSILON;
         let (ftol, half) = (2.0 * eps, 0.5 * h);
         let (x1, x2, x3, x4) = (x[0], x[1], x[2], x[3]);
@@ -199,7 +236,6 @@ impl HandSection2 {
         let amax = |v: &[f64]| v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
         let tol1 = eps * (2.0 * amax(x.as_slice()) + 8.0 * amax(&delta));
         let (inv_tol1, inv_ftol) = (1.0 / tol1, 1.0 / ftol);
-        let (mut jac, mut piv) = ([[0.0; 5]; 5], [0usize; 5]);
         let (mut have, mut prev, mut last_update) = (false, f64::INFINITY, f64::INFINITY);
         let mut y;
         let mut it = 0;
@@ -208,51 +244,18 @@ impl HandSection2 {
             let xbar: [f64; 4] = core::array::from_fn(|i| xh[i] + 0.5 * delta[i]);
             let (f, mu, inv_d) = section2_field(&xbar);
             let r1: [f64; 4] = core::array::from_fn(|i| delta[i] - h * f[i]);
-            y = [
-                xh[0] + delta[0],
-                xh[1] + delta[1],
-                xh[2] + delta[2],
-                xh[3] + delta[3],
-            ];
+            y = core::array::from_fn::<f64, 4, _>(|i| xh[i] + delta[i]);
             let g = 0.5 * (y[0] * y[0] + y[1] * y[1] - 1.0);
             let scaled = (amax(&r1) * inv_tol1).max(g.abs() * inv_ftol);
             if scaled <= 1.0 || (scaled <= 100.0 && scaled >= 0.5 * prev) || it == 25 {
                 break;
             }
             if !have || scaled > 0.25 * prev {
-                // J f at x̄: rows 3, 4 from ∇μ = (−2q₁μ, −4q₂μ, 2p₁, 2p₂)/D.
-                let (q1, q2, p1, p2) = (xbar[0], xbar[1], xbar[2], xbar[3]);
-                let dmu = [
-                    -2.0 * q1 * mu * inv_d,
-                    -4.0 * q2 * mu * inv_d,
-                    2.0 * p1 * inv_d,
-                    2.0 * p2 * inv_d,
-                ];
-                let mut jf = [[0.0; 4]; 4];
-                jf[0][2] = 1.0;
-                jf[1][3] = 1.0;
-                for j in 0..4 {
-                    jf[2][j] = -q1 * dmu[j];
-                    jf[3][j] = -2.0 * q2 * dmu[j];
-                }
-                jf[2][0] -= mu;
-                jf[3][1] -= 2.0 * mu;
-                // ∂F₁/∂δ = I − (h/2) J f; ∂F₁/∂λ = −h J f (h/2) d, d = (0, 0, −x1, −2x2);
-                // ∂F₂/∂δ = (y1, y2, 0, 0); ∂F₂/∂λ = 0.
-                let d = [0.0, 0.0, -x1, -2.0 * x2];
-                for i in 0..4 {
-                    for j in 0..4 {
-                        jac[i][j] = if i == j { 1.0 } else { 0.0 } - half * jf[i][j];
-                    }
-                    jac[i][4] = -h * half * (jf[i][2] * d[2] + jf[i][3] * d[3]);
-                }
-                jac[4] = [y[0], y[1], 0.0, 0.0, 0.0];
-                assert!(factor5(&mut jac, &mut piv), "singular Newton matrix");
+                solver.factor(h, x, &Section2Iterate { xbar, mu, inv_d, y });
                 have = true;
             }
             prev = scaled;
-            let mut b = [-r1[0], -r1[1], -r1[2], -r1[3], -g];
-            solve5(&jac, &piv, &mut b);
+            let b = solver.solve([-r1[0], -r1[1], -r1[2], -r1[3], -g]);
             for i in 0..4 {
                 delta[i] += b[i];
             }
@@ -264,12 +267,7 @@ impl HandSection2 {
                 && update * update <= 0.5 * (last_update - update)
             {
                 let xh = xhat(l);
-                y = [
-                    xh[0] + delta[0],
-                    xh[1] + delta[1],
-                    xh[2] + delta[2],
-                    xh[3] + delta[3],
-                ];
+                y = core::array::from_fn(|i| xh[i] + delta[i]);
                 if (0.5 * (y[0] * y[0] + y[1] * y[1] - 1.0)).abs() <= ftol {
                     break;
                 }
@@ -286,178 +284,180 @@ impl HandSection2 {
         self.steps += 1;
         *x = V::new(y1, y2, y3 - half * y1 * mu, y4 - h * y2 * mu);
     }
+
+    /// The same algorithm as `ProjectedMidpoint`: the full 5 × 5 Newton matrix, LU with partial
+    /// pivoting.
+    #[inline]
+    fn step(&mut self, h: f64, x: &mut V) {
+        self.step_with(h, x, &mut Full::default());
+    }
+}
+
+/// The linear algebra of a hand-written §2 step: build and factor the Newton matrix at an
+/// iterate, and solve with the kept factors.
+trait Section2Solver {
+    fn factor(&mut self, h: f64, x: &V, it: &Section2Iterate);
+    fn solve(&self, b: [f64; 5]) -> [f64; 5];
+}
+
+/// The full 5 × 5 Newton matrix's LU factors with partial pivoting.
+#[derive(Default)]
+struct Full {
+    lu: [[f64; 5]; 5],
+    piv: [usize; 5],
+}
+
+impl Section2Solver for Full {
+    #[inline(always)]
+    fn factor(&mut self, h: f64, x: &V, it: &Section2Iterate) {
+        let half = 0.5 * h;
+        let jf = it.jf();
+        // ∂F₁/∂δ = I − (h/2) J f; ∂F₁/∂λ = −h J f (h/2) d, d = (0, 0, −x1, −2x2);
+        // ∂F₂/∂δ = (y1, y2, 0, 0); ∂F₂/∂λ = 0.
+        let d = [0.0, 0.0, -x[0], -2.0 * x[1]];
+        let jac = &mut self.lu;
+        for i in 0..4 {
+            for j in 0..4 {
+                jac[i][j] = if i == j { 1.0 } else { 0.0 } - half * jf[i][j];
+            }
+            jac[i][4] = -h * half * (jf[i][2] * d[2] + jf[i][3] * d[3]);
+        }
+        jac[4] = [it.y[0], it.y[1], 0.0, 0.0, 0.0];
+        assert!(factor5(jac, &mut self.piv), "singular Newton matrix");
+    }
+    #[inline(always)]
+    fn solve(&self, mut b: [f64; 5]) -> [f64; 5] {
+        solve5(&self.lu, &self.piv, &mut b);
+        b
+    }
 }
 
 /// The §2 step above optimized by hand, to measure what the scheme costs at best: the same
-/// Newton iteration, predictor, stopping rules, warm start and closed-form `λ_{k+1}`, with the
-/// model's structure used in the linear algebra. Rows 0 and 1 of `J f` are unit rows
-/// (`f₁ = p₁`, `f₂ = p₂`), so the first two equations give `Δδ₁`, `Δδ₂` in terms of the
+/// Newton iteration, predictor, stopping rules, warm start and closed-form `λ_{k+1}`
+/// ([`HandSection2::step_with`]), with the model's structure used in the linear algebra. Rows 0
+/// and 1 of `J f` are unit rows, so the first two equations give `Δδ₁`, `Δδ₂` in terms of the
 /// others and the 5 × 5 Newton system reduces to 3 × 3 (`Δδ₃`, `Δδ₄`, `Δλ`), factored with
 /// partial pivoting and reciprocal pivots (no division in the solves).
 #[derive(Clone, Copy, Default)]
-struct FastSection2 {
-    mu: f64,
-    offset: f64,
-    steps: u64,
+struct FastSection2(HandSection2);
+
+/// Factors of [`FastSection2`]'s reduced system: the 3 × 3 LU, its reciprocal pivots and row
+/// swaps, the entries of the full matrix the right-hand side is reduced with
+/// (`J₂₀, J₂₁, J₃₀, J₃₁, y₁, y₂`), the `λ` column of rows 0, 1, and `h/2`.
+#[derive(Default)]
+struct Reduced {
+    r: [[f64; 3]; 3],
+    rinv: [f64; 3],
+    piv: [usize; 3],
+    w: [f64; 6],
+    c: [f64; 2],
+    half: f64,
 }
 
 impl FastSection2 {
     #[inline]
-    #[allow(clippy::needless_range_loop)] // index loops read best for elimination
     fn step(&mut self, h: f64, x: &mut V) {
-        let eps = f64::EPSILON;
-        let (ftol, half) = (2.0 * eps, 0.5 * h);
-        let (x1, x2, x3, x4) = (x[0], x[1], x[2], x[3]);
-        // x̂(λ) = x + λ (0, 0, e₃, e₄) = x + (h/2) λ M Gᵀ.
-        let (e3, e4) = (-half * x1, -h * x2);
-        let xhat = |l: f64| [x1, x2, x3 + l * e3, x4 + l * e4];
-        let mut l = self.mu + h * self.offset;
-        let (f0, _, _) = section2_field(&xhat(l));
-        let mut delta = f0.map(|f| h * f);
-        let amax = |v: &[f64]| v.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-        let tol1 = eps * (2.0 * amax(x.as_slice()) + 8.0 * amax(&delta));
-        let (inv_tol1, inv_ftol) = (1.0 / tol1, 1.0 / ftol);
-        // The λ column of rows 0, 1: −h (J f)ᵢ · ∂x̂/∂λ.
+        self.0.step_with(h, x, &mut Reduced::default());
+    }
+}
+
+impl Section2Solver for Reduced {
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // index loops read best for elimination
+    fn factor(&mut self, h: f64, x: &V, it: &Section2Iterate) {
+        let half = 0.5 * h;
+        // ∂x̂/∂λ = (0, 0, e₃, e₄); the λ column of row i is −h (J f)ᵢ · ∂x̂/∂λ.
+        let (e3, e4) = (-half * x[0], -h * x[1]);
         let (c0, c1) = (-h * e3, -h * e4);
-        // The reduced matrix's factors, its reciprocal pivots, and the entries of the full
-        // matrix the right-hand side is reduced with (J₂₀, J₂₁, J₃₀, J₃₁, y₁, y₂).
-        let (mut r, mut rinv, mut piv, mut w) =
-            ([[0.0f64; 3]; 3], [0.0f64; 3], [0usize; 3], [0.0; 6]);
-        let (mut have, mut prev, mut last_update) = (false, f64::INFINITY, f64::INFINITY);
-        let mut y;
-        let mut it = 0;
-        loop {
-            let xh = xhat(l);
-            let xbar: [f64; 4] = core::array::from_fn(|i| xh[i] + 0.5 * delta[i]);
-            let (f, mu, inv_d) = section2_field(&xbar);
-            let r1: [f64; 4] = core::array::from_fn(|i| delta[i] - h * f[i]);
-            y = core::array::from_fn::<f64, 4, _>(|i| xh[i] + delta[i]);
-            let g = 0.5 * (y[0] * y[0] + y[1] * y[1] - 1.0);
-            let scaled = (amax(&r1) * inv_tol1).max(g.abs() * inv_ftol);
-            if scaled <= 1.0 || (scaled <= 100.0 && scaled >= 0.5 * prev) || it == 25 {
-                break;
-            }
-            if !have || scaled > 0.25 * prev {
-                let (q1, q2, p1, p2) = (xbar[0], xbar[1], xbar[2], xbar[3]);
-                let dmu = [
-                    -2.0 * q1 * mu * inv_d,
-                    -4.0 * q2 * mu * inv_d,
-                    2.0 * p1 * inv_d,
-                    2.0 * p2 * inv_d,
-                ];
-                let (mut jf2, mut jf3) = ([0.0; 4], [0.0; 4]);
-                for j in 0..4 {
-                    jf2[j] = -q1 * dmu[j];
-                    jf3[j] = -2.0 * q2 * dmu[j];
-                }
-                jf2[0] -= mu;
-                jf3[1] -= 2.0 * mu;
-                // Rows 2 and 3 of the Newton matrix and their λ column.
-                let j2 = [
-                    -half * jf2[0],
-                    -half * jf2[1],
-                    1.0 - half * jf2[2],
-                    -half * jf2[3],
-                ];
-                let j3 = [
-                    -half * jf3[0],
-                    -half * jf3[1],
-                    -half * jf3[2],
-                    1.0 - half * jf3[3],
-                ];
-                let c2 = -h * (jf2[2] * e3 + jf2[3] * e4);
-                let c3 = -h * (jf3[2] * e3 + jf3[3] * e4);
-                // Δδ₁ = b₀ + (h/2) Δδ₃ − c₀ Δλ and Δδ₂ = b₁ + (h/2) Δδ₄ − c₁ Δλ substituted
-                // into rows 2, 3 and the constraint row (y₁, y₂, 0, 0, 0).
-                r = [
-                    [
-                        j2[2] + half * j2[0],
-                        j2[3] + half * j2[1],
-                        c2 - j2[0] * c0 - j2[1] * c1,
-                    ],
-                    [
-                        j3[2] + half * j3[0],
-                        j3[3] + half * j3[1],
-                        c3 - j3[0] * c0 - j3[1] * c1,
-                    ],
-                    [half * y[0], half * y[1], -(y[0] * c0 + y[1] * c1)],
-                ];
-                w = [j2[0], j2[1], j3[0], j3[1], y[0], y[1]];
-                for c in 0..3 {
-                    let mut p = c;
-                    for i in c + 1..3 {
-                        if r[i][c].abs() > r[p][c].abs() {
-                            p = i;
-                        }
-                    }
-                    piv[c] = p;
-                    r.swap(c, p);
-                    assert!(r[c][c] != 0.0, "singular Newton matrix");
-                    rinv[c] = 1.0 / r[c][c];
-                    for i in c + 1..3 {
-                        let m = r[i][c] * rinv[c];
-                        r[i][c] = m;
-                        for j in c + 1..3 {
-                            r[i][j] -= m * r[c][j];
-                        }
-                    }
-                }
-                have = true;
-            }
-            prev = scaled;
-            let b = [-r1[0], -r1[1], -r1[2], -r1[3], -g];
-            let mut rb = [
-                b[2] - w[0] * b[0] - w[1] * b[1],
-                b[3] - w[2] * b[0] - w[3] * b[1],
-                b[4] - w[4] * b[0] - w[5] * b[1],
-            ];
-            for c in 0..3 {
-                rb.swap(c, piv[c]);
-            }
-            for i in 1..3 {
-                for j in 0..i {
-                    rb[i] -= r[i][j] * rb[j];
+        let jf = it.jf();
+        let (jf2, jf3) = (jf[2], jf[3]);
+        // Rows 2 and 3 of the Newton matrix and their λ column.
+        let j2 = [
+            -half * jf2[0],
+            -half * jf2[1],
+            1.0 - half * jf2[2],
+            -half * jf2[3],
+        ];
+        let j3 = [
+            -half * jf3[0],
+            -half * jf3[1],
+            -half * jf3[2],
+            1.0 - half * jf3[3],
+        ];
+        let c2 = -h * (jf2[2] * e3 + jf2[3] * e4);
+        let c3 = -h * (jf3[2] * e3 + jf3[3] * e4);
+        let y = it.y;
+        // Δδ₁ = b₀ + (h/2) Δδ₃ − c₀ Δλ and Δδ₂ = b₁ + (h/2) Δδ₄ − c₁ Δλ substituted into rows
+        // 2, 3 and the constraint row (y₁, y₂, 0, 0, 0).
+        self.r = [
+            [
+                j2[2] + half * j2[0],
+                j2[3] + half * j2[1],
+                c2 - j2[0] * c0 - j2[1] * c1,
+            ],
+            [
+                j3[2] + half * j3[0],
+                j3[3] + half * j3[1],
+                c3 - j3[0] * c0 - j3[1] * c1,
+            ],
+            [half * y[0], half * y[1], -(y[0] * c0 + y[1] * c1)],
+        ];
+        self.w = [j2[0], j2[1], j3[0], j3[1], y[0], y[1]];
+        self.c = [c0, c1];
+        self.half = half;
+        let r = &mut self.r;
+        for c in 0..3 {
+            let mut p = c;
+            for i in c + 1..3 {
+                if r[i][c].abs() > r[p][c].abs() {
+                    p = i;
                 }
             }
-            for i in (0..3).rev() {
-                for j in i + 1..3 {
-                    rb[i] -= r[i][j] * rb[j];
-                }
-                rb[i] *= rinv[i];
-            }
-            let (u2, u3, ul) = (rb[0], rb[1], rb[2]);
-            let u = [
-                b[0] + half * u2 - c0 * ul,
-                b[1] + half * u3 - c1 * ul,
-                u2,
-                u3,
-            ];
-            for i in 0..4 {
-                delta[i] += u[i];
-            }
-            l += ul;
-            it += 1;
-            let update = amax(&u) * inv_tol1;
-            if last_update.is_finite()
-                && update < last_update
-                && update * update <= 0.5 * (last_update - update)
-            {
-                let xh = xhat(l);
-                y = core::array::from_fn(|i| xh[i] + delta[i]);
-                if (0.5 * (y[0] * y[0] + y[1] * y[1] - 1.0)).abs() <= ftol {
-                    break;
+            self.piv[c] = p;
+            r.swap(c, p);
+            assert!(r[c][c] != 0.0, "singular Newton matrix");
+            self.rinv[c] = 1.0 / r[c][c];
+            for i in c + 1..3 {
+                let m = r[i][c] * self.rinv[c];
+                r[i][c] = m;
+                for j in c + 1..3 {
+                    r[i][j] -= m * r[c][j];
                 }
             }
-            last_update = update;
         }
-        if self.steps > 0 {
-            self.offset = (l - self.mu) / h;
+    }
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)]
+    fn solve(&self, b: [f64; 5]) -> [f64; 5] {
+        let (r, w) = (&self.r, &self.w);
+        let mut rb = [
+            b[2] - w[0] * b[0] - w[1] * b[1],
+            b[3] - w[2] * b[0] - w[3] * b[1],
+            b[4] - w[4] * b[0] - w[5] * b[1],
+        ];
+        for k in 0..3 {
+            rb.swap(k, self.piv[k]);
         }
-        let (y1, y2, y3, y4) = (y[0], y[1], y[2], y[3]);
-        let mu = (y1 * y3 + y2 * y4) / (half * (y1 * y1 + 2.0 * y2 * y2));
-        self.mu = mu;
-        self.steps += 1;
-        *x = V::new(y1, y2, y3 - half * y1 * mu, y4 - h * y2 * mu);
+        for i in 1..3 {
+            for j in 0..i {
+                rb[i] -= r[i][j] * rb[j];
+            }
+        }
+        for i in (0..3).rev() {
+            for j in i + 1..3 {
+                rb[i] -= r[i][j] * rb[j];
+            }
+            rb[i] *= self.rinv[i];
+        }
+        let (u2, u3, ul) = (rb[0], rb[1], rb[2]);
+        let (half, c) = (self.half, self.c);
+        [
+            b[0] + half * u2 - c[0] * ul,
+            b[1] + half * u3 - c[1] * ul,
+            u2,
+            u3,
+            ul,
+        ]
     }
 }
 
