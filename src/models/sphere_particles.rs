@@ -273,6 +273,18 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Spheres<T> {
             *o = (0..3).fold(T::zero(), |s, k| s + (q[3 * i + k] - c[k]) * v[3 * i + k]);
         }
     }
+    /// `Gᵀ μ` written directly: `μᵢ (qᵢ − cᵢ)` for the constrained particles, zero elsewhere.
+    fn jacobian_transpose_apply(&self, x: &V, mu: &[T], out: &mut V) {
+        let q = x.as_slice();
+        let o = out.as_mut_slice();
+        let n = 3 * self.centers.len();
+        for (i, (&m, c)) in mu.iter().zip(&self.centers).enumerate() {
+            for k in 0..3 {
+                o[3 * i + k] = m * (q[3 * i + k] - c[k]);
+            }
+        }
+        o[n..].iter_mut().for_each(|v| *v = T::zero());
+    }
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
         let q = x.as_slice();
         let o = out.as_mut_slice();
