@@ -364,21 +364,21 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
         debug_assert_eq!(problem.dim(), k, "problem and solver dimensions differ");
         let z = &mut z[..k];
         let mut report = SolveReport::default();
+        // Each evaluation gives the plain ‖F‖∞ (`report.residual`, the finiteness test) and the
+        // effective residual, which does not count rows within the problem's noise floor and on
+        // which every decision is made (convergence, damping, stalls, contraction): a step that
+        // brings the exact rows down while the noisy ones move within their noise is progress,
+        // not growth to be halved away.
         let eval = |p: &mut P, z: &[V::Real], f: &mut V, r: &mut SolveReport<V::Real>| {
-            p.residual(z, &mut f.as_mut_slice()[..k])
-                .map_err(NewtonError::Residual)?;
+            let f = &mut f.as_mut_slice()[..k];
+            p.residual(z, f).map_err(NewtonError::Residual)?;
             r.residual_evaluations += 1;
-            Ok::<_, NewtonError<P::Error>>(ops::norm_inf(&f.as_slice()[..k]))
+            Ok::<_, NewtonError<P::Error>>((ops::norm_inf(f), effective_residual(p, f)))
         };
-        let mut raw = eval(problem, z, &mut self.f, &mut report)?;
+        let (mut raw, mut r) = eval(problem, z, &mut self.f, &mut report)?;
         if !raw.is_finite() {
             return Err(NewtonError::NonFinite { iteration: 0 });
         }
-        // Decisions (convergence, damping, stalls, contraction) use the effective residual,
-        // which does not count rows within the problem's noise floor: a step that brings the
-        // exact rows down while the noisy ones move within their noise is progress, not growth
-        // to be halved away. `report.residual` is the plain ‖F‖∞.
-        let mut r = effective_residual(problem, &self.f.as_slice()[..k]);
         let opts = self.options;
         let one = V::Real::one();
         let scale = problem.jacobian_scale();
@@ -421,8 +421,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             }
             ops::axpy(z, one, dz);
             report.iterations += 1;
-            raw = eval(problem, z, &mut self.f, &mut report)?;
-            let mut r_new = effective_residual(problem, &self.f.as_slice()[..k]);
+            let mut r_new;
+            (raw, r_new) = eval(problem, z, &mut self.f, &mut report)?;
             let noise = V::Real::lit(NOISE_FACTOR) * opts.ftol;
             // Damping: with a fresh Jacobian the direction is a descent direction of ‖F‖, so a
             // short enough step decreases the residual; halve until it does.
@@ -435,8 +435,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                     ops::axpy(z, -one, dz);
                     halvings += 1;
                     report.halvings += 1;
-                    raw = eval(problem, z, &mut self.f, &mut report)?;
-                    r_new = effective_residual(problem, &self.f.as_slice()[..k]);
+                    (raw, r_new) = eval(problem, z, &mut self.f, &mut report)?;
                 }
             }
             let dz = &self.dz.as_slice()[..k];
@@ -481,8 +480,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             if !fresh && (r_new.is_nan() || r_new >= r) {
                 // A kept Jacobian made things worse (or non-finite): go back, rebuild it there.
                 ops::axpy(z, -one, &self.dz.as_slice()[..k]);
-                raw = eval(problem, z, &mut self.f, &mut report)?;
-                r = effective_residual(problem, &self.f.as_slice()[..k]);
+                (raw, r) = eval(problem, z, &mut self.f, &mut report)?;
                 self.have_jacobian = false;
                 continue;
             }

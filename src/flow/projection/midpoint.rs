@@ -17,7 +17,7 @@ use crate::system::{
     Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System, check_initial_state,
     probe_decoupled,
 };
-use crate::vector::{Vector, ops};
+use crate::vector::{Vector, ops, take};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
 
@@ -624,7 +624,7 @@ where
             self.stats = stats;
             return Err(e);
         }
-        super::warm::take(x, &mut self.w.x_next);
+        take(x, &mut self.w.x_next);
         self.entry.record(x);
         self.warm.commit(&mut self.z, h, true);
         self.stats.projected_steps += 1;

@@ -36,7 +36,7 @@ use crate::system::{
     Case, Hamiltonian, HolonomicConstraint, InitialChecks, StructureMatrix, System,
     check_initial_state, probe_decoupled,
 };
-use crate::vector::{Vector, ops};
+use crate::vector::{Vector, ops, take};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
 use small::{FirstHalf, SmallPath};
@@ -770,7 +770,7 @@ where
             });
         match result {
             Ok(r) => {
-                warm::take(x, &mut self.w.x_next);
+                take(x, &mut self.w.x_next);
                 self.entry.record(x);
                 Ok(Some(r))
             }

@@ -22,8 +22,8 @@ use num_traits::Zero;
 pub(super) struct SmallPath<V: Vector> {
     pub(super) newton_k: SmallNewton<V::Real>,
     pub(super) newton_k1: SmallNewton<V::Real>,
-    /// The half-step directions at the half-step's base point: `d_j = (h/2) M Gᵀ e_j` at
-    /// `x_k` (first half-step), `M Gᵀ e_j` at `y` (second).
+    /// The half-step directions `d_j = (h/2) M Gᵀ e_j` at the half-step's base point (`x_k`
+    /// for the first half-step, `y` for the second).
     pub(super) d: Vec<V>,
     /// `w_j = d_j + h M ∇²H d_j` at `x_k`.
     pub(super) w: Vec<V>,

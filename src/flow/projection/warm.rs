@@ -20,7 +20,7 @@
 //! zero — the closed form `λ_{k+1} = −J⁻¹ φ(y)` — and no prediction, sum or trend is kept.
 
 use crate::real::Real;
-use crate::vector::Vector;
+use crate::vector::{Vector, take};
 use num_traits::Zero;
 
 /// The warm-start state of a decoupled projection (`m` multipliers each).
@@ -170,17 +170,5 @@ impl<V: Vector> WarmStart<V> {
         }
         self.last_h = h_last;
         self.steps += 1;
-    }
-}
-
-/// Makes `dst` hold the values of `src`, whose own values are no longer needed: a copy for
-/// stack vectors (half the moves of a swap), a swap of the buffers otherwise (O(1) for heap
-/// vectors, where a copy of `m = 10⁵` entries per step was measurable).
-#[inline(always)]
-pub(super) fn take<V: Vector>(dst: &mut V, src: &mut V) {
-    if V::CLONE_IS_COPY {
-        dst.copy_from(src);
-    } else {
-        core::mem::swap(dst, src);
     }
 }
