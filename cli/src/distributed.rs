@@ -4,7 +4,7 @@
 //! written as a one-process run writes them — byte for byte. Without the feature a single
 //! "rank" runs everything and nothing MPI is compiled.
 
-use lieflow::scene::sweep::MemberRow;
+use lieflow_lab::sweep::MemberRow;
 
 /// A row on the wire: every `f64` as `to_bits`.
 #[cfg(feature = "mpi")]

@@ -215,7 +215,7 @@ fn member_ids(specs: &[String], len: usize) -> Result<Vec<usize>, String> {
 }
 
 fn sweep(args: &SweepArgs) -> ExitCode {
-    use lieflow::scene::sweep::{OUTPUTS, Sweep, run_all, to_jsonl};
+    use lieflow_lab::sweep::{OUTPUTS, Sweep, run_all, to_jsonl};
     let sweep = match Sweep::from_path(&args.sweep) {
         Ok(s) => s,
         Err(e) => return bad_scene(&e),
@@ -382,7 +382,7 @@ fn sweep(args: &SweepArgs) -> ExitCode {
 }
 
 fn stress(args: &StressArgs) -> ExitCode {
-    use lieflow::scene::stress::{cases, run_case};
+    use lieflow_lab::stress::{cases, run_case};
     let selected: Vec<_> = cases()
         .into_iter()
         .filter(|c| args.long || !c.long)
@@ -775,7 +775,7 @@ fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
 }
 
 fn precision(args: &PrecisionArgs) -> ExitCode {
-    use lieflow::scene::precision::{
+    use lieflow_lab::precision::{
         PrecisionPlan, fitted_slopes, fitting_window, reference, work_precision, write_csv,
     };
     let mut scene = match load(args.scene.as_ref()) {

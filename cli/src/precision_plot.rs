@@ -1,7 +1,7 @@
 //! The work–precision figures: error against time, error against step size with fitted slopes,
 //! and `max |g|` against time — one line per method, log–log.
 
-use lieflow::scene::precision::PrecisionRow;
+use lieflow_lab::precision::PrecisionRow;
 use plotters::prelude::*;
 use std::path::Path;
 

@@ -1,7 +1,7 @@
 //! The sweep's figure: a chosen output against a chosen parameter, one point per member that
 //! reports the output (linear axes; failed members are left out and counted in the caption).
 
-use lieflow::scene::sweep::MemberRow;
+use lieflow_lab::sweep::MemberRow;
 use plotters::prelude::*;
 use std::path::Path;
 

@@ -277,7 +277,7 @@ fn precision_writes_a_table_a_csv_and_figures() {
     assert!(csv.lines().any(|l| l.starts_with("# machine: ")));
     assert!(csv.lines().any(|l| l.starts_with("# revision: ")));
     let header = csv.lines().find(|l| !l.starts_with('#')).unwrap();
-    assert_eq!(header, lieflow::scene::precision::CSV_COLUMNS.join(","));
+    assert_eq!(header, lieflow_lab::precision::CSV_COLUMNS.join(","));
     for stem in ["time", "dt", "g"] {
         let svg = std::fs::read_to_string(dir.join(format!("work_precision_{stem}.svg"))).unwrap();
         assert!(svg.starts_with("<svg"));

@@ -20,7 +20,6 @@ use crate::flow::{
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NewtonOptions, SMALL_MAX};
 use crate::real::Real;
-use crate::scene::precision::DENSE_MAX_DIM;
 use crate::system::{Case, HolonomicConstraint, System, Unconstrained};
 use crate::vector::Vector;
 use faer::Col;
@@ -38,6 +37,10 @@ pub const MAX_STEPS: usize = 1_000_000_000_000;
 
 /// The most pairs a pair potential may visit per evaluation (it has no cut-off).
 pub const MAX_PAIRS: usize = 50_000_000;
+
+/// The largest number of unknowns (`n`, or `n + m` for the joint midpoint system) on which the
+/// implicit schemes factor a dense Newton matrix at every step.
+pub const DENSE_MAX_DIM: usize = 400;
 
 /// What a compiled scene assembled: printed by `lieflow check`.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -1088,7 +1091,7 @@ pub fn compile(file: &SceneFile) -> Result<Compiled> {
 /// As [`compile`], but a composition of order above 2 may run damping backwards: for reference
 /// runs of mildly damped scenes only, where an order-8 composition's accuracy matters more than
 /// the damping's sign in its backward sub-steps.
-pub(crate) fn compile_reference(file: &SceneFile) -> Result<Compiled> {
+pub fn compile_reference(file: &SceneFile) -> Result<Compiled> {
     compile_impl(file, true)
 }
 
@@ -1576,9 +1579,13 @@ fn projection_options<T: Real>(model: &SceneModel<T>, x0: &[T], eps: T) -> Proje
 /// projection around `kick(h/2) ∘ free flight(h) ∘ kick(h/2)`; composed by `table`. For any
 /// storage and scalar (`eps` its unit round-off): `Col<f64>` for runs, `DVector` of a
 /// double-double scalar for references. Returns the flow, its description and, when projected,
-/// the projection variant, whether it takes the small path, and its linear solver.
+/// the projection variant, whether it takes the small path, and its linear solver. `backward`
+/// lets a composition run a dissipative sub-flow backwards (reference runs only).
+///
+/// # Errors
+/// The projection's setup errors at `x0` ([`SetupError`]).
 #[allow(clippy::type_complexity)]
-pub(crate) fn splitting_flow<V: Vector + 'static>(
+pub fn splitting_flow<V: Vector + 'static>(
     model: &Arc<SceneModel<V::Real>>,
     x0: &V,
     table: Option<&'static CompositionTable>,

@@ -132,6 +132,21 @@ impl SceneError {
         }
         self
     }
+
+    /// A TOML parse error of `text` (the file `file`) as a located [`SceneErrorKind::Syntax`]
+    /// error; for an unknown key, at the key's line.
+    pub fn from_toml_error(e: &toml::de::Error, file: &str, text: &str) -> Self {
+        let mut se = Self::new(
+            SceneErrorKind::Syntax,
+            FieldPath::root(),
+            e.message().trim_end().to_owned(),
+        );
+        if let Some(span) = e.span() {
+            let at = unknown_key_offset(e.message(), text, span.clone());
+            se.location = Some(location_of(file, text, at.unwrap_or(span.start)));
+        }
+        se
+    }
 }
 
 /// The byte offset of the deepest existing element of `path` in `text`.

@@ -8,7 +8,7 @@ use crate::linalg::{AutoLu, LinearSolver, Sink, SolverChoice, Structure};
 use std::collections::HashMap;
 
 /// `A = G W⁻¹ Gᵀ`, `W` the masses: two rows couple where their gradients touch the same body.
-pub(crate) struct MassGram {
+pub struct MassGram {
     /// The gradient walk's `(row, body)` in order ([`SceneModel::for_each_gradient`]).
     walk: Vec<(usize, usize)>,
     /// `(walk index e₁, walk index e₂, key index)`: `A[key] += c(e₁) · c(e₂) / m_body`.
@@ -22,7 +22,7 @@ pub(crate) struct MassGram {
 
 impl MassGram {
     /// Records the pattern at positions `q` (it does not depend on them) and sets up the solver.
-    pub(crate) fn new(model: &SceneModel, q: &[f64]) -> Result<Self, LinearSolveError> {
+    pub fn new(model: &SceneModel, q: &[f64]) -> Result<Self, LinearSolveError> {
         let mut walk = Vec::new();
         model.for_each_gradient(q, |row, body, _| walk.push((row, body)));
         let mut by_body: HashMap<usize, Vec<usize>> = HashMap::new();
@@ -57,7 +57,7 @@ impl MassGram {
     }
 
     /// Assembles and factors `A` at positions `q` (no allocation).
-    pub(crate) fn factor(&mut self, model: &SceneModel, q: &[f64]) -> Result<(), LinearSolveError> {
+    pub fn factor(&mut self, model: &SceneModel, q: &[f64]) -> Result<(), LinearSolveError> {
         let d = model.dim;
         let mut e = 0;
         let coefs = &mut self.coefs;
@@ -84,7 +84,7 @@ impl MassGram {
     /// iterations — an estimate from below of each extreme eigenvalue, good to a few digits
     /// unless two eigenvalues cluster (Golub & Van Loan, Matrix Computations, §7.3, §8.2).
     /// `∞` when `A` is singular to working precision.
-    pub(crate) fn condition_estimate(&mut self, model: &SceneModel, q: &[f64]) -> f64 {
+    pub fn condition_estimate(&mut self, model: &SceneModel, q: &[f64]) -> f64 {
         if self.factor(model, q).is_err() {
             return f64::INFINITY;
         }
@@ -137,7 +137,7 @@ impl MassGram {
     }
 
     /// `rhs ← A⁻¹ rhs` with the last factorization.
-    pub(crate) fn solve(&mut self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
+    pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
         self.lu.solve_in_place(rhs)
     }
 }

@@ -42,17 +42,15 @@ mod compile;
 mod error;
 mod gram;
 mod model;
-#[cfg(feature = "peers")]
-mod peers;
-pub mod precision;
 mod run;
 pub mod schema;
-pub mod stress;
-#[cfg(feature = "sweep")]
-pub mod sweep;
 
-pub use compile::{Assembly, Compiled, MAX_BODIES, MAX_PAIRS, compile};
+pub use compile::{
+    Assembly, Compiled, DENSE_MAX_DIM, MAX_BODIES, MAX_PAIRS, compile, compile_reference,
+    splitting_flow,
+};
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
+pub use gram::MassGram;
 pub use model::{EffectKind, SceneModel};
 pub use run::{EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation, run};
 pub use schema::SceneFile;
@@ -62,20 +60,6 @@ use std::path::Path;
 /// The default scene (`lieflow scene` prints it; `lieflow run` runs it): a damped,
 /// spring-coupled triple pendulum pair under gravity.
 pub const DEFAULT_SCENE: &str = include_str!("default.toml");
-
-/// A TOML parse error as a located [`SceneError`] (for an unknown key, at the key's line).
-pub(crate) fn syntax_error(e: &toml::de::Error, file: &str, text: &str) -> SceneError {
-    let mut se = SceneError::new(
-        SceneErrorKind::Syntax,
-        FieldPath::root(),
-        e.message().trim_end().to_owned(),
-    );
-    if let Some(span) = e.span() {
-        let at = error::unknown_key_offset(e.message(), text, span.clone());
-        se.location = Some(error::location_of(file, text, at.unwrap_or(span.start)));
-    }
-    se
-}
 
 /// A parsed scene with its source text, so that errors found while compiling point at the file.
 #[derive(Debug, Clone, PartialEq)]
@@ -89,7 +73,8 @@ pub struct Scene {
 impl Scene {
     /// Parses a scene from TOML `text`; `file` names it in error messages.
     pub fn from_toml(text: &str, file: &str) -> Result<Self, SceneError> {
-        let parsed: SceneFile = toml::from_str(text).map_err(|e| syntax_error(&e, file, text))?;
+        let parsed: SceneFile =
+            toml::from_str(text).map_err(|e| SceneError::from_toml_error(&e, file, text))?;
         Ok(Self {
             file: parsed,
             source: Some((file.to_owned(), text.to_owned())),

@@ -348,6 +348,36 @@ impl<T: Real> SceneModel<T> {
     pub fn state_len(&self) -> usize {
         2 * self.dim * self.masses.len()
     }
+    /// Number of constraint rows `m` (the length of `g`).
+    pub fn constraint_rows(&self) -> usize {
+        self.m
+    }
+    /// The inverse masses `1/m_b`, one per body (`W⁻¹` is `1/m_b` on each of body `b`'s `d`
+    /// coordinates).
+    pub fn inv_masses(&self) -> &[T] {
+        &self.inv_masses
+    }
+
+    /// `out_i += vᵀ ∇²g_i(q) v` for velocities `v = W⁻¹ p` (length `d N`): the term of
+    /// `d²g/dt² = G q̈ + vᵀ ∇²g v` that does not depend on the acceleration — `|v_a − v_b|²` for
+    /// a rod, `|v_b|²` for a sphere, zero for planes and pins (their `g` is affine). It does not
+    /// depend on `q`: every constraint's Hessian is constant.
+    pub fn velocity_curvature_add(&self, v: &[T], out: &mut [T]) {
+        let d = self.dim;
+        for c in &self.constraints {
+            let add = match c.kind {
+                ConstraintKind::Rod { a, b, .. } => (0..d).fold(T::lit(0.0), |acc, k| {
+                    let dv = v[a * d + k] - b.map_or(T::lit(0.0), |b| v[b * d + k]);
+                    acc + dv * dv
+                }),
+                ConstraintKind::Sphere { body, .. } => (0..d).fold(T::lit(0.0), |acc, k| {
+                    acc + v[body * d + k] * v[body * d + k]
+                }),
+                ConstraintKind::Pin { .. } | ConstraintKind::Plane { .. } => continue,
+            };
+            out[c.row] = out[c.row] + add;
+        }
+    }
     /// Zeroes every term's evaluation counter and clock.
     pub fn reset_counters(&self) {
         self.kinetic.reset();
@@ -426,8 +456,8 @@ impl<T: Real> SceneModel<T> {
         v
     }
 
-    /// `out += α ∇V(q)`.
-    pub(crate) fn potential_gradient_add(&self, q: &[T], alpha: T, out: &mut [T]) {
+    /// `out += α ∇V(q)`, `V` the sum of the potential terms (length `d N`: positions only).
+    pub fn potential_gradient_add(&self, q: &[T], alpha: T, out: &mut [T]) {
         let d = self.dim;
         for term in &self.potentials {
             self.timed(&term.counter, || match &term.potential {

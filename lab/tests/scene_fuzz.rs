@@ -6,8 +6,8 @@
 use lieflow::scene::{DEFAULT_SCENE, Scene, run};
 use proptest::prelude::*;
 
-const ALL_EFFECTS: &str = include_str!("../scenes/all_effects.toml");
-const SHELL: &str = include_str!("../scenes/shell_damped.toml");
+const ALL_EFFECTS: &str = include_str!("../../scenes/all_effects.toml");
+const SHELL: &str = include_str!("../../scenes/shell_damped.toml");
 
 /// Values a mutated field may take: extremes, non-finite, zero, negatives, wrong types.
 const VALUES: &[&str] = &[
@@ -173,7 +173,7 @@ proptest! {
         let l = 10f64.powf(log_l);
         let masses: Vec<f64> = masses.iter().map(|e| 10f64.powf(*e)).collect();
         let dt = 10f64.powf(log_step) * (l / 9.81).sqrt();
-        let text = lieflow::scene::stress::chain_scene(&masses, l, None, dt, 50);
+        let text = lieflow_lab::stress::chain_scene(&masses, l, None, dt, 50);
         let reach = l * masses.len() as f64;
         random_system_outcome(&text, 64.0 * f64::EPSILON * l * reach)?;
     }

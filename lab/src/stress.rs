@@ -1,4 +1,4 @@
-//! The hard-case suite (issue 12): problems engineers fear — a public DAE test problem,
+//! The hard-case suite: problems engineers fear — a public DAE test problem,
 //! stiff damping and springs, extreme lengths and mass ratios, a nearly singular multiplier
 //! system, redundant constraints, very long runs, hostile input — each run as a scene and
 //! judged by what theory says it must do: stay stable with its residuals at their rounding
@@ -9,8 +9,8 @@
 //! [`passed`](Row::passed) says whether every check held. The long cases (10⁷ steps) are
 //! marked [`Case::long`].
 
-use super::{Compiled, Scene};
-use crate::error::StepError;
+use lieflow::StepError;
+use lieflow::scene::{Compiled, Scene};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -74,12 +74,8 @@ pub struct Case {
 
 #[derive(Debug, Clone)]
 enum Kind {
-    Scene {
-        text: String,
-        expect: Expect,
-    },
+    Scene { text: String, expect: Expect },
     Fekete,
-    #[cfg(feature = "autodiff")]
     Andrews,
     FourBar,
     Bricard,
@@ -273,7 +269,6 @@ pub fn run_case(case: &Case) -> Row {
     let mut row = match &case.kind {
         Kind::Scene { text, expect } => run_scene_case(case.name, text, *expect),
         Kind::Fekete => fekete(),
-        #[cfg(feature = "autodiff")]
         Kind::Andrews => andrews(),
         Kind::FourBar => four_bar(),
         Kind::Bricard => bricard(),
@@ -544,9 +539,8 @@ fn fekete() -> Row {
 // ---------------------------------------------------------------------------------------------
 // Andrews' squeezing mechanism (IVP test set), a model with automatic derivatives.
 
-#[cfg(feature = "autodiff")]
 fn andrews() -> Row {
-    use crate::models::andrews::{REFERENCE, run};
+    use lieflow::models::andrews::{REFERENCE, run};
     let name = "andrews";
     let (coarse, fine) = match (run(3000), run(6000)) {
         (Ok(a), Ok(b)) => (a, b),
@@ -594,7 +588,7 @@ fn andrews() -> Row {
 // The N-four-bar mechanism (IFToMM A02).
 
 fn four_bar() -> Row {
-    use crate::models::four_bar::NFourBar;
+    use lieflow::models::four_bar::NFourBar;
     let name = "n-four-bar";
     let model = NFourBar::new(40);
     let r = match model.benchmark_run(1e-3, 10_000) {
@@ -647,7 +641,7 @@ fn four_bar() -> Row {
 // Bricard's mechanism (IFToMM A04).
 
 fn bricard() -> Row {
-    use crate::models::bricard::Bricard;
+    use lieflow::models::bricard::Bricard;
     let name = "bricard";
     let h = 1e-3;
     let (r, half) = match (Bricard::run(h, 10_000), Bricard::run(h / 2.0, 20_000)) {
@@ -881,7 +875,6 @@ pub fn cases() -> Vec<Case> {
             long: false,
             kind: Kind::Fekete,
         },
-        #[cfg(feature = "autodiff")]
         Case {
             name: "andrews",
             about: "7 bodies, 6 loop closures, position-dependent mass matrix, t in [0, 0.03]",

@@ -2,13 +2,13 @@
 //! same rows bit for bit whatever the number of threads, a failing member is a row, and random
 //! sweeps draw each member's values from its own seeded stream.
 
-use lieflow::scene::sweep::{Sweep, SweepFile, run_all, to_jsonl};
+use lieflow_lab::sweep::{Sweep, SweepFile, run_all, to_jsonl};
 use std::path::Path;
 
 fn sweep() -> Sweep {
     Sweep::from_path(Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/sweep_damped.toml"
+        "/../tests/data/sweep_damped.toml"
     )))
     .unwrap_or_else(|e| panic!("{e}"))
 }
@@ -35,7 +35,7 @@ fn rows_are_identical_for_one_and_two_threads() {
     let members: Vec<_> = s.members().collect();
     let one = run_all(&s, &members, 1, &|| {}).unwrap();
     let two = run_all(&s, &members, 2, &|| {}).unwrap();
-    let rows = |r: &[(lieflow::scene::sweep::MemberRow, f64)]| {
+    let rows = |r: &[(lieflow_lab::sweep::MemberRow, f64)]| {
         r.iter().map(|(r, _)| r.clone()).collect::<Vec<_>>()
     };
     let (a, b) = (to_jsonl(&rows(&one)), to_jsonl(&rows(&two)));
@@ -62,11 +62,11 @@ fn a_failing_member_is_a_row_not_an_abort() {
     let mut s = sweep();
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/scenes/damped_pendulum.toml"
+        "/../scenes/damped_pendulum.toml"
     ))
     .unwrap();
     let file = SweepFile {
-        parameters: vec![lieflow::scene::sweep::ParameterSpec {
+        parameters: vec![lieflow_lab::sweep::ParameterSpec {
             path: "integrator.dt".into(),
             values: Some(vec![0.01, -1.0, 0.02]),
             grid: None,
@@ -89,7 +89,7 @@ fn a_failing_member_is_a_row_not_an_abort() {
 fn random_members_are_reproducible_and_in_bounds() {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/scenes/damped_pendulum.toml"
+        "/../scenes/damped_pendulum.toml"
     ))
     .unwrap();
     let file: SweepFile = toml::from_str(
@@ -126,7 +126,7 @@ fn random_members_are_reproducible_and_in_bounds() {
 fn bad_random_values_are_refused_and_integer_fields_can_be_swept() {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/scenes/chain100_damped.toml"
+        "/../scenes/chain100_damped.toml"
     ))
     .unwrap();
     let empty: SweepFile = toml::from_str(

@@ -4,10 +4,8 @@
 //! rule, the discrete gradient), and the explicit splitting fails with a typed error or a
 //! finite, reported state — never a panic.
 
-use lieflow::scene::stress::{
-    damped_chain_scene, stiff_spring_among_pins_scene, stiff_spring_scene,
-};
 use lieflow::scene::{Scene, run};
+use lieflow_lab::stress::{damped_chain_scene, stiff_spring_among_pins_scene, stiff_spring_scene};
 
 fn scene(text: &str) -> Scene {
     Scene::from_toml(text, "stiff.toml").unwrap_or_else(|e| panic!("{e}"))

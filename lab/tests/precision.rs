@@ -2,11 +2,11 @@
 //! CSV has its documented columns, and a failing run is a row.
 
 use lieflow::scene::Scene;
-use lieflow::scene::precision::{
+use lieflow_lab::precision::{
     CSV_COLUMNS, PrecisionPlan, PrecisionRow, fitted_slopes, reference, work_precision, write_csv,
 };
 
-const PAPER: &str = include_str!("../scenes/paper.toml");
+const PAPER: &str = include_str!("../../scenes/paper.toml");
 
 fn paper(t_end: f64) -> Scene {
     let mut s = Scene::from_toml(PAPER, "paper.toml").unwrap();
@@ -181,7 +181,7 @@ fn a_failing_setup_is_a_row() {
 #[test]
 fn the_double_double_reference_is_below_double_precision() {
     let text =
-        include_str!("../scenes/damped_pendulum.toml").replace("t_end = 10.0", "t_end = 1.0");
+        include_str!("../../scenes/damped_pendulum.toml").replace("t_end = 10.0", "t_end = 1.0");
     let scene = Scene::from_toml(&text, "damped_pendulum.toml").unwrap();
     let mut p = plan(&[0.02, 0.01], &[2]);
     let dd = reference(&scene, &p).unwrap();

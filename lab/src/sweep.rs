@@ -1,4 +1,4 @@
-//! Parameter sweeps (feature `sweep`): one base scene, the fields to vary addressed by path,
+//! Parameter sweeps: one base scene, the fields to vary addressed by path,
 //! and every member run on its own thread of a [rayon](https://docs.rs/rayon) pool — the
 //! ensemble of SciML's `EnsembleProblem`, the job array of a batch system.
 //!
@@ -31,7 +31,7 @@
 //! deterministic); [`run_all`] runs them on `threads` threads and returns the rows in id order —
 //! the same rows, bit for bit, for any number of threads, since members share nothing.
 
-use super::{Scene, SceneError, SceneErrorKind, error::FieldPath, run};
+use lieflow::scene::{FieldPath, Scene, SceneError, SceneErrorKind, run};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -373,7 +373,7 @@ impl Sweep {
             )
         })?;
         let file: SweepFile =
-            toml::from_str(&text).map_err(|e| super::syntax_error(&e, &name, &text))?;
+            toml::from_str(&text).map_err(|e| SceneError::from_toml_error(&e, &name, &text))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let scene_path = dir.join(&file.scene);
         let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {

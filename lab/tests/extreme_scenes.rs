@@ -3,8 +3,8 @@
 //! (a nearly singular multiplier system). Each run keeps `g` at the rounding level of its own
 //! geometry, or stops with a typed error — never a panic or a non-finite state.
 
-use lieflow::scene::stress::{chain_scene as chain, taut_chain_scene};
 use lieflow::scene::{Scene, run};
+use lieflow_lab::stress::{chain_scene as chain, taut_chain_scene};
 
 /// Runs the scene; `Ok(max |g| / (ε ℓ L))` — `g` in units of its rounding level for links of
 /// length `ℓ` at distance `L` from the origin — or the error's text.

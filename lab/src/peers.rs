@@ -1,4 +1,4 @@
-//! Peer solvers on the same problems (feature `peers`): Hairer's DOP853 on the index-1 ODE and
+//! Peer solvers on the same problems: Hairer's DOP853 on the index-1 ODE and
 //! Radau5 on the index-3 DAE, from the maintained `differential-equations` crate.
 //!
 //! ```text
@@ -15,19 +15,19 @@
 //! their `max |g|` is reported in its own column. States of the sizes instantiated below are
 //! fixed arrays (DOP853 for `n = 4`, Radau5 for `n + m = 5`), others `Vec`.
 
-use super::Scene;
-use super::gram::MassGram;
-use super::model::{ConstraintKind, SceneModel};
-use super::precision::{PrecisionPlan, PrecisionRow, Reference, distance, min_median};
-use crate::System;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
-use crate::vector::Vector;
+use crate::precision::{PrecisionPlan, PrecisionRow, Reference, distance, min_median};
 use differential_equations::linalg::Matrix;
 use differential_equations::prelude::{
     ControlFlag, DAE, ExplicitRungeKutta, IVP, ImplicitRungeKutta, Interpolation, ODE, Solout,
     Solution,
 };
 use faer::Col;
+use lieflow::System;
+use lieflow::Vector;
+use lieflow::scene::MassGram;
+use lieflow::scene::Scene;
+use lieflow::scene::SceneModel;
+use lieflow::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use std::cell::RefCell;
 use std::sync::Arc;
 use std::time::Instant;
@@ -102,6 +102,8 @@ struct SceneWork {
     t2: Col<f64>,
     rhs: Vec<f64>,
     grad: Vec<f64>,
+    /// Velocities `W⁻¹ p`.
+    vel: Vec<f64>,
     full: Col<f64>,
     mu: Vec<f64>,
     gram: MassGram,
@@ -117,7 +119,7 @@ struct ScenePeer {
 
 impl ScenePeer {
     fn new(model: Arc<SceneModel>, x0: &[f64]) -> Result<Self, String> {
-        let m = model.m;
+        let m = model.constraint_rows();
         let n = model.state_len();
         let gram = MassGram::new(&model, &x0[..n / 2]).map_err(|e| e.to_string())?;
         let zeros = Col::<f64>::zeros(n);
@@ -128,6 +130,7 @@ impl ScenePeer {
                 t2: zeros,
                 rhs: vec![0.0; m],
                 grad: vec![0.0; n / 2],
+                vel: vec![0.0; n / 2],
                 full: Col::<f64>::zeros(n),
                 mu: vec![0.0; m],
                 gram,
@@ -142,34 +145,24 @@ impl ScenePeer {
     /// `μ(x)` with `∇V(q)` already in `w.grad`.
     fn mu_from(&self, w: &mut SceneWork, x: &[f64], out: &mut [f64]) {
         let model = &self.model;
-        let (n, d) = (model.state_len(), model.dim);
+        let (n, d) = (model.state_len(), model.space_dim());
         let nq = n / 2;
         // b = G W⁻¹ ((K − R) v − ∇V) + Ġ v: t1 = (0, v) so that M t1 = (v, (K − R) v).
         w.t1.as_mut_slice()[..nq].fill(0.0);
         for i in 0..nq {
-            w.t1[nq + i] = model.inv_masses[i / d] * x[nq + i];
+            w.t1[nq + i] = model.inv_masses()[i / d] * x[nq + i];
         }
         model.apply(&w.x, &w.t1, &mut w.t2);
         // f = (K − R) v − ∇V, then W⁻¹ f into the q-half of t1 (G acts on positions).
         for i in 0..nq {
-            w.t1[i] = model.inv_masses[i / d] * (w.t2[nq + i] - w.grad[i]);
+            w.t1[i] = model.inv_masses()[i / d] * (w.t2[nq + i] - w.grad[i]);
         }
         w.t1.as_mut_slice()[nq..].fill(0.0);
         HolonomicConstraint::<Col<f64>>::jacobian_apply(model, &w.x, &w.t1, &mut w.rhs);
-        let v = &x[nq..];
-        for c in &model.constraints {
-            let vel = |b: usize, k: usize| model.inv_masses[b] * v[b * d + k];
-            w.rhs[c.row] += match c.kind {
-                ConstraintKind::Rod { a, b, .. } => (0..d)
-                    .map(|k| {
-                        let dv = vel(a, k) - b.map_or(0.0, |b| vel(b, k));
-                        dv * dv
-                    })
-                    .sum(),
-                ConstraintKind::Sphere { body, .. } => (0..d).map(|k| vel(body, k).powi(2)).sum(),
-                _ => 0.0,
-            };
+        for i in 0..nq {
+            w.vel[i] = model.inv_masses()[i / d] * x[nq + i];
         }
+        model.velocity_curvature_add(&w.vel, &mut w.rhs);
         let ok = w.gram.factor(model, &x[..nq]).is_ok() && w.gram.solve(&mut w.rhs).is_ok();
         if ok {
             out.copy_from_slice(&w.rhs);
@@ -184,7 +177,7 @@ impl PeerProblem for ScenePeer {
         self.model.state_len()
     }
     fn m(&self) -> usize {
-        self.model.m
+        self.model.constraint_rows()
     }
     fn field(&self, x: &[f64], lambda: &[f64], out: &mut [f64]) {
         let mut w = self.work.borrow_mut();
@@ -557,7 +550,7 @@ pub(crate) fn peer_rows(
                 error: finite.then(|| distance(&observed.x, &reference.x)),
                 max_abs_g: Some(observed.max_g),
                 max_abs_phi: Some(observed.max_phi),
-                energy_error: (!dissipative && !super::precision::is_paper(scene))
+                energy_error: (!dissipative && !crate::precision::is_paper(scene))
                     .then_some(observed.max_de),
                 steps: observed.steps,
                 evaluations: observed.evaluations,

@@ -3,13 +3,13 @@
 //! constraint is dropped and reported, and every constraint, the dropped one included, holds at
 //! round-off along the motion with the energy conserved to the scheme's accuracy.
 
-use lieflow::scene::stress::chain_scene;
 use lieflow::scene::{Scene, run};
+use lieflow_lab::stress::chain_scene;
 
 fn parallel_cranks(redundant: &str) -> String {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/scenes/parallel_cranks.toml"
+        "/../scenes/parallel_cranks.toml"
     ))
     .unwrap();
     text.replace(

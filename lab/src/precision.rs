@@ -1,5 +1,5 @@
 //! Work–precision: what accuracy costs in time, over step sizes and orders, against a
-//! reference and (feature `peers`) against solvers a user would otherwise take.
+//! reference and against solvers a user would otherwise take.
 //!
 //! [`work_precision`] runs a scene with every scheme of a [`PrecisionPlan`] at every step size
 //! (and the peers at every tolerance) and returns one [`PrecisionRow`] per run: the error at the
@@ -9,13 +9,12 @@
 //! with nothing observed, as DiffEqDevTools' `WorkPrecisionSet` does. A run that fails is a row
 //! with its error kind, never a panic.
 
-use super::run::{RunPlan, run};
-use super::{Scene, SceneError};
-use crate::models::paper;
+use lieflow::models::paper;
+use lieflow::scene::{RunPlan, run};
+use lieflow::scene::{Scene, SceneError};
 use serde::Serialize;
 
-/// The largest state the implicit schemes (dense Newton on `n` or `n + m` unknowns) are run on.
-pub const DENSE_MAX_DIM: usize = 400;
+pub use lieflow::scene::DENSE_MAX_DIM;
 
 /// What to run.
 #[derive(Debug, Clone, PartialEq)]
@@ -222,7 +221,7 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
     }
     let h_min = plan.dts.iter().copied().fold(f64::INFINITY, f64::min);
     let at = |scheme: &str, h: f64| -> Result<Vec<f64>, SceneError> {
-        let mut c = super::compile::compile_reference(&with_scheme(scene, scheme, None, h).file)?;
+        let mut c = lieflow::scene::compile_reference(&with_scheme(scene, scheme, None, h).file)?;
         let quiet = RunPlan {
             steps: c.plan.steps,
             energy: false,
@@ -232,8 +231,8 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
         match s.error {
             None => Ok(s.x),
             Some(f) => Err(SceneError::new(
-                super::SceneErrorKind::Setup,
-                super::FieldPath::root(),
+                lieflow::scene::SceneErrorKind::Setup,
+                lieflow::scene::FieldPath::root(),
                 format!(
                     "the reference run ({scheme}, h = {h:e}) failed at step {}: {}",
                     f.step, f.message
@@ -253,7 +252,7 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
             let h = dividing(t, h_min / 4.0);
             match (dd(h), dd(h / 2.0)) {
                 (Ok(coarse), Ok(fine)) => {
-                    use crate::real::Real as _;
+                    use lieflow::Real as _;
                     // The estimate in double-double: the two runs agree far below f64's
                     // resolution, which rounding them first would hide.
                     let diff = coarse
@@ -302,22 +301,22 @@ pub const DD_MAX_DIM: usize = 400;
 /// Kahan–Li 8 around the scene's splitting in double-double from `x0` to `t` in steps of about
 /// `h` (exactly `t / round(t/h)` in double-double); the final state.
 fn double_double_run(
-    model: &std::sync::Arc<super::SceneModel>,
+    model: &std::sync::Arc<lieflow::scene::SceneModel>,
     x0: &[f64],
     t: f64,
     h: f64,
 ) -> Result<Vec<twofloat::TwoFloat>, String> {
-    use crate::Flow as _;
-    use crate::real::Real;
+    use lieflow::Flow as _;
+    use lieflow::Real;
     use twofloat::TwoFloat;
     type V = nalgebra::DVector<TwoFloat>;
     let dd = std::sync::Arc::new(model.with_scalar::<TwoFloat>());
     let mut x = V::from_iterator(x0.len(), x0.iter().map(|&v| TwoFloat::lit(v)));
     // twofloat's `epsilon()` is f64::MIN_POSITIVE; its unit round-off is ~2^-106.
     let eps = TwoFloat::lit(1e-31);
-    let table = crate::flow::coefficients::table_by_name("kahan-li8");
+    let table = lieflow::flow::coefficients::table_by_name("kahan-li8");
     let (mut flow, _, _) =
-        super::compile::splitting_flow(&dd, &x, table, true, eps).map_err(|e| e.to_string())?;
+        lieflow::scene::splitting_flow(&dd, &x, table, true, eps).map_err(|e| e.to_string())?;
     let steps = (t / h).round().max(1.0);
     let step = TwoFloat::lit(t) / TwoFloat::lit(steps);
     for k in 0..steps as usize {
@@ -437,9 +436,8 @@ pub fn work_precision(
             push(row, &mut rows);
         }
     }
-    #[cfg(feature = "peers")]
     if plan.peers {
-        for row in super::peers::peer_rows(scene, plan, reference) {
+        for row in crate::peers::peer_rows(scene, plan, reference) {
             push(row, &mut rows);
         }
     }
