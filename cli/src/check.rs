@@ -1,0 +1,90 @@
+//! `lieflow check`: validate a scene and print what it assembles.
+
+use crate::{bad_scene, load};
+use lieflow::scene::Assembly;
+use std::path::Path;
+use std::process::ExitCode;
+
+/// Compiles the scene at `path` and prints its assembly (as one JSON line with `json`).
+pub(crate) fn check(path: &Path, json: bool) -> ExitCode {
+    match load(Some(path)).and_then(|s| s.compile()) {
+        Ok(compiled) => {
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string(&compiled.assembly).expect("serializable")
+                );
+            } else {
+                print_assembly(&compiled.assembly);
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => bad_scene(&e),
+    }
+}
+
+pub(crate) fn print_assembly(a: &Assembly) {
+    println!("scene        {}", a.name);
+    if let Some(d) = a.dim {
+        println!(
+            "space        {d}D, {} bodies, state of {}",
+            a.bodies, a.state_len
+        );
+    } else {
+        println!("model        built-in, state of {}", a.state_len);
+    }
+    if a.constraints.is_empty() {
+        println!("constraints  none");
+    } else {
+        let list: Vec<String> = a
+            .constraints
+            .iter()
+            .map(|(k, n)| format!("{n} {k}"))
+            .collect();
+        println!(
+            "constraints  {} rows: {}",
+            a.constraint_rows,
+            list.join(", ")
+        );
+    }
+    for (i, (label, kind)) in a.effects.iter().enumerate() {
+        let head = if i == 0 { "effects" } else { "" };
+        println!("{head:<12} {label} ({kind})");
+    }
+    for d in &a.disabled {
+        println!("switched off {d}");
+    }
+    println!(
+        "structure    {}, {}",
+        if a.canonical {
+            "J canonical"
+        } else {
+            "J non-canonical (magnetic field)"
+        },
+        if a.dissipative {
+            "dissipative (M = J - R)"
+        } else {
+            "conservative"
+        }
+    );
+    if let Some(case) = &a.case {
+        println!("case         {case} (Zhang & Deng 2004)");
+    }
+    if let Some(p) = &a.projection {
+        println!("projection   {p}");
+    }
+    println!("scheme       {}, order {}", a.scheme, a.order);
+    if let Some(s) = &a.solver {
+        println!("solver       {s}");
+    }
+    println!("steps        {}", a.steps);
+    if let Some((dq, dp)) = a.initial_projection {
+        println!("projected    initial state moved by max |dq| = {dq:.3e}, max |dp| = {dp:.3e}");
+    }
+    if !a.dropped_constraints.is_empty() {
+        println!(
+            "dropped      redundant: {}",
+            a.dropped_constraints.join(", ")
+        );
+    }
+}
