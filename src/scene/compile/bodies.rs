@@ -1,0 +1,397 @@
+//! The scene's bodies: declared one by one or generated (chains, particles on shells, grids),
+//! with the constraints their generators declare.
+
+use super::{
+    MAX_BODIES, Result, err,
+    validate::{finite, norm, positive, sub, vector, vector_or},
+};
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::model::ConstraintKind;
+use crate::scene::schema::SceneFile;
+use std::collections::HashMap;
+
+/// A body after generators are expanded.
+pub(super) struct Body {
+    pub(super) name: String,
+    pub(super) mass: f64,
+    pub(super) q: [f64; 3],
+    pub(super) v: [f64; 3],
+    pub(super) charge: f64,
+}
+
+/// A constraint term as declared: its geometry, its label, where it is in the file.
+pub(super) type Declared = (ConstraintKind, String, FieldPath);
+
+/// Bodies, names and selectors.
+pub(super) struct Bodies {
+    pub(super) dim: usize,
+    pub(super) list: Vec<Body>,
+    pub(super) groups: HashMap<String, Vec<usize>>,
+}
+
+impl Bodies {
+    pub(super) fn add_group(
+        &mut self,
+        name: &str,
+        members: Vec<usize>,
+        path: &FieldPath,
+    ) -> Result<()> {
+        if name.is_empty() || name == "*" || name.contains('.') {
+            return Err(err(
+                SceneErrorKind::Reference,
+                path.clone(),
+                format!("the name '{name}' is reserved or empty (no '.', not '*')"),
+            ));
+        }
+        if self.groups.insert(name.to_owned(), members).is_some() {
+            return Err(err(
+                SceneErrorKind::Reference,
+                path.clone(),
+                format!("the name '{name}' is used twice"),
+            ));
+        }
+        Ok(())
+    }
+
+    pub(super) fn push(&mut self, body: Body) -> usize {
+        self.list.push(body);
+        self.list.len() - 1
+    }
+
+    /// Refuses `more` bodies at `path` if they would take the scene past [`MAX_BODIES`].
+    pub(super) fn reserve(&mut self, more: usize, path: &FieldPath) -> Result<()> {
+        if more > MAX_BODIES - self.list.len().min(MAX_BODIES) {
+            return Err(err(
+                SceneErrorKind::Unsupported,
+                path.clone(),
+                format!("the scene would have more than {MAX_BODIES} bodies"),
+            ));
+        }
+        self.list.reserve(more);
+        Ok(())
+    }
+
+    /// The bodies a selector names.
+    pub(super) fn select(&self, sel: &str, path: &FieldPath) -> Result<Vec<usize>> {
+        if sel == "*" {
+            return Ok((0..self.list.len()).collect());
+        }
+        if let Some(g) = self.groups.get(sel) {
+            return Ok(g.clone());
+        }
+        if let Some((group, index)) = sel.rsplit_once('.')
+            && let (Some(g), Ok(i)) = (self.groups.get(group), index.parse::<usize>())
+        {
+            return g.get(i).map(|&b| vec![b]).ok_or_else(|| {
+                err(
+                    SceneErrorKind::Reference,
+                    path.clone(),
+                    format!(
+                        "'{sel}': '{group}' has {} bodies (0 … {})",
+                        g.len(),
+                        g.len().saturating_sub(1)
+                    ),
+                )
+            });
+        }
+        Err(err(
+            SceneErrorKind::Reference,
+            path.clone(),
+            format!(
+                "'{sel}' names no body or group (bodies, chains, shells and grids are named; '*' is all)"
+            ),
+        ))
+    }
+
+    /// The bodies the selectors name, each once, in order of first mention (`O(N)` with a mask).
+    pub(super) fn select_all(&self, sels: &[String], path: &FieldPath) -> Result<Vec<usize>> {
+        let mut seen = vec![false; self.list.len()];
+        let mut out = Vec::new();
+        for (i, s) in sels.iter().enumerate() {
+            for b in self.select(s, &path.index(i))? {
+                if !std::mem::replace(&mut seen[b], true) {
+                    out.push(b);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// `None` → all bodies.
+    pub(super) fn select_opt(
+        &self,
+        sels: &Option<Vec<String>>,
+        path: &FieldPath,
+    ) -> Result<Vec<usize>> {
+        match sels {
+            None => Ok((0..self.list.len()).collect()),
+            Some(s) => self.select_all(s, path),
+        }
+    }
+}
+
+/// Expands bodies and generators; returns the bodies and the generators' own constraints.
+pub(super) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<Declared>)> {
+    let mut bodies = Bodies {
+        dim,
+        list: Vec::new(),
+        groups: HashMap::new(),
+    };
+    let mut generated = Vec::new();
+    let root = FieldPath::root();
+    for (i, b) in file.bodies.iter().enumerate() {
+        let path = root.key("bodies").index(i);
+        let body = Body {
+            name: b.name.clone(),
+            mass: positive(b.mass, &path.key("mass"), "mass")?,
+            q: vector(&b.position, dim, &path.key("position"))?,
+            v: vector_or(&b.velocity, dim, &path.key("velocity"), [0.0; 3])?,
+            charge: finite(b.charge, &path.key("charge"))?,
+        };
+        bodies.reserve(1, &path)?;
+        let idx = bodies.push(body);
+        bodies.add_group(&b.name, vec![idx], &path.key("name"))?;
+    }
+    for (i, c) in file.chains.iter().enumerate() {
+        let path = root.key("chains").index(i);
+        if c.links == 0 {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key("links"),
+                "a chain needs at least one link",
+            ));
+        }
+        bodies.reserve(c.links, &path.key("links"))?;
+        let mass = positive(c.mass, &path.key("mass"), "mass")?;
+        let length = positive(c.length, &path.key("length"), "length")?;
+        let charge = finite(c.charge, &path.key("charge"))?;
+        let anchor = vector_or(&c.anchor, dim, &path.key("anchor"), [0.0; 3])?;
+        let dir = vector_or(&c.direction, dim, &path.key("direction"), [1.0, 0.0, 0.0])?;
+        let n = norm(dir);
+        if n == 0.0 {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key("direction"),
+                "the direction must not be zero",
+            ));
+        }
+        let dir = dir.map(|x| x / n);
+        let mut members = Vec::with_capacity(c.links);
+        for k in 0..c.links {
+            let s = (k + 1) as f64 * length;
+            let q = [
+                anchor[0] + s * dir[0],
+                anchor[1] + s * dir[1],
+                anchor[2] + s * dir[2],
+            ];
+            let idx = bodies.push(Body {
+                name: format!("{}.{k}", c.name),
+                mass,
+                q,
+                v: [0.0; 3],
+                charge,
+            });
+            let kind = match members.last() {
+                None => ConstraintKind::Rod {
+                    a: idx,
+                    b: None,
+                    point: anchor,
+                    length,
+                },
+                Some(&prev) => ConstraintKind::Rod {
+                    a: idx,
+                    b: Some(prev),
+                    point: [0.0; 3],
+                    length,
+                },
+            };
+            generated.push((
+                kind,
+                format!("chains[{i}] '{}' link {k}", c.name),
+                path.key("links"),
+            ));
+            members.push(idx);
+        }
+        bodies.add_group(&c.name, members, &path.key("name"))?;
+    }
+    for (i, s) in file.shells.iter().enumerate() {
+        let path = root.key("shells").index(i);
+        let radius = positive(s.radius, &path.key("radius"), "radius")?;
+        let mass = positive(s.mass, &path.key("mass"), "mass")?;
+        let charge = finite(s.charge, &path.key("charge"))?;
+        let center = vector_or(&s.center, dim, &path.key("center"), [0.0; 3])?;
+        let mut points: Vec<([f64; 3], [f64; 3])> = Vec::new();
+        match (&s.rings, &s.positions) {
+            (Some(rings), None) => {
+                if s.velocities.is_some() {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("velocities"),
+                        "`velocities` go with explicit `positions`; ring particles start at rest",
+                    ));
+                }
+                let total = rings
+                    .iter()
+                    .try_fold(0usize, |a, &c| a.checked_add(c))
+                    .unwrap_or(usize::MAX);
+                bodies.reserve(total, &path.key("rings"))?;
+                let rp = path.key("rings");
+                if dim == 2 && rings.len() != 1 {
+                    return Err(err(
+                        SceneErrorKind::Dimension,
+                        rp,
+                        "in 2D, `rings` has one entry: the number of particles on the circle",
+                    ));
+                }
+                let nr = rings.len();
+                for (k, &count) in rings.iter().enumerate() {
+                    if count == 0 {
+                        return Err(err(
+                            SceneErrorKind::Value,
+                            rp.index(k),
+                            "a ring needs at least one particle",
+                        ));
+                    }
+                    for j in 0..count {
+                        let u = if dim == 2 {
+                            let a = 2.0 * std::f64::consts::PI * j as f64 / count as f64;
+                            [a.cos(), a.sin(), 0.0]
+                        } else {
+                            let theta = (k as f64 + 0.5) * std::f64::consts::PI / nr as f64;
+                            let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5 * k as f64)
+                                / count as f64;
+                            [
+                                theta.sin() * phi.cos(),
+                                theta.sin() * phi.sin(),
+                                theta.cos(),
+                            ]
+                        };
+                        points.push((
+                            [
+                                center[0] + radius * u[0],
+                                center[1] + radius * u[1],
+                                center[2] + radius * u[2],
+                            ],
+                            [0.0; 3],
+                        ));
+                    }
+                }
+            }
+            (None, Some(pos)) => {
+                let pp = path.key("positions");
+                bodies.reserve(pos.len(), &pp)?;
+                for (j, p) in pos.iter().enumerate() {
+                    let q = vector(p, dim, &pp.index(j))?;
+                    let r = norm(sub(q, center));
+                    if (r - radius).abs() > 1e-12 * radius {
+                        return Err(err(
+                            SceneErrorKind::OffConstraints,
+                            pp.index(j),
+                            format!(
+                                "at distance {r} from the centre, not on the sphere of radius {radius}"
+                            ),
+                        ));
+                    }
+                    points.push((q, [0.0; 3]));
+                }
+                if let Some(vels) = &s.velocities {
+                    let vp = path.key("velocities");
+                    if vels.len() != pos.len() {
+                        return Err(err(
+                            SceneErrorKind::Dimension,
+                            vp,
+                            format!("{} velocities for {} positions", vels.len(), pos.len()),
+                        ));
+                    }
+                    for (j, v) in vels.iter().enumerate() {
+                        points[j].1 = vector(v, dim, &vp.index(j))?;
+                    }
+                }
+            }
+            _ => {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.clone(),
+                    "a shell takes either `rings` or `positions`, exactly one of them",
+                ));
+            }
+        }
+        let mut members = Vec::new();
+        for (j, (q, v)) in points.into_iter().enumerate() {
+            let idx = bodies.push(Body {
+                name: format!("{}.{j}", s.name),
+                mass,
+                q,
+                v,
+                charge,
+            });
+            generated.push((
+                ConstraintKind::Sphere {
+                    body: idx,
+                    center,
+                    radius,
+                },
+                format!("shells[{i}] '{}' particle {j}", s.name),
+                path.clone(),
+            ));
+            members.push(idx);
+        }
+        bodies.add_group(&s.name, members, &path.key("name"))?;
+    }
+    for (i, g) in file.grids.iter().enumerate() {
+        let path = root.key("grids").index(i);
+        let spacing = positive(g.spacing, &path.key("spacing"), "spacing")?;
+        let mass = positive(g.mass, &path.key("mass"), "mass")?;
+        let charge = finite(g.charge, &path.key("charge"))?;
+        let origin = vector_or(&g.origin, dim, &path.key("origin"), [0.0; 3])?;
+        let v = vector_or(&g.velocity, dim, &path.key("velocity"), [0.0; 3])?;
+        if g.counts.len() != dim {
+            return Err(err(
+                SceneErrorKind::Dimension,
+                path.key("counts"),
+                format!(
+                    "{} entries, but the scene is {dim}-dimensional",
+                    g.counts.len()
+                ),
+            ));
+        }
+        if let Some(k) = g.counts.iter().position(|&c| c == 0) {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key("counts").index(k),
+                "at least one particle per axis",
+            ));
+        }
+        let total = g
+            .counts
+            .iter()
+            .try_fold(1usize, |a, &c| a.checked_mul(c))
+            .unwrap_or(usize::MAX);
+        bodies.reserve(total, &path.key("counts"))?;
+        let mut members = Vec::with_capacity(total);
+        for j in 0..total {
+            let mut rest = j;
+            let mut q = origin;
+            for axis in (0..dim).rev() {
+                q[axis] += spacing * (rest % g.counts[axis]) as f64;
+                rest /= g.counts[axis];
+            }
+            members.push(bodies.push(Body {
+                name: format!("{}.{j}", g.name),
+                mass,
+                q,
+                v,
+                charge,
+            }));
+        }
+        bodies.add_group(&g.name, members, &path.key("name"))?;
+    }
+    if bodies.list.is_empty() {
+        return Err(err(
+            SceneErrorKind::Value,
+            root,
+            "the scene has no bodies (declare [[bodies]], [[chains]], [[shells]] or [[grids]], or a [builtin] model)",
+        ));
+    }
+    Ok((bodies, generated))
+}

@@ -1,0 +1,285 @@
+//! The scene's constraint terms, their rows in `g`, and what is done with redundant ones
+//! (refused with the label of a dependent row, or dropped).
+
+use super::{
+    Result,
+    bodies::{Bodies, Declared},
+    err,
+    initial::row_scales,
+    validate::{finite, norm, positive, sub, vector, vector_or},
+};
+use crate::error::{LinearSolveError, SetupError};
+use crate::scene::error::{FieldPath, SceneError, SceneErrorKind};
+use crate::scene::gram::MassGram;
+use crate::scene::model::{ConstraintKind, ConstraintTerm, SceneModel};
+use crate::scene::schema::{ConstraintSpec, SceneFile};
+
+pub(super) fn constraint_terms(
+    file: &SceneFile,
+    bodies: &Bodies,
+    generated: Vec<Declared>,
+) -> Result<Vec<Declared>> {
+    let dim = bodies.dim;
+    let mut out = generated;
+    let root = FieldPath::root().key("constraints");
+    for (i, c) in file.constraints.iter().enumerate() {
+        let path = root.index(i);
+        match c {
+            ConstraintSpec::Pin { bodies: sel, point } => {
+                let list = bodies.select_all(sel, &path.key("bodies"))?;
+                if point.is_some() && list.len() != 1 {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("point"),
+                        "a pin with a `point` names exactly one body",
+                    ));
+                }
+                for b in list {
+                    let point = vector_or(point, dim, &path.key("point"), bodies.list[b].q)?;
+                    out.push((
+                        ConstraintKind::Pin { body: b, point },
+                        format!("constraints[{i}] pin '{}'", bodies.list[b].name),
+                        path.clone(),
+                    ));
+                }
+            }
+            ConstraintSpec::Rod {
+                bodies: sel,
+                point,
+                length,
+            } => {
+                let bp = path.key("bodies");
+                let ends: Vec<usize> = sel
+                    .iter()
+                    .enumerate()
+                    .map(|(j, s)| {
+                        let v = bodies.select(s, &bp.index(j))?;
+                        if v.len() == 1 {
+                            Ok(v[0])
+                        } else {
+                            Err(err(
+                                SceneErrorKind::Reference,
+                                bp.index(j),
+                                format!("'{s}' names {} bodies; a rod end is one body", v.len()),
+                            ))
+                        }
+                    })
+                    .collect::<Result<_>>()?;
+                let (a, b, p) = match (ends.as_slice(), point) {
+                    (&[a, b], None) if a != b => (a, Some(b), [0.0; 3]),
+                    (&[a], Some(p)) => (a, None, vector(p, dim, &path.key("point"))?),
+                    _ => {
+                        // Point at the `point` when it is the extra piece.
+                        let at = if point.is_some() && ends.len() != 1 {
+                            path.key("point")
+                        } else {
+                            bp
+                        };
+                        return Err(err(
+                            SceneErrorKind::Value,
+                            at,
+                            "a rod joins two different bodies, or one body and a fixed `point`",
+                        ));
+                    }
+                };
+                let other = b.map_or(p, |b| bodies.list[b].q);
+                let initial = norm(sub(bodies.list[a].q, other));
+                let length = match length {
+                    Some(l) => positive(*l, &path.key("length"), "length")?,
+                    None => positive(
+                        initial,
+                        &path.key("bodies"),
+                        "initial distance of the rod's ends",
+                    )?,
+                };
+                let names = match b {
+                    Some(b) => format!("'{}'–'{}'", bodies.list[a].name, bodies.list[b].name),
+                    None => format!("'{}'–point", bodies.list[a].name),
+                };
+                out.push((
+                    ConstraintKind::Rod {
+                        a,
+                        b,
+                        point: p,
+                        length,
+                    },
+                    format!("constraints[{i}] rod {names}"),
+                    path.clone(),
+                ));
+            }
+            ConstraintSpec::Sphere {
+                bodies: sel,
+                center,
+                radius,
+            } => {
+                let center = vector_or(center, dim, &path.key("center"), [0.0; 3])?;
+                let radius = radius
+                    .map(|r| positive(r, &path.key("radius"), "radius"))
+                    .transpose()?;
+                for b in bodies.select_all(sel, &path.key("bodies"))? {
+                    let r = match radius {
+                        Some(r) => r,
+                        None => positive(
+                            norm(sub(bodies.list[b].q, center)),
+                            &path.key("bodies"),
+                            "initial distance from the centre",
+                        )?,
+                    };
+                    out.push((
+                        ConstraintKind::Sphere {
+                            body: b,
+                            center,
+                            radius: r,
+                        },
+                        format!("constraints[{i}] sphere '{}'", bodies.list[b].name),
+                        path.clone(),
+                    ));
+                }
+            }
+            ConstraintSpec::Plane {
+                bodies: sel,
+                normal,
+                offset,
+            } => {
+                let n = vector(normal, dim, &path.key("normal"))?;
+                let len = norm(n);
+                if len == 0.0 {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("normal"),
+                        "the normal must not be zero",
+                    ));
+                }
+                let n = n.map(|x| x / len);
+                let list = bodies.select_all(sel, &path.key("bodies"))?;
+                let offset = offset.map(|o| finite(o, &path.key("offset"))).transpose()?;
+                for &b in &list {
+                    let off = match offset {
+                        Some(o) => o,
+                        None => {
+                            n[0] * bodies.list[list[0]].q[0]
+                                + n[1] * bodies.list[list[0]].q[1]
+                                + n[2] * bodies.list[list[0]].q[2]
+                        }
+                    };
+                    out.push((
+                        ConstraintKind::Plane {
+                            body: b,
+                            normal: n,
+                            offset: off,
+                        },
+                        format!("constraints[{i}] plane '{}'", bodies.list[b].name),
+                        path.clone(),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The label of the constraint term that owns row `row`.
+pub(super) fn constraint_term(model: &SceneModel, row: usize) -> Option<&ConstraintTerm> {
+    model.constraints.iter().rev().find(|c| c.row <= row)
+}
+
+/// Removes dependent constraints one at a time (`redundant = "drop-dependent"`): factor
+/// `G W⁻¹ Gᵀ` at the initial positions; a pivot that vanishes names a row that depends on the
+/// rows before it in the factorization's order, and its constraint goes. Returns the labels of
+/// the dropped constraints. A dependent row inside a multi-row constraint (a pin) is refused:
+/// dropping the whole pin would remove independent rows too.
+pub(super) fn drop_dependent(model: &mut SceneModel, q: &[f64]) -> Result<Vec<String>> {
+    let mut dropped = Vec::new();
+    while model.m > 0 {
+        let result = MassGram::new(model, q).and_then(|mut g| g.factor(model, q));
+        let row = match result {
+            Ok(()) => break,
+            Err(LinearSolveError::Singular { pivot, .. }) => pivot,
+            Err(LinearSolveError::StructurallySingular { column }) => column,
+            Err(e) => return Err(setup_error(model, SetupError::Linear(e))),
+        };
+        let Some(index) = model.constraints.iter().rposition(|c| c.row <= row) else {
+            break;
+        };
+        let term = &model.constraints[index];
+        if term.rows(model.dim) != 1 {
+            return Err(err(
+                SceneErrorKind::Redundant,
+                term.path.clone(),
+                format!(
+                    "{} is redundant in one of its {} rows; only single-row constraints are dropped (declare it as rods)",
+                    term.label,
+                    term.rows(model.dim)
+                ),
+            ));
+        }
+        // A dependent constraint that contradicts the others (a second rod of another length)
+        // is not redundant but inconsistent: dropping it would run with it violated.
+        let value = model.term_residual(q, index).unwrap_or(0.0);
+        let scale = row_scales(model, q)[term.row].0;
+        if value.abs() > f64::EPSILON.sqrt() * scale {
+            return Err(err(
+                SceneErrorKind::OffConstraints,
+                term.path.clone(),
+                format!(
+                    "{} depends on the others but is not satisfied at the initial state (residual {value:.3e}): it contradicts them, and is not dropped",
+                    term.label
+                ),
+            ));
+        }
+        dropped.push(term.label.clone());
+        model.retain_constraints(|i| i != index);
+    }
+    Ok(dropped)
+}
+
+/// Refuses redundant constraints (a rod listed twice, an over-constraining loop): the
+/// constraint gradients must be independent at the initial positions, i.e. the mass-weighted
+/// Gram matrix `G W⁻¹ Gᵀ` non-singular. The projection's own analysis is skipped for scenes (the
+/// case is known), and without this check a duplicated constraint would only fail at the first
+/// step, with a singular Newton matrix that names no constraint.
+pub(super) fn check_independent(model: &SceneModel, q: &[f64]) -> Result<()> {
+    let singular = |e: LinearSolveError| match e {
+        LinearSolveError::Singular { pivot, ratio, .. } => SetupError::RankDeficient {
+            constraint: pivot,
+            ratio,
+        },
+        LinearSolveError::StructurallySingular { column } => SetupError::RankDeficient {
+            constraint: column,
+            ratio: 0.0,
+        },
+        other => SetupError::Linear(other),
+    };
+    let mut gram = MassGram::new(model, q).map_err(|e| setup_error(model, singular(e)))?;
+    gram.factor(model, q)
+        .map_err(|e| setup_error(model, singular(e)))
+}
+
+/// Turns a projection's setup error into a scene error that names the constraint and points at
+/// where it is declared.
+pub(super) fn setup_error(model: &SceneModel, e: SetupError) -> SceneError {
+    let at = |row: usize| {
+        constraint_term(model, row).map_or_else(
+            || (FieldPath::root(), format!("row {row}")),
+            |c| (c.path.clone(), c.label.clone()),
+        )
+    };
+    match e {
+        SetupError::RankDeficient { constraint, ratio } => {
+            let (path, label) = at(constraint);
+            err(
+                SceneErrorKind::Redundant,
+                path,
+                format!(
+                    "the constraints are redundant: {label} depends on the others (pivot ratio {ratio:.1e}); remove it or one of those it repeats"
+                ),
+            )
+        }
+        SetupError::SingularMultiplierMatrix { .. } => err(
+            SceneErrorKind::Redundant,
+            FieldPath::root(),
+            format!("the constraints are redundant or singular at the initial state: {e}"),
+        ),
+        other => err(SceneErrorKind::Setup, FieldPath::root(), other.to_string()),
+    }
+}

@@ -1,0 +1,152 @@
+//! The initial state: how far it is off the constraints and their hidden constraints, and its
+//! projection onto both when the scene asks for it.
+
+use crate::scene::gram::MassGram;
+use crate::scene::model::{ConstraintKind, SceneModel};
+use crate::system::HolonomicConstraint;
+use crate::vector::Vector;
+use faer::Col;
+use std::sync::Arc;
+
+/// Per constraint row: the size `ρ` of the terms its residual rounds (a rod `(|u|² − L²)/2`
+/// rounds at `ε L (L + |q_a| + |q_b|)`, a plane at `ε (|q| + |offset|)`, …) and its length `ℓ`
+/// (the factor between a velocity and its hidden-constraint residual).
+pub(super) fn row_scales(model: &SceneModel, q: &[f64]) -> Vec<(f64, f64)> {
+    let d = model.dim;
+    let at = |b: usize| (0..d).fold(0.0f64, |a, k| a.max(q[b * d + k].abs()));
+    let size = |p: &[f64; 3]| p.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let mut out = vec![(1.0, 1.0); model.m];
+    for c in &model.constraints {
+        match &c.kind {
+            ConstraintKind::Pin { body, point } => {
+                for k in 0..d {
+                    out[c.row + k] = (1.0 + at(*body) + size(point), 1.0);
+                }
+            }
+            ConstraintKind::Rod {
+                a,
+                b,
+                point,
+                length,
+            } => {
+                let far = at(*a) + b.map_or_else(|| size(point), at);
+                out[c.row] = (length * (length + far), *length);
+            }
+            ConstraintKind::Sphere {
+                body,
+                center,
+                radius,
+            } => out[c.row] = (radius * (radius + at(*body) + size(center)), *radius),
+            ConstraintKind::Plane { body, offset, .. } => {
+                out[c.row] = (1.0 + at(*body) + offset.abs(), 1.0)
+            }
+        }
+    }
+    out
+}
+
+/// `Some((value, row, "position"|"velocity"))` for the row that violates `g = 0` or `G v = 0`
+/// most beyond `√ε` relative to its own scale ([`row_scales`]).
+pub(super) fn off_constraints(
+    model: &Arc<SceneModel>,
+    x: &Col<f64>,
+) -> Option<(f64, usize, &'static str)> {
+    let m = model.m;
+    let nq = model.state_len() / 2;
+    let scales = row_scales(model, &x.as_slice()[..nq]);
+    let tol = f64::EPSILON.sqrt();
+    let mut g = vec![0.0; m];
+    HolonomicConstraint::<Col<f64>>::residual(model, x, &mut g);
+    let worst = |g: &[f64], scale: &dyn Fn(usize) -> f64| {
+        g.iter()
+            .enumerate()
+            .map(|(i, v)| (v.abs() / scale(i), v.abs(), i))
+            .fold((0.0f64, 0.0, 0usize), |a, b| if b.0 > a.0 { b } else { a })
+    };
+    let (ratio, v, r) = worst(&g, &|i| scales[i].0);
+    if ratio > tol {
+        return Some((v, r, "position"));
+    }
+    let vel = velocity_state(model, x);
+    let vscale = vel.as_slice()[..nq]
+        .iter()
+        .fold(0.0f64, |a, &b| a.max(b.abs()));
+    if vscale == 0.0 {
+        return None;
+    }
+    HolonomicConstraint::<Col<f64>>::jacobian_apply(model, x, &vel, &mut g);
+    let (ratio, v, r) = worst(&g, &|i| scales[i].1 * vscale);
+    (ratio > tol).then_some((v, r, "velocity"))
+}
+
+/// `(v, 0)` as a state-sized vector whose first half holds the velocities `p/m`.
+pub(super) fn velocity_state(model: &SceneModel, x: &Col<f64>) -> Col<f64> {
+    let n = model.state_len();
+    let (nq, d) = (n / 2, model.dim);
+    let mut v = Col::<f64>::zeros(n);
+    for (b, w) in model.inv_masses.iter().enumerate() {
+        for k in 0..d {
+            v[b * d + k] = w * x[nq + b * d + k];
+        }
+    }
+    v
+}
+
+/// Projects `x` onto `g = 0`, then its velocities onto `G v = 0`, in the mass metric:
+/// `q ← q − W⁻¹Gᵀ (G W⁻¹ Gᵀ)⁻¹ g` (Gauss–Newton, to round-off), `v ← v − W⁻¹Gᵀ (G W⁻¹ Gᵀ)⁻¹ G v`.
+/// Returns `(max |Δq|, max |Δp|)`.
+pub(super) fn project_initial(
+    model: &Arc<SceneModel>,
+    x: &mut Col<f64>,
+) -> std::result::Result<(f64, f64), String> {
+    let n = model.state_len();
+    let (nq, d, m) = (n / 2, model.dim, model.m);
+    let x_start = x.clone();
+    let w_inv: Vec<f64> = (0..nq).map(|i| model.inv_masses[i / d]).collect();
+    let mut g = vec![0.0; m];
+    let mut gram = MassGram::new(model, &x.as_slice()[..nq]).map_err(|e| e.to_string())?;
+    // δ = W⁻¹ Gᵀ (G W⁻¹ Gᵀ)⁻¹ rhs, on the positions.
+    let mut solve = |x: &Col<f64>, rhs: &mut [f64]| -> std::result::Result<Col<f64>, String> {
+        gram.factor(model, &x.as_slice()[..nq]).map_err(|e| {
+            format!("the constraints are redundant or singular at the initial state ({e})")
+        })?;
+        gram.solve(rhs).map_err(|e| e.to_string())?;
+        let mut delta = Col::<f64>::zeros(n);
+        HolonomicConstraint::<Col<f64>>::jacobian_transpose_apply_add(
+            model, x, rhs, 1.0, &mut delta,
+        );
+        for i in 0..nq {
+            delta[i] *= w_inv[i];
+        }
+        Ok(delta)
+    };
+    let mut converged = false;
+    for _ in 0..50 {
+        HolonomicConstraint::<Col<f64>>::residual(model, x, &mut g);
+        let scales = row_scales(model, &x.as_slice()[..nq]);
+        if g.iter()
+            .zip(&scales)
+            .all(|(v, s)| v.abs() <= 8.0 * f64::EPSILON * s.0)
+        {
+            converged = true;
+            break;
+        }
+        let delta = solve(x, &mut g)?;
+        for i in 0..nq {
+            x[i] -= delta[i];
+        }
+    }
+    if !converged {
+        return Err("projecting the initial positions onto the constraints did not converge in 50 Gauss–Newton steps".into());
+    }
+    let vel = velocity_state(model, x);
+    HolonomicConstraint::<Col<f64>>::jacobian_apply(model, x, &vel, &mut g);
+    let delta = solve(x, &mut g)?;
+    for i in 0..nq {
+        // Δp = m Δv.
+        x[nq + i] -= delta[i] / w_inv[i];
+    }
+    let dq = (0..nq).fold(0.0f64, |a, i| a.max((x[i] - x_start[i]).abs()));
+    let dp = (0..nq).fold(0.0f64, |a, i| a.max((x[nq + i] - x_start[nq + i]).abs()));
+    Ok((dq, dp))
+}

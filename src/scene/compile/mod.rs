@@ -1,0 +1,342 @@
+//! Scene → model and scheme: validation with located errors, the assembly of only the declared
+//! terms, the choice of scheme, and the initial-state checks.
+
+mod bodies;
+mod builtin;
+mod constraints;
+mod effects;
+mod initial;
+mod scheme;
+mod validate;
+
+use super::error::{FieldPath, SceneError, SceneErrorKind};
+use super::model::{ConstraintKind, ConstraintTerm, SceneModel};
+use super::run::{ModelRun, RunPlan, Simulation};
+use super::schema::{SCENE_VERSION, SceneFile};
+use crate::system::System;
+use crate::vector::Vector;
+use bodies::expand_bodies;
+use builtin::compile_builtin;
+use constraints::{check_independent, constraint_term, constraint_terms, drop_dependent};
+use effects::assemble_effects;
+use faer::Col;
+use initial::{off_constraints, project_initial};
+pub use scheme::splitting_flow;
+use scheme::{SchemeFlow, choose_scheme, plan, scheme_flow};
+use std::sync::Arc;
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// The most bodies a scene may generate (the state alone is then 2·3·10⁷ doubles, 480 MB).
+pub const MAX_BODIES: usize = 10_000_000;
+
+/// The most steps a run may plan (`t_end / dt`).
+pub const MAX_STEPS: usize = 1_000_000_000_000;
+
+/// The most pairs a pair potential may visit per evaluation (it has no cut-off).
+pub const MAX_PAIRS: usize = 50_000_000;
+
+/// The largest number of unknowns (`n`, or `n + m` for the joint midpoint system) on which the
+/// implicit schemes factor a dense Newton matrix at every step.
+pub const DENSE_MAX_DIM: usize = 400;
+
+/// What a compiled scene assembled: printed by `lieflow check`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Assembly {
+    /// The scene's name.
+    pub name: String,
+    /// Dimension of the space (scenes of bodies).
+    pub dim: Option<usize>,
+    /// Number of bodies.
+    pub bodies: usize,
+    /// Length of the state.
+    pub state_len: usize,
+    /// Constraint terms by type and their rows, e.g. `("rod", 12)`.
+    pub constraints: Vec<(String, usize)>,
+    /// Total constraint rows `m`.
+    pub constraint_rows: usize,
+    /// The assembled terms: `(label, kind)`.
+    pub effects: Vec<(String, String)>,
+    /// Declared parts switched off by flags.
+    pub disabled: Vec<String>,
+    /// The skew part `J` of `M` canonical (no magnetic field).
+    pub canonical: bool,
+    /// `M` has a dissipative part.
+    pub dissipative: bool,
+    /// The paper's case: `degenerate` (`⟨g,g⟩ = 0`) or `non-degenerate`; `None` without constraints.
+    pub case: Option<String>,
+    /// The projection variant (`decoupled`, `coupled`, `symmetric`).
+    pub projection: Option<String>,
+    /// The scheme, described.
+    pub scheme: String,
+    /// Its order.
+    pub order: u32,
+    /// The multiplier solver backend.
+    pub solver: Option<String>,
+    /// Steps planned.
+    pub steps: usize,
+    /// The initial projection, if the scene asked for one: `(max |Δq|, max |Δp|)`.
+    pub initial_projection: Option<(f64, f64)>,
+    /// Redundant constraints removed (`redundant = "drop-dependent"`), by label.
+    pub dropped_constraints: Vec<String>,
+}
+
+/// A compiled scene: the simulation, what was assembled, and the run's plan.
+pub struct Compiled {
+    /// The simulation, ready to step.
+    pub simulation: Box<dyn Simulation>,
+    /// What was assembled.
+    pub assembly: Assembly,
+    /// Steps and diagnostics.
+    pub plan: RunPlan,
+    /// The assembled model (`None` for built-in models).
+    pub model: Option<Arc<SceneModel>>,
+}
+
+impl std::fmt::Debug for Compiled {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Compiled")
+            .field("assembly", &self.assembly)
+            .field("plan", &self.plan)
+            .finish_non_exhaustive()
+    }
+}
+
+fn err(kind: SceneErrorKind, path: FieldPath, msg: impl Into<String>) -> SceneError {
+    SceneError::new(kind, path, msg)
+}
+
+/// Compiles a parsed scene (no source text: errors carry paths but no line numbers).
+pub fn compile(file: &SceneFile) -> Result<Compiled> {
+    compile_impl(file, false)
+}
+
+/// As [`compile`], but a composition of order above 2 may run damping backwards: for reference
+/// runs of mildly damped scenes only, where an order-8 composition's accuracy matters more than
+/// the damping's sign in its backward sub-steps.
+pub fn compile_reference(file: &SceneFile) -> Result<Compiled> {
+    compile_impl(file, true)
+}
+
+fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
+    let root = FieldPath::root();
+    if file.version != SCENE_VERSION {
+        return Err(err(
+            SceneErrorKind::Version,
+            root.key("version"),
+            format!(
+                "version {} is not supported; this library reads version {SCENE_VERSION}",
+                file.version
+            ),
+        ));
+    }
+    if let Some(b) = &file.builtin {
+        if !file.bodies.is_empty()
+            || !file.chains.is_empty()
+            || !file.shells.is_empty()
+            || !file.grids.is_empty()
+            || !file.constraints.is_empty()
+            || !file.effects.is_empty()
+        {
+            return Err(err(
+                SceneErrorKind::Value,
+                root.key("builtin"),
+                "a built-in model takes no bodies, constraints or effects of its own",
+            ));
+        }
+        return compile_builtin(file, b);
+    }
+    let dim = match file.dim {
+        Some(d @ (2 | 3)) => d,
+        Some(d) => {
+            return Err(err(
+                SceneErrorKind::Dimension,
+                root.key("dim"),
+                format!("dim = {d}: scenes are 2- or 3-dimensional"),
+            ));
+        }
+        None => {
+            return Err(err(
+                SceneErrorKind::Syntax,
+                root.key("dim"),
+                "missing `dim` (2 or 3)",
+            ));
+        }
+    };
+    let (steps, energy, residuals, profile) = plan(&file.integrator, &file.flags)?;
+    let (bodies, generated) = expand_bodies(file, dim)?;
+    let mut disabled = Vec::new();
+    let constraints = constraint_terms(file, &bodies, generated)?;
+    let constraints = if file.flags.constraints {
+        constraints
+    } else {
+        if !constraints.is_empty() {
+            disabled.push(format!("{} constraints", constraints.len()));
+        }
+        Vec::new()
+    };
+    let fx = assemble_effects(file, &bodies)?;
+    disabled.extend(fx.disabled);
+    let mut row = 0;
+    let terms: Vec<ConstraintTerm> = constraints
+        .into_iter()
+        .map(|(kind, label, path)| {
+            let t = ConstraintTerm {
+                kind,
+                row,
+                label,
+                path,
+            };
+            row += t.rows(dim);
+            t
+        })
+        .collect();
+    let effects: Vec<(String, String)> =
+        std::iter::once(("kinetic".to_owned(), "kinetic".to_owned()))
+            .chain(
+                fx.potentials
+                    .iter()
+                    .map(|t| (t.label.clone(), t.kind.name().to_owned())),
+            )
+            .chain(
+                fx.damping
+                    .iter()
+                    .map(|t| (t.label.clone(), "damping".to_owned())),
+            )
+            .chain(
+                fx.magnetic
+                    .iter()
+                    .map(|t| (t.label.clone(), "magnetic".to_owned())),
+            )
+            .collect();
+    let masses: Vec<f64> = bodies.list.iter().map(|b| b.mass).collect();
+    let mut model = SceneModel::new(
+        dim,
+        masses,
+        fx.potentials,
+        terms,
+        fx.damping,
+        fx.magnetic,
+        profile,
+    );
+    let dropped_constraints = match file.integrator.redundant.as_str() {
+        "refuse" => Vec::new(),
+        "drop-dependent" => {
+            let q0: Vec<f64> = bodies
+                .list
+                .iter()
+                .flat_map(|b| b.q[..dim].to_vec())
+                .collect();
+            drop_dependent(&mut model, &q0)?
+        }
+        other => {
+            return Err(err(
+                SceneErrorKind::Value,
+                root.key("integrator").key("redundant"),
+                format!("unknown value '{other}': use \"refuse\" (default) or \"drop-dependent\""),
+            ));
+        }
+    };
+    let model = Arc::new(model);
+    let n = model.state_len();
+    let nq = n / 2;
+    let mut x0 = Col::<f64>::zeros(n);
+    for (b, body) in bodies.list.iter().enumerate() {
+        for k in 0..dim {
+            x0[b * dim + k] = body.q[k];
+            x0[nq + b * dim + k] = body.mass * body.v[k];
+        }
+    }
+    let (table, order) = choose_scheme(&file.integrator, model.is_dissipative() && !backward)?;
+    let m = model.m;
+    let mut initial_projection = None;
+    if m > 0 {
+        let off = off_constraints(&model, &x0);
+        if let Some((value, row, level)) = off {
+            if file.integrator.project_initial {
+                initial_projection = Some(project_initial(&model, &mut x0).map_err(|e| {
+                    err(
+                        SceneErrorKind::OffConstraints,
+                        root.key("integrator").key("project_initial"),
+                        e,
+                    )
+                })?);
+            } else {
+                let (path, label) = constraint_term(&model, row)
+                    .map_or((root.clone(), String::new()), |c| {
+                        (c.path.clone(), c.label.clone())
+                    });
+                return Err(err(
+                    SceneErrorKind::OffConstraints,
+                    path,
+                    format!(
+                        "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `integrator.project_initial = true` to project them (mass-weighted, reported)"
+                    ),
+                ));
+            }
+        }
+        check_independent(&model, &x0.as_slice()[..nq])?;
+    }
+    let dt = file.integrator.dt;
+    let dissipative = model.is_dissipative();
+    let shared = model.clone();
+    let SchemeFlow {
+        flow,
+        name: scheme_name,
+        case,
+        projection,
+        solver,
+    } = scheme_flow(file, &model, &x0, table, backward)?;
+    let scheme = match table {
+        None => scheme_name.to_owned(),
+        Some(t) => format!(
+            "{} composed by {} ({} stages)",
+            scheme_name, t.name, t.stages
+        ),
+    };
+    let mut constraint_counts: Vec<(String, usize)> = Vec::new();
+    for t in &model.constraints {
+        let kind = match t.kind {
+            ConstraintKind::Pin { .. } => "pin",
+            ConstraintKind::Rod { .. } => "rod",
+            ConstraintKind::Sphere { .. } => "sphere",
+            ConstraintKind::Plane { .. } => "plane",
+        };
+        match constraint_counts.iter_mut().find(|(k, _)| k == kind) {
+            Some(e) => e.1 += t.rows(dim),
+            None => constraint_counts.push((kind.to_owned(), t.rows(dim))),
+        }
+    }
+    let assembly = Assembly {
+        name: file.name.clone().unwrap_or_else(|| "scene".to_owned()),
+        dim: Some(dim),
+        bodies: model.bodies(),
+        state_len: n,
+        constraints: constraint_counts,
+        constraint_rows: m,
+        effects,
+        disabled,
+        canonical: model.is_canonical(),
+        dissipative,
+        case,
+        projection,
+        scheme,
+        order,
+        solver,
+        steps,
+        initial_projection,
+        dropped_constraints,
+    };
+    let system = System::new(model.clone(), model.clone(), model.clone());
+    let simulation = Box::new(ModelRun::new(flow, system, x0, dt, m, Some(shared)));
+    Ok(Compiled {
+        simulation,
+        assembly,
+        plan: RunPlan {
+            steps,
+            energy,
+            residuals,
+        },
+        model: Some(model),
+    })
+}

@@ -1,0 +1,444 @@
+//! The scheme of a scene: the composition table and order, the run plan, and the flow —
+//! the splitting of the exact sub-flows, projected when constrained, or an implicit scheme.
+
+use super::{DENSE_MAX_DIM, MAX_STEPS, Result, constraints::setup_error, err, validate::positive};
+use crate::error::SetupError;
+use crate::flow::coefficients::table_by_name;
+use crate::flow::{
+    CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
+    ImplicitMidpoint, Projected, ProjectedMidpoint, ProjectionOptions, Scheme, from_fn,
+};
+use crate::linalg::LinearSolver;
+use crate::nonlinear::{NewtonOptions, SMALL_MAX};
+use crate::real::Real;
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::model::{ConstraintKind, SceneModel};
+use crate::scene::schema::{Flags, IntegratorSpec, SceneFile};
+use crate::system::{Case, System};
+use crate::vector::Vector;
+use faer::Col;
+use num_traits::Zero as _;
+use std::sync::Arc;
+
+/// The scheme a scene asks for: the composition table (`None`: Strang) and its order.
+pub(super) fn choose_scheme(
+    integ: &IntegratorSpec,
+    dissipative: bool,
+) -> Result<(Option<&'static CompositionTable>, u32)> {
+    let path = FieldPath::root().key("integrator");
+    let (table, order) = match integ.scheme.as_str() {
+        "auto" => {
+            let order = integ.order.unwrap_or(2);
+            let table = match order {
+                2 => None,
+                4 => table_by_name("suzuki4"),
+                6 => table_by_name("kahan-li6"),
+                8 => table_by_name("kahan-li8"),
+                o => {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("order"),
+                        format!("order {o}: the compositions have orders 2, 4, 6 and 8"),
+                    ));
+                }
+            };
+            (table, order)
+        }
+        "strang" | "discrete-gradient" | "midpoint" | "modified" => (None, 2),
+        name => match table_by_name(name) {
+            Some(t) => (Some(t), t.order),
+            None => {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.key("scheme"),
+                    format!(
+                        "unknown scheme '{name}' (auto, strang, discrete-gradient, midpoint, modified, triple-jump, suzuki4, yoshida6, kahan-li6, suzuki-umeno8, kahan-li8)"
+                    ),
+                ));
+            }
+        },
+    };
+    if let Some(o) = integ.order
+        && o != order
+    {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("order"),
+            format!("order {o}, but scheme '{}' has order {order}", integ.scheme),
+        ));
+    }
+    if dissipative && order > 2 {
+        let field = if integ.order.is_some() {
+            "order"
+        } else {
+            "scheme"
+        };
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            path.key(field),
+            format!(
+                "an order-{order} composition takes negative sub-steps, which run the damping backwards (energy grows, unstable when stiff); with damping use order = 2 (Strang with the exact damping flow), or switch the damping off with [flags] damping = false"
+            ),
+        ));
+    }
+    Ok((table, order))
+}
+
+pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(usize, bool, bool, bool)> {
+    let path = FieldPath::root().key("integrator");
+    let dt = positive(integ.dt, &path.key("dt"), "step size")?;
+    let t_end = positive(integ.t_end, &path.key("t_end"), "final time")?;
+    let steps = (t_end / dt).round();
+    if steps > MAX_STEPS as f64 {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("dt"),
+            format!("t_end / dt = {steps:.3e} steps, more than {MAX_STEPS:.0e}"),
+        ));
+    }
+    if steps < 1.0 {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("t_end"),
+            format!("t_end = {t_end} is less than half a step (dt = {dt})"),
+        ));
+    }
+    let (mut energy, mut residuals, mut profile) = (false, false, false);
+    for (i, d) in integ.diagnostics.iter().enumerate() {
+        match d.as_str() {
+            "energy" => energy = true,
+            "constraints" => residuals = true,
+            "profile" => profile = true,
+            other => {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.key("diagnostics").index(i),
+                    format!("unknown diagnostic '{other}' (energy, constraints, profile)"),
+                ));
+            }
+        }
+    }
+    Ok((
+        steps as usize,
+        energy && flags.energy,
+        residuals && flags.residuals,
+        profile,
+    ))
+}
+
+/// The flow a scene's scheme builds, and what the assembly reports of it.
+pub(super) struct SchemeFlow {
+    pub(super) flow: Box<dyn Flow<Col<f64>>>,
+    /// The scheme's name, before any composition.
+    pub(super) name: &'static str,
+    /// The paper's case (`degenerate`, `non-degenerate`) when projected.
+    pub(super) case: Option<String>,
+    /// The projection variant, when projected.
+    pub(super) projection: Option<String>,
+    /// The multiplier solver, when projected by the splitting.
+    pub(super) solver: Option<String>,
+}
+
+/// Builds the flow of `file`'s scheme for `model` from `x0`: the discrete gradient, the
+/// implicit midpoint rule (projected, or as one Newton system with `λ_k`), or the splitting of
+/// the exact sub-flows ([`splitting_flow`]); composed by `table`.
+pub(super) fn scheme_flow(
+    file: &SceneFile,
+    model: &Arc<SceneModel>,
+    x0: &Col<f64>,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+) -> Result<SchemeFlow> {
+    let root = FieldPath::root();
+    let m = model.m;
+    let mut case = None;
+    let mut projection = None;
+    let mut solver = None;
+    let scheme_name;
+    let discrete_gradient = file.integrator.scheme == "discrete-gradient";
+    let flow: Box<dyn Flow<Col<f64>>> = if discrete_gradient {
+        let setup = |e: SetupError| setup_error(model, e);
+        let newton = NewtonOptions::default();
+        if m == 0 {
+            scheme_name = "discrete gradient (Gonzalez)";
+            Box::new(
+                DiscreteGradient::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
+                    model.clone(),
+                    model.clone(),
+                    x0,
+                    newton,
+                )
+                .map_err(setup)?,
+            )
+        } else {
+            scheme_name =
+                "constrained discrete gradient (Gonzalez) with hidden-constraint projection";
+            let system = System::new(model.clone(), model.clone(), model.clone());
+            let options = projection_options(model, x0.as_slice(), f64::EPSILON);
+            case = Some("degenerate".to_owned());
+            Box::new(
+                ConstrainedDiscreteGradient::<Col<f64>, _, _, _>::try_new(system, x0, options)
+                    .map_err(setup)?,
+            )
+        }
+    } else if file.integrator.scheme == "midpoint" {
+        // The implicit midpoint rule for all of H under M (dense Newton on n unknowns), projected
+        // when there are constraints: the §3 scheme with a general inner flow.
+        let setup = |e: SetupError| setup_error(model, e);
+        let midpoint = || {
+            ImplicitMidpoint::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
+                model.clone(),
+                model.clone(),
+                x0,
+                NewtonOptions::default(),
+            )
+            .map_err(setup)
+        };
+        if m == 0 {
+            scheme_name = "implicit midpoint rule";
+            with_table_backward(midpoint()?, table, backward)
+        } else {
+            scheme_name = "projection around the implicit midpoint rule";
+            let system = || System::new(model.clone(), model.clone(), model.clone());
+            let options = projection_options(model, x0.as_slice(), f64::EPSILON);
+            case = Some("degenerate".to_owned());
+            // The same map with the midpoint increment and λ_k as one Newton system where that
+            // path applies (the decoupled case; above 4 constraints its general path factors
+            // a dense (n + m)-square matrix at every step, so only up to DENSE_MAX_DIM
+            // unknowns); nested solves otherwise.
+            let joint = if m <= SMALL_MAX || x0.nrows() + m <= DENSE_MAX_DIM {
+                match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
+                    system(),
+                    model.clone(),
+                    x0,
+                    options,
+                ) {
+                    Ok(joint) => Some(joint),
+                    Err(SetupError::Dimension { .. }) => None,
+                    Err(e) => return Err(setup(e)),
+                }
+            } else {
+                None
+            };
+            match joint {
+                Some(joint) => with_table_backward(joint, table, backward),
+                None => with_table_backward(
+                    midpoint()?
+                        .projected(system(), x0, options)
+                        .map_err(setup)?,
+                    table,
+                    backward,
+                ),
+            }
+        }
+    } else if file.integrator.scheme == "modified" {
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            root.key("integrator").key("scheme"),
+            "the §2 scheme (`modified`) is offered for the built-in paper model only",
+        ));
+    } else {
+        let (flow, name, desc) = splitting_flow(model, x0, table, backward, f64::EPSILON)
+            .map_err(|e| setup_error(model, e))?;
+        scheme_name = name;
+        if let Some((scheme, small, kind)) = desc {
+            case = Some(
+                match scheme {
+                    Scheme::Symmetric => "non-degenerate",
+                    _ => "degenerate",
+                }
+                .to_owned(),
+            );
+            projection = Some(
+                match scheme {
+                    Scheme::Decoupled => "decoupled",
+                    Scheme::Coupled => "coupled",
+                    Scheme::Symmetric => "symmetric",
+                }
+                .to_owned(),
+            );
+            solver = Some(if small {
+                "small (stack, closed-form Jacobians)".to_owned()
+            } else {
+                kind
+            });
+        }
+        flow
+    };
+    Ok(SchemeFlow {
+        flow,
+        name: scheme_name,
+        case,
+        projection,
+        solver,
+    })
+}
+
+/// Projection options for a scene: position constraints with forces on the momenta only
+/// (`M Gᵀλ = (0, −G_qᵀλ)` whatever the damping and field), so the degenerate case and the
+/// decoupled variant hold by construction; naming them skips the dense bracket analysis. The
+/// residual tolerance is scaled like the chain's (`16 ε ℓ L`: `ℓ` the smallest constraint
+/// length, `L` the scene's extent), the rounding level of `g = (|u|² − ℓ²)/2`.
+pub(super) fn projection_options<T: Real>(
+    model: &SceneModel<T>,
+    x0: &[T],
+    eps: T,
+) -> ProjectionOptions<T> {
+    let nq = model.state_len() / 2;
+    let extent = x0[..nq].iter().fold(T::zero(), |a, &b| a.max(b.abs()));
+    let mut ell = T::infinity();
+    for c in &model.constraints {
+        let l = match c.kind {
+            ConstraintKind::Rod { length, .. } => length,
+            ConstraintKind::Sphere { radius, .. } => radius,
+            _ => continue,
+        };
+        ell = ell.min(l);
+    }
+    if !ell.is_finite() {
+        ell = extent.max(T::one());
+    }
+    // The scene's own scale, not clamped to 1: a micrometre chain rounds at ε ℓ L with L ~ 1e-5.
+    let big = extent.max(ell);
+    let big = if big > T::zero() { big } else { T::one() };
+    let ftol = T::lit(16.0) * eps * ell * big;
+    // `eps` is the scalar's unit round-off: f64's, or ~1e-32 for double-double (whose
+    // `epsilon()` is not its round-off), and the defaults' tolerances are rebuilt from it.
+    let newton = NewtonOptions::default()
+        .with_ftol(ftol)
+        .with_xtol(T::lit(16.0) * eps)
+        .with_fd_step(eps.sqrt());
+    let options = ProjectionOptions::default()
+        .with_case(Case::Degenerate)
+        .with_coupling(Coupling::Decoupled)
+        .with_newton(newton);
+    if eps > T::epsilon() {
+        // An extended-precision run starts from the f64 state, on the constraints to f64
+        // round-off only: the first step projects it (the scene has checked it already).
+        options.with_manifold_tol(None)
+    } else {
+        options
+    }
+}
+
+/// The splitting of a scene's terms (see the module docs of `scene`): the free flight alone, or
+/// `free flight(h/2) ∘ kick(h) ∘ free flight(h/2)` without constraints; with constraints the
+/// projection around `kick(h/2) ∘ free flight(h) ∘ kick(h/2)`; composed by `table`. For any
+/// storage and scalar (`eps` its unit round-off): `Col<f64>` for runs, `DVector` of a
+/// double-double scalar for references. Returns the flow, its description and, when projected,
+/// the projection variant, whether it takes the small path, and its linear solver. `backward`
+/// lets a composition run a dissipative sub-flow backwards (reference runs only).
+///
+/// # Errors
+/// The projection's setup errors at `x0` ([`SetupError`]).
+#[allow(clippy::type_complexity)]
+pub fn splitting_flow<V: Vector + 'static>(
+    model: &Arc<SceneModel<V::Real>>,
+    x0: &V,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+    eps: V::Real,
+) -> std::result::Result<
+    (
+        Box<dyn Flow<V>>,
+        &'static str,
+        Option<(Scheme, bool, String)>,
+    ),
+    SetupError,
+> {
+    let nq = model.state_len() / 2;
+    let mut scratch = vec![V::Real::zero(); nq];
+    let kick = {
+        let model = model.clone();
+        from_fn(move |t: V::Real, x: &mut V| model.kick(t, x.as_mut_slice(), &mut scratch))
+    };
+    let dissipative = model.is_dissipative();
+    let drift = {
+        let model = model.clone();
+        from_fn(move |t: V::Real, x: &mut V| model.free_flight(t, x.as_mut_slice()))
+            .dissipative_if(dissipative)
+    };
+    let has_potential = !model.potentials.is_empty();
+    if model.m == 0 {
+        return Ok(if has_potential {
+            (
+                with_table_backward(drift.strang(kick), table, backward),
+                "free flight ∘ kick ∘ free flight (Strang)",
+                None,
+            )
+        } else {
+            (Box::new(drift), "free flight (exact)", None)
+        });
+    }
+    let system = System::new(model.clone(), model.clone(), model.clone());
+    let options = projection_options(model, x0.as_slice(), eps);
+    if has_potential {
+        let p = kick.strang(drift).projected(system, x0, options)?;
+        Ok(boxed_projection(
+            p,
+            table,
+            backward,
+            "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)",
+        ))
+    } else {
+        let p = drift.projected(system, x0, options)?;
+        Ok(boxed_projection(
+            p,
+            table,
+            backward,
+            "projection around free flight (exact)",
+        ))
+    }
+}
+
+/// A scene's projected flow, composed and boxed, with its description and what it assembled.
+#[allow(clippy::type_complexity)]
+pub(super) fn boxed_projection<V, F>(
+    p: Projected<
+        V,
+        F,
+        Arc<SceneModel<V::Real>>,
+        Arc<SceneModel<V::Real>>,
+        Arc<SceneModel<V::Real>>,
+    >,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+    name: &'static str,
+) -> (
+    Box<dyn Flow<V>>,
+    &'static str,
+    Option<(Scheme, bool, String)>,
+)
+where
+    V: Vector + 'static,
+    F: Flow<V> + 'static,
+{
+    let desc = (
+        p.scheme(),
+        p.uses_small_path(),
+        format!("{:?}", p.newton().linear_solver().kind()),
+    );
+    (with_table_backward(p, table, backward), name, Some(desc))
+}
+
+/// `flow`, or its composition by `table`, boxed.
+pub(super) fn with_table<V: Vector + 'static, F: Flow<V> + 'static>(
+    flow: F,
+    table: Option<&'static CompositionTable>,
+) -> Box<dyn Flow<V>> {
+    with_table_backward(flow, table, false)
+}
+
+/// As [`with_table`], the composition allowed to run dissipation backwards when `backward`
+/// (reference runs only: [`compile_reference`]).
+pub(super) fn with_table_backward<V: Vector + 'static, F: Flow<V> + 'static>(
+    flow: F,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+) -> Box<dyn Flow<V>> {
+    match (table, backward) {
+        (None, _) => Box::new(flow),
+        (Some(t), false) => Box::new(flow.composed(t)),
+        (Some(t), true) => Box::new(flow.composed(t).allow_backward_dissipation()),
+    }
+}
