@@ -1,4 +1,4 @@
-//! Andrews' squeezing mechanism (issue 12, case 2; IVP test set): a position-dependent mass
+//! Andrews' squeezing mechanism (IVP test set): a position-dependent mass
 //! matrix, so no closed-form drift — the projection around the implicit midpoint rule, with
 //! every derivative from autodiff elements. At t = 0.03 the angles and angular velocities match
 //! the test set's reference within twice this order-2 run's Richardson error estimate; the

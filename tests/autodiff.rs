@@ -1,4 +1,4 @@
-//! Automatic derivatives (issue 13, feature `autodiff`): the built-in models written once as
+//! Automatic derivatives (feature `autodiff`): the built-in models written once as
 //! elements give the same gradients, Hessian products, `G v`, `Gᵀ μ` and Jacobian entries as
 //! their hand-written derivatives (to 1e-13 relative), pass `check_model`, and run the same
 //! trajectories.

@@ -1,5 +1,5 @@
 //! The N-link pendulum chain, and particles on spheres: RATTLE keeps short chains on their
-//! constraints with the default options; through the sparse path (issue 3) dense and sparse
+//! constraints with the default options; through the sparse path dense and sparse
 //! backends give the same trajectory, the constraints hold at round-off for N = 1000, and
 //! redundant constraint sets are typed errors that name a constraint.
 

@@ -1,4 +1,4 @@
-//! The model checker (issue 13): the built-in models pass it at arbitrary states; a model with a
+//! The model checker: the built-in models pass it at arbitrary states; a model with a
 //! wrong gradient, Hessian, `Gᵀ` (accumulated or direct), Jacobian entry or an energy-creating
 //! structure fails the check that names it; the hints are reported.
 

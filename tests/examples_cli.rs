@@ -169,7 +169,7 @@ fn stiff_chain_sorts_the_schemes() {
     assert_eq!(field(last, "energy_increase_steps"), "0");
 }
 
-/// The N-link chain: the JSON contract of issue 3, the backend flag, and bad values.
+/// The N-link chain: the JSON contract, the backend flag, and bad values.
 #[test]
 fn chain_prints_the_json_contract_last() {
     let mut energies = Vec::new();

@@ -1,4 +1,4 @@
-//! The N-four-bar mechanism (issue 12, case 3; IFToMM benchmark A02): `N = 40` windows pass
+//! The N-four-bar mechanism (IFToMM benchmark A02): `N = 40` windows pass
 //! through the horizontal position, where the constraint Jacobian loses rank, every half turn.
 //! RATTLE with the benchmark's constant non-diagonal mass matrix either integrates through
 //! those configurations — constraints at round-off, energy without drift over 10 s — or stops

@@ -1,4 +1,4 @@
-//! Hostile input (issue 12, case 8): what a new user gets wrong — a state of the wrong length, a
+//! Hostile input: what a new user gets wrong — a state of the wrong length, a
 //! duplicated constraint, bad model parameters, a state moved off the manifold between steps, a
 //! damping part that is zero — gets a typed error that says what and where, and a failed step
 //! leaves the state as it was.

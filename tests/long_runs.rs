@@ -1,4 +1,4 @@
-//! Long runs (issue 12, case 7): 10⁷ steps of the paper's example and of the spherical
+//! Long runs: 10⁷ steps of the paper's example and of the spherical
 //! pendulum. The constraint and its hidden constraint stay at round-off at every step, and the
 //! invariants do not drift: a symmetric method on these reversible, integrable problems has an
 //! energy error that oscillates with a bounded amplitude (Hairer, Lubich & Wanner, GNI §XI), so the

@@ -1,4 +1,4 @@
-//! Extreme parameters (issue 12, case 6) through scenes: mass ratios of 1e±6 between
+//! Extreme parameters through scenes: mass ratios of 1e±6 between
 //! neighbours, links from 1e-6 to 1e3 long, and a chain pinned at both ends pulled almost taut
 //! (a nearly singular multiplier system). Each run keeps `g` at the rounding level of its own
 //! geometry, or stops with a typed error — never a panic or a non-finite state.

@@ -1,4 +1,4 @@
-//! Redundant constraints (issue 12, case 4): refused by default with a located error naming one;
+//! Redundant constraints: refused by default with a located error naming one;
 //! with `redundant = "drop-dependent"` an over-constrained mechanism runs — the dependent
 //! constraint is dropped and reported, and every constraint, the dropped one included, holds at
 //! round-off along the motion with the energy conserved to the scheme's accuracy.

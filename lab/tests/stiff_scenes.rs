@@ -1,4 +1,4 @@
-//! Stiffness (issue 12, case 5) through scenes: damping with `c h / m` up to 1e6 and springs
+//! Stiffness through scenes: damping with `c h / m` up to 1e6 and springs
 //! with `k / m` up to 1e8. The exact damping flow makes any damping stable inside Strang (it
 //! only takes positive sub-steps); stiff springs need an A-stable scheme (the implicit midpoint
 //! rule, the discrete gradient), and the explicit splitting fails with a typed error or a

@@ -1,4 +1,4 @@
-//! The hard-case suite (issue 12): every fast case of `lieflow_lab::stress` passes its
+//! The hard-case suite: every fast case of `lieflow_lab::stress` passes its
 //! checks — stable with residuals at their rounding level and the energy behaving as theory
 //! says, or a typed error where the case allows one. The long cases (10⁷ steps) run with
 //! `cargo test --release --test stress -- --ignored` and `lieflow stress --long`.

@@ -1,4 +1,4 @@
-//! Parameter sweeps (issue 14): members enumerate the grid in id order, run in parallel with the
+//! Parameter sweeps: members enumerate the grid in id order, run in parallel with the
 //! same rows bit for bit whatever the number of threads, a failing member is a row, and random
 //! sweeps draw each member's values from its own seeded stream.
 
