@@ -1,0 +1,69 @@
+//! The scene's `H = Σ_b |p_b|²/(2 m_b) + V(q)` as a [`Hamiltonian`].
+
+use super::{SceneModel, terms::Potential};
+use crate::real::Real;
+use crate::system::Hamiltonian;
+use crate::vector::Vector;
+use std::sync::Arc;
+
+impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
+    fn energy(&self, x: &V) -> T {
+        let x = x.as_slice();
+        let nq = self.dim * self.masses.len();
+        let (q, p) = x.split_at(nq);
+        let d = self.dim;
+        let mut t = T::lit(0.0);
+        self.kinetic.hit();
+        for (b, w) in self.inv_masses.iter().enumerate() {
+            let mut s = T::lit(0.0);
+            for k in 0..d {
+                s = s + (p[b * d + k] * p[b * d + k]);
+            }
+            t = t + (T::lit(0.5) * *w * s);
+        }
+        t + self.potential_energy(q)
+    }
+
+    fn gradient(&self, x: &V, out: &mut V) {
+        let x = x.as_slice();
+        let nq = self.dim * self.masses.len();
+        let (q, p) = x.split_at(nq);
+        let out = out.as_mut_slice();
+        let (oq, op) = out.split_at_mut(nq);
+        oq.fill(T::lit(0.0));
+        self.potential_gradient_add(q, T::lit(1.0), oq);
+        self.kinetic.hit();
+        let d = self.dim;
+        for (b, w) in self.inv_masses.iter().enumerate() {
+            for k in 0..d {
+                op[b * d + k] = *w * p[b * d + k];
+            }
+        }
+    }
+
+    fn hessian_apply(&self, x: &V, v: &V, out: &mut V) -> bool {
+        let nq = self.dim * self.masses.len();
+        let q = &x.as_slice()[..nq];
+        let v = v.as_slice();
+        let out = out.as_mut_slice();
+        let (oq, op) = out.split_at_mut(nq);
+        oq.fill(T::lit(0.0));
+        self.potential_hessian_apply_add(q, &v[..nq], oq);
+        let d = self.dim;
+        for (b, w) in self.inv_masses.iter().enumerate() {
+            for k in 0..d {
+                op[b * d + k] = *w * v[nq + b * d + k];
+            }
+        }
+        true
+    }
+
+    fn is_quadratic(&self) -> bool {
+        self.potentials.iter().all(|t| {
+            matches!(
+                t.potential,
+                Potential::Gravity { .. } | Potential::Trap { .. }
+            )
+        })
+    }
+}

@@ -1,0 +1,252 @@
+//! The assembled model of a scene: the declared terms of `H` and of `M`, the declared
+//! constraints, and the exact sub-flows they bring.
+//!
+//! ```text
+//! x = (q, p),  q, p ∈ R^{dN} (body b at q[b·d .. b·d + d]),
+//! H = Σ_b |p_b|²/(2 m_b) + Σ_terms V_term(q),
+//! M = [[0, I], [−I, K − R]],  K_b v = e_b v × B (magnetic),  R_b = c_b I (damping),
+//! g = (g_1, …, g_m)(q).
+//! ```
+//!
+//! A scene's potential terms depend on `q` only, so their flows commute and merge into one kick
+//! `p ← p − h ∇V(q)` (exact). The kinetic term's flow under `M` is the free flight of each
+//! body, `q' = v = p/m`, `p' = e v × B − c v`, linear and solved exactly: a drift, rotated about
+//! `B` and damped by `e^{−c t/m}` only for the bodies that have a field or damping (see
+//! [`SceneModel::free_flight`]). Undeclared effects have no term: no evaluation, no cost.
+
+// Per-coordinate loops `for k in 0..d` index several arrays at once (q, p, a 3-vector).
+#![allow(clippy::needless_range_loop)]
+
+mod constraints;
+mod flight;
+mod hamiltonian;
+mod potential;
+mod scalar;
+mod structure;
+mod terms;
+
+use flight::Flight;
+pub(crate) use terms::{
+    ConstraintKind, ConstraintTerm, PairLaw, Potential, PotentialTerm, StructureTerm,
+};
+
+use crate::real::Real;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// What kind of physics a term is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum EffectKind {
+    /// The kinetic energy `Σ |p|²/2m` and its flow (the drift).
+    Kinetic,
+    /// Uniform gravity.
+    Gravity,
+    /// A spring between two bodies.
+    Spring,
+    /// A pair potential within a group.
+    Pair,
+    /// A harmonic trap.
+    Trap,
+    /// Viscous damping (`R` in `M = J − R`).
+    Damping,
+    /// A uniform magnetic field (a non-canonical `J`).
+    Magnetic,
+    /// The holonomic constraints.
+    Constraints,
+}
+
+impl EffectKind {
+    /// The name used in scene files and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            EffectKind::Kinetic => "kinetic",
+            EffectKind::Gravity => "gravity",
+            EffectKind::Spring => "spring",
+            EffectKind::Pair => "pair",
+            EffectKind::Trap => "trap",
+            EffectKind::Damping => "damping",
+            EffectKind::Magnetic => "magnetic",
+            EffectKind::Constraints => "constraints",
+        }
+    }
+}
+
+/// Evaluation counter of one term (and its time when profiling). Atomic so that a model can be
+/// shared between the flows that use it; each run is single-threaded.
+#[derive(Debug, Default)]
+pub(crate) struct Counter {
+    evaluations: AtomicU64,
+    nanos: AtomicU64,
+}
+
+impl Counter {
+    #[inline]
+    fn hit(&self) {
+        self.evaluations.fetch_add(1, Ordering::Relaxed);
+    }
+    fn add_time(&self, since: Instant) {
+        let ns = since.elapsed().as_nanos() as u64;
+        self.nanos.fetch_add(ns, Ordering::Relaxed);
+    }
+    pub(crate) fn evaluations(&self) -> u64 {
+        self.evaluations.load(Ordering::Relaxed)
+    }
+    pub(crate) fn nanos(&self) -> u64 {
+        self.nanos.load(Ordering::Relaxed)
+    }
+    fn reset(&self) {
+        self.evaluations.store(0, Ordering::Relaxed);
+        self.nanos.store(0, Ordering::Relaxed);
+    }
+}
+
+/// A scene's assembled model. It implements [`Hamiltonian`], [`StructureMatrix`] and
+/// [`HolonomicConstraint`] with only the declared terms, and provides the exact sub-flows
+/// ([`kick`](Self::kick), [`free_flight`](Self::free_flight)).
+#[derive(Debug)]
+pub struct SceneModel<T = f64> {
+    pub(crate) dim: usize,
+    pub(crate) masses: Vec<T>,
+    pub(crate) inv_masses: Vec<T>,
+    pub(crate) potentials: Vec<PotentialTerm<T>>,
+    pub(crate) constraints: Vec<ConstraintTerm<T>>,
+    pub(crate) m: usize,
+    pub(crate) damping: Option<StructureTerm<T>>,
+    pub(crate) magnetic: Option<StructureTerm<[T; 3]>>,
+    pub(crate) kinetic: Counter,
+    pub(crate) constraint_counter: Counter,
+    /// Time each evaluation (the `profile` diagnostic).
+    pub(crate) profile: bool,
+    /// Provide `jacobian_entries` (sparse multiplier systems); off for `m ≤ 4`, where the
+    /// projection's small dense path is faster.
+    pub(crate) sparse: bool,
+    flights: Vec<Flight<T>>,
+}
+
+impl<T: Real> SceneModel<T> {
+    /// Builds the model from its parts (the compiler has validated them).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn new(
+        dim: usize,
+        masses: Vec<T>,
+        potentials: Vec<PotentialTerm<T>>,
+        constraints: Vec<ConstraintTerm<T>>,
+        damping: Option<StructureTerm<T>>,
+        magnetic: Option<StructureTerm<[T; 3]>>,
+        profile: bool,
+    ) -> Self {
+        let inv_masses: Vec<T> = masses.iter().map(|&m| T::one() / m).collect();
+        let m = constraints.iter().map(|c| c.rows(dim)).sum();
+        let flights = (0..masses.len())
+            .map(|b| {
+                let c = damping.as_ref().map_or(T::lit(0.0), |t| t.per_body[b]);
+                let eb = magnetic
+                    .as_ref()
+                    .map_or([T::lit(0.0); 3], |t| t.per_body[b]);
+                if c == T::lit(0.0) && eb == [T::lit(0.0); 3] {
+                    Flight::Drift
+                } else {
+                    let w = inv_masses[b];
+                    Flight::Exact {
+                        gamma: c * w,
+                        omega: [eb[0] * w, eb[1] * w, eb[2] * w],
+                    }
+                }
+            })
+            .collect();
+        Self {
+            dim,
+            masses,
+            inv_masses,
+            potentials,
+            constraints,
+            m,
+            damping,
+            magnetic,
+            kinetic: Counter::default(),
+            constraint_counter: Counter::default(),
+            profile,
+            sparse: m > 4,
+            flights,
+        }
+    }
+
+    /// Keeps the constraint terms whose index passes `keep`, renumbering their rows.
+    pub(crate) fn retain_constraints(&mut self, keep: impl Fn(usize) -> bool) {
+        let dim = self.dim;
+        let mut row = 0;
+        let old = std::mem::take(&mut self.constraints);
+        self.constraints = old
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .map(|(_, mut t)| {
+                t.row = row;
+                row += t.rows(dim);
+                t
+            })
+            .collect();
+        self.m = row;
+        self.sparse = row > 4;
+    }
+
+    /// Number of bodies.
+    pub fn bodies(&self) -> usize {
+        self.masses.len()
+    }
+    /// Dimension of the space (2 or 3).
+    pub fn space_dim(&self) -> usize {
+        self.dim
+    }
+    /// Length of the state `x = (q, p)`: `2 d N`.
+    pub fn state_len(&self) -> usize {
+        2 * self.dim * self.masses.len()
+    }
+    /// Number of constraint rows `m` (the length of `g`).
+    pub fn constraint_rows(&self) -> usize {
+        self.m
+    }
+    /// The inverse masses `1/m_b`, one per body (`W⁻¹` is `1/m_b` on each of body `b`'s `d`
+    /// coordinates).
+    pub fn inv_masses(&self) -> &[T] {
+        &self.inv_masses
+    }
+
+    /// Zeroes every term's evaluation counter and clock.
+    pub fn reset_counters(&self) {
+        self.kinetic.reset();
+        self.constraint_counter.reset();
+        for t in &self.potentials {
+            t.counter.reset();
+        }
+        if let Some(t) = &self.damping {
+            t.counter.reset();
+        }
+        if let Some(t) = &self.magnetic {
+            t.counter.reset();
+        }
+    }
+
+    /// `true` if a damping term is assembled (`M` has a dissipative part).
+    pub fn is_dissipative(&self) -> bool {
+        self.damping.is_some()
+    }
+    /// `true` if the skew part `J` of `M` is canonical (no magnetic term is assembled).
+    pub fn is_canonical(&self) -> bool {
+        self.magnetic.is_none()
+    }
+
+    #[inline]
+    fn timed<R>(&self, counter: &Counter, f: impl FnOnce() -> R) -> R {
+        counter.hit();
+        if self.profile {
+            let t = Instant::now();
+            let r = f();
+            counter.add_time(t);
+            r
+        } else {
+            f()
+        }
+    }
+}
