@@ -1,13 +1,13 @@
 //! The decoupled projected step around the implicit midpoint rule, with the inner increment and
 //! `λ_k` found by one Newton iteration ([`ProjectedMidpoint`]).
 
+use super::{STAGE_LAMBDA_K1, entry::EntryCheck, options::ProjectionOptions};
 mod general;
 
 use super::small::{
     SecondHalf, fixed, fixed_mut, half_step, second_half_is_affine, solve_second_half,
 };
 use super::warm::WarmStart;
-use super::{EntryCheck, ProjectionOptions, STAGE_LAMBDA_K1};
 use crate::error::{LinearSolveError, NewtonError, SetupError, StepError};
 use crate::flow::{Flow, FlowStats, Multipliers};
 use crate::linalg::LinearSolver;
@@ -228,11 +228,7 @@ where
             w,
             z: V::zeros(2 * m),
             warm: WarmStart::new(m, 2 * m, affine_k1 && small > 0),
-            entry: EntryCheck {
-                tol: options.manifold_tol,
-                last: x0.clone(),
-                valid: options.manifold_tol.is_some(),
-            },
+            entry: EntryCheck::new(options.manifold_tol, x0),
             system,
             stats: FlowStats::default(),
         })
@@ -591,7 +587,7 @@ where
             });
         }
         let nonzero = crate::flow::check_step_size(h)?;
-        let from_last = self.entry.valid && ops::equal(x.as_slice(), self.entry.last.as_slice());
+        let from_last = self.entry.is_last(x);
         if !from_last && let Some(component) = ops::first_non_finite(x.as_slice()) {
             return Err(StepError::NonFinite { component });
         }

@@ -1,0 +1,268 @@
+//! The decoupled and coupled steps of a projection: `λ_k` from `g(x_{k+1}) = 0`, then
+//! `λ_{k+1}` from `φ(x_{k+1}) = 0` (RATTLE for any structure matrix), on the small stack path
+//! or through Newton, and the guard that checks the decoupling still holds.
+
+use super::small::FirstHalf;
+use super::small::{SecondHalf, fixed_mut, solve_second_half};
+use super::stage::{Mode, Stage};
+use super::{Base, Projected, STAGE_LAMBDA_K, STAGE_LAMBDA_K1, Work};
+use crate::error::{NewtonError, StepError};
+use crate::flow::{Flow, FlowStats};
+use crate::linalg::LinearSolver;
+use crate::nonlinear::{NonlinearSolver, SolveReport};
+use crate::real::Real;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
+use crate::vector::{Vector, ops};
+use num_traits::Float as _;
+use num_traits::Zero;
+
+impl<V, F, Ms, H, C, L> Projected<V, F, Ms, H, C, L>
+where
+    V: Vector,
+    F: Flow<V>,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+    L: LinearSolver<V::Real>,
+{
+    /// Solves one multiplier system. Newton evaluates the residual last at the iterate it
+    /// returns, so afterwards `y` and `x_{k+1}` in the workspace belong to the solution.
+    pub(super) fn solve(
+        &mut self,
+        mode: Mode,
+        h: V::Real,
+        base: Base<'_, V>,
+        stage: &'static str,
+    ) -> Result<(), StepError> {
+        let m = self.m;
+        let range = match mode {
+            Mode::LambdaK | Mode::Symmetric => 0..m,
+            Mode::LambdaK1 => m..2 * m,
+            Mode::Coupled => 0..2 * m,
+        };
+        let Work {
+            y,
+            g_y,
+            x_next,
+            t1,
+            t2,
+            z,
+            a_cached,
+            y_valid,
+            hess_v,
+            m_hess_v,
+            indicator,
+            prev,
+            ..
+        } = &mut self.w;
+        let x = base.resolve(prev);
+        let mut problem = Stage {
+            mode,
+            h,
+            m,
+            x,
+            inner: &mut self.inner,
+            system: &self.system,
+            y,
+            x_next,
+            t1,
+            t2,
+            a_cached,
+            y_valid,
+            hess_v,
+            m_hess_v,
+            indicator,
+            g_y,
+            fixed_point_max_iterations: self.fixed_point_max_iterations,
+            fixed_point_tol: self.fixed_point_tol,
+        };
+        let newton = match (mode, self.newton_k1.as_mut()) {
+            (Mode::LambdaK1, Some(n)) => n,
+            _ => &mut self.newton,
+        };
+        let result = newton.solve(&mut problem, &mut z.as_mut_slice()[range]);
+        Self::finish_solve(&mut self.stats, result, stage)
+    }
+
+    /// Counts a successful multiplier solve in `stats`; turns a failed one into the step's error.
+    #[inline(always)]
+    pub(super) fn finish_solve(
+        stats: &mut FlowStats,
+        result: Result<SolveReport<V::Real>, NewtonError<StepError>>,
+        stage: &'static str,
+    ) -> Result<(), StepError> {
+        match result {
+            Ok(report) => {
+                stats.record(&report);
+                Ok(())
+            }
+            Err(e) => Err(StepError::from_newton(stage, e)),
+        }
+    }
+
+    /// Solves one decoupled multiplier system on the small path (`K = m` multipliers). As
+    /// with [`Self::solve`], `y` (for `λ_k`) or `x_{k+1}` (for `λ_{k+1}`) in the workspace
+    /// belong to the solution.
+    #[inline(always)]
+    pub(super) fn solve_small<const K: usize>(
+        &mut self,
+        second: bool,
+        h: V::Real,
+        base: Base<'_, V>,
+        tally: &mut FlowStats,
+    ) -> Result<(), StepError> {
+        let Some(small) = self.small.as_mut() else {
+            unreachable!("solve_small without a small path");
+        };
+        let w = &mut self.w;
+        let x = base.resolve(&w.prev);
+        let half = h * V::Real::lit(0.5);
+        // Directions and Jacobian columns: local arrays for stack states (kept in registers
+        // across the solve), the preallocated workspace otherwise.
+        let (mut d_local, mut w_local, mut t_local): ([V; K], [V; K], [V; 2]);
+        let (d, cols, t): (&mut [V; K], &mut [V; K], [&mut V; 2]) = if V::CLONE_IS_COPY {
+            d_local = core::array::from_fn(|_| x.clone());
+            w_local = core::array::from_fn(|_| x.clone());
+            t_local = core::array::from_fn(|_| x.clone());
+            let [t1, t2] = &mut t_local;
+            (&mut d_local, &mut w_local, [t1, t2])
+        } else {
+            (
+                fixed_mut(&mut small.d),
+                fixed_mut(&mut small.w),
+                [&mut w.t1, &mut w.t2],
+            )
+        };
+        let [t1, t2] = t;
+        // The directions of this half-step, fixed for the whole solve: `(h/2) M Gᵀ e_j` at
+        // `x` for the first half-step, at `y` for the second, so that Newton forms
+        // `x + Σ λ_j d_j` without scaling `λ` first (one multiplication less on the latency
+        // chain of every evaluation).
+        let base = if second { &w.y } else { x };
+        let mut unit = [V::Real::zero(); K];
+        for (j, dj) in d.iter_mut().enumerate() {
+            unit[j] = half;
+            self.system.constraint_force(base, &unit, t1, dj);
+            unit[j] = V::Real::zero();
+        }
+        let d: &[V; K] = d;
+        let (result, stage) = if second {
+            let mut problem = SecondHalf {
+                h,
+                y: &w.y,
+                system: &self.system,
+                d,
+                x_next: &mut w.x_next,
+                t1: &mut w.t1,
+                t2: &mut w.t2,
+            };
+            let z: &mut [V::Real; K] = fixed_mut(&mut w.z.as_mut_slice()[K..]);
+            let result = solve_second_half(&small.newton_k1, small.affine_k1, &mut problem, z);
+            (result, STAGE_LAMBDA_K1)
+        } else {
+            // w_j = d_j + h M(x) ∇²H(x) d_j, so that G(y) w_j is column j of ∂g/∂λ_k.
+            let mut exact = true;
+            for (dj, wj) in d.iter().zip(cols.iter_mut()) {
+                if !self.system.hamiltonian.hessian_apply(x, dj, t1) {
+                    exact = false;
+                    break;
+                }
+                self.system.structure.apply(x, t1, t2);
+                let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), t2.as_slice());
+                for ((o, &dv), &tv) in wj.iter_mut().zip(dj).zip(t2) {
+                    *o = dv + h * tv;
+                }
+            }
+            let mut problem = FirstHalf {
+                h,
+                x,
+                inner: &mut self.inner,
+                constraint: &self.system.constraint,
+                d,
+                w: exact.then_some(&*cols),
+                y: &mut w.y,
+                g: fixed_mut(&mut small.g_y),
+                scratch: t1,
+            };
+            let z: &mut [V::Real; K] = fixed_mut(w.z.as_mut_slice());
+            (small.newton_k.solve_fixed(&mut problem, z), STAGE_LAMBDA_K)
+        };
+        Self::finish_solve(tally, result, stage)
+    }
+
+    /// The `λ_k` system from `base`: on the small path for `K = m`, the general one for `K = 0`.
+    /// The small path counts its work in `tally` (a local of the step, kept in registers), the
+    /// general one in the flow's statistics.
+    #[inline(always)]
+    pub(super) fn solve_lambda_k<const K: usize>(
+        &mut self,
+        h: V::Real,
+        base: Base<'_, V>,
+        tally: &mut FlowStats,
+    ) -> Result<(), StepError> {
+        if K == 0 {
+            self.solve(Mode::LambdaK, h, base, STAGE_LAMBDA_K)
+        } else {
+            self.solve_small::<K>(false, h, base, tally)
+        }
+    }
+
+    /// The `λ_{k+1}` system from `y`: on the small path for `K = m`, the general one for `K = 0`
+    /// (`tally` as for [`Self::solve_lambda_k`]).
+    #[inline(always)]
+    pub(super) fn solve_lambda_k1<const K: usize>(
+        &mut self,
+        h: V::Real,
+        x: &V,
+        tally: &mut FlowStats,
+    ) -> Result<(), StepError> {
+        if K == 0 {
+            self.solve(Mode::LambdaK1, h, Base::Given(x), STAGE_LAMBDA_K1)
+        } else {
+            self.solve_small::<K>(true, h, Base::Given(x), tally)
+        }
+    }
+
+    /// The decoupled step (RATTLE-like): `λ_k` from `g(x_{k+1}) = 0`, then `λ_{k+1}` from
+    /// `φ(x_{k+1}) = 0`. `K = m` on the small path (every loop over the multipliers unrolls),
+    /// `K = 0` on the general one.
+    ///
+    /// The small path's work is counted in `tally` (see [`Self::tallied`]).
+    #[inline(always)]
+    pub(super) fn step_decoupled<const K: usize>(
+        &mut self,
+        h: V::Real,
+        x: &V,
+        tally: &mut FlowStats,
+    ) -> Result<(), StepError> {
+        let m = if K == 0 { self.m } else { K };
+        self.w.warm.predict_lambda_k(m, h, self.w.z.as_mut_slice());
+        self.solve_lambda_k::<K>(h, Base::Given(x), tally)?;
+        self.w.warm.record_lambda_k(m, h, self.w.z.as_slice());
+        self.w.warm.predict_lambda_k1(m, h, self.w.z.as_mut_slice());
+        self.solve_lambda_k1::<K>(h, x, tally)?;
+        self.w.warm.record_lambda_k1(m, h, self.w.z.as_slice());
+        self.decoupling_guard::<K>(m)
+    }
+
+    /// The decoupling assumption: the second half-step did not move `g` (for position
+    /// constraints and a momentum-only direction, `g(x_{k+1})` and `g(y)` are the same
+    /// floating-point numbers).
+    #[inline(always)]
+    pub(super) fn decoupling_guard<const K: usize>(&mut self, m: usize) -> Result<(), StepError> {
+        let w = &mut self.w;
+        let gx = &mut w.r.as_mut_slice()[..m];
+        self.system.constraint.residual(&w.x_next, gx);
+        // g(y) is the λ_k system's last residual.
+        let change = match self.small.as_ref() {
+            Some(small) if K > 0 => ops::dist_inf(gx, &small.g_y[..m]),
+            _ => ops::dist_inf(gx, &w.g_y.as_slice()[..m]),
+        };
+        if change.is_nan() || change > self.guard_tol {
+            return Err(StepError::CouplingViolated {
+                residual: change.to_f64_lossy(),
+            });
+        }
+        Ok(())
+    }
+}

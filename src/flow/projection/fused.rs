@@ -1,0 +1,105 @@
+//! A composition's stages run by the projection itself: the second half-step of each stage
+//! fused with the first of the next, one multiplier solve per stage (method §4).
+
+use super::{Base, Projected};
+use crate::error::StepError;
+use crate::flow::{CompositionTable, Flow, FlowStats};
+use crate::linalg::LinearSolver;
+use crate::nonlinear::SMALL_MAX;
+use crate::real::Real;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
+use crate::vector::Vector;
+use num_traits::Float as _;
+use num_traits::One;
+
+impl<V, F, Ms, H, C, L> Projected<V, F, Ms, H, C, L>
+where
+    V: Vector,
+    F: Flow<V>,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+    L: LinearSolver<V::Real>,
+{
+    /// A composition's stages as one fused step (decoupled scheme). Stage `i`'s second
+    /// half-step `y_i + (h_i/2) M Gᵀ(y_i) λ_{k+1}` and stage `i+1`'s first half-step act along
+    /// the same direction `M Gᵀ(y_i)` (which the second half-step does not change), so together
+    /// they are one shift `y_i + (h_{i+1}/2) M Gᵀ λ̃` with `λ̃ = λ_k + (h_i/h_{i+1}) λ_{k+1}`, and
+    /// `g(y_{i+1}) = 0` determines `λ̃` alone: the interior `λ_{k+1}` (fixed by `φ = 0` at a
+    /// point the composition never returns) does not change the result. One multiplier solve
+    /// per stage, plus the last stage's `λ_{k+1}` so that the result is on `g = 0`, `φ = 0`:
+    /// the same map as the stage-by-stage composition, up to the Newton tolerance.
+    ///
+    /// The small path's work and the interior stages are counted in `tally` (see
+    /// [`Self::tallied`]).
+    #[inline(always)]
+    pub(super) fn step_fused<const K: usize>(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &V,
+        tally: &mut FlowStats,
+    ) -> Result<V::Real, StepError> {
+        let m = if K == 0 { self.m } else { K };
+        let one = V::Real::one();
+        let mut h_prev = table.gamma_in::<V::Real>(0) * h;
+        self.w
+            .warm
+            .predict_lambda_k(m, h_prev, self.w.z.as_mut_slice());
+        self.solve_lambda_k::<K>(h_prev, Base::Given(x), tally)?;
+        self.w.warm.record_lambda_k(m, h_prev, self.w.z.as_slice());
+        for i in 1..table.stages {
+            let hi = table.gamma_in::<V::Real>(i) * h;
+            // The previous stage's λ̃ split evenly between its own λ_k and λ_{k+1} estimates
+            // the force per unit time; λ̃ of this stage is that force times (1 + h_prev/h_i).
+            let w = &mut self.w;
+            core::mem::swap(&mut w.y, &mut w.prev);
+            w.y_valid = false;
+            let grow = one + h_prev / hi;
+            // Off the critical path (it depends on the step sizes only).
+            let inv_grow = one / grow;
+            let (z, force) = (w.z.as_mut_slice(), w.r.as_mut_slice());
+            for (v, f) in z[..m].iter_mut().zip(force.iter_mut()) {
+                *f = *v;
+                *v = *v * grow;
+            }
+            self.solve_lambda_k::<K>(hi, Base::Prev, tally)?;
+            // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate (the
+            // previous one when the stages nearly cancel, h_prev ≈ −h_i).
+            let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
+            if grow.abs() >= V::Real::lit(1e-3) {
+                z[..m].iter_mut().for_each(|v| *v = *v * inv_grow);
+            } else {
+                z[..m].copy_from_slice(&force[..m]);
+            }
+            tally.projected_steps += 1;
+            h_prev = hi;
+        }
+        // The last stage's λ_{k+1}, predicted as the force estimate.
+        {
+            let z = self.w.z.as_mut_slice();
+            let (a, b) = z.split_at_mut(m);
+            b[..m].copy_from_slice(a);
+        }
+        self.solve_lambda_k1::<K>(h_prev, x, tally)?;
+        self.decoupling_guard::<K>(m)?;
+        Ok(h_prev)
+    }
+
+    /// The fused composition dispatched on the multiplier count (see `step_fused`).
+    pub(super) fn step_fused_any(
+        &mut self,
+        h: V::Real,
+        table: &CompositionTable,
+        x: &V,
+    ) -> Result<V::Real, StepError> {
+        self.w.y_valid = false;
+        self.tallied(|flow, t| match (flow.small.is_some(), flow.m) {
+            (false, _) => flow.step_fused::<0>(h, table, x, t),
+            (true, 1) => flow.step_fused::<1>(h, table, x, t),
+            (true, 2) => flow.step_fused::<2>(h, table, x, t),
+            (true, 3) => flow.step_fused::<3>(h, table, x, t),
+            (true, _) => flow.step_fused::<SMALL_MAX>(h, table, x, t),
+        })
+    }
+}
