@@ -15,7 +15,7 @@
 //! their `max |g|` is reported in its own column. States of the sizes instantiated below are
 //! fixed arrays (DOP853 for `n = 4`, Radau5 for `n + m = 5`), others `Vec`.
 
-use crate::precision::{PrecisionPlan, PrecisionRow, Reference, distance, min_median};
+use crate::precision::plan::{PrecisionPlan, PrecisionRow, Reference, distance, min_median};
 use differential_equations::linalg::Matrix;
 use differential_equations::prelude::{
     ControlFlag, DAE, ExplicitRungeKutta, IVP, ImplicitRungeKutta, Interpolation, ODE, Solout,
@@ -550,7 +550,7 @@ pub(crate) fn peer_rows(
                 error: finite.then(|| distance(&observed.x, &reference.x)),
                 max_abs_g: Some(observed.max_g),
                 max_abs_phi: Some(observed.max_phi),
-                energy_error: (!dissipative && !crate::precision::is_paper(scene))
+                energy_error: (!dissipative && !crate::precision::plan::is_paper(scene))
                     .then_some(observed.max_de),
                 steps: observed.steps,
                 evaluations: observed.evaluations,
