@@ -25,6 +25,7 @@
 mod decoupled;
 mod entry;
 mod fused;
+mod hidden;
 mod midpoint;
 mod options;
 mod small;
@@ -41,8 +42,8 @@ use crate::system::{
 };
 use crate::vector::{Vector, ops, take};
 use entry::EntryCheck;
+pub(crate) use hidden::{Hidden, HiddenSolver};
 use small::SmallPath;
-pub(crate) use small::{SecondHalf, fixed_mut, solve_second_half};
 use stage::Mode;
 use warm::WarmStart;
 

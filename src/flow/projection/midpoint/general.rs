@@ -4,8 +4,7 @@
 
 use super::{ProjectedMidpoint, STAGE_JOINT, guard, increment_tolerance, stiff_floor};
 use crate::error::{LinearSolveError, StepError};
-use crate::flow::constrained_dg::Hidden;
-use crate::flow::projection::STAGE_LAMBDA_K1;
+use crate::flow::projection::{Hidden, STAGE_LAMBDA_K1};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver};
 use crate::real::Real;
