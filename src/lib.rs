@@ -59,16 +59,20 @@ pub mod integrate;
 pub mod linalg;
 pub mod models;
 pub mod nonlinear;
+pub mod observe;
 mod real;
 #[cfg(feature = "scene")]
 pub mod scene;
+pub mod stepper;
 pub mod system;
 mod vector;
 
 pub use error::{IntegrateError, LinearSolveError, NewtonError, SetupError, StepError};
 pub use flow::{Flow, FlowExt, FlowStats};
-pub use integrate::{Observer, integrate};
+pub use integrate::integrate;
+pub use observe::Observer;
 pub use real::Real;
+pub use stepper::Stepper;
 pub use system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
 pub use vector::{Vector, ops};
 
@@ -85,7 +89,9 @@ pub mod prelude {
         LinearFlow, ProjectedMidpoint, ProjectionOptions, Scheme, coefficients, from_fn,
         from_fn_with_order,
     };
-    pub use crate::integrate::{InvariantError, MaxResidual, Observer, Trajectory, integrate};
+    pub use crate::integrate::integrate;
+    pub use crate::observe::{InvariantError, MaxResidual, Observer, Trajectory};
+    pub use crate::stepper::Stepper;
     pub use crate::system::{
         Canonical, Case, Constant, Hamiltonian, HolonomicConstraint, JMinusR, ModifiedHamiltonian,
         MomentumDamping, StructureMatrix, System,

@@ -6,10 +6,12 @@
 //! input (flags or scene).
 
 mod check;
+mod csv_rows;
 mod distributed;
 mod plot;
 mod precision;
 mod precision_plot;
+mod progress;
 mod run;
 mod stress;
 mod sweep;

@@ -1,10 +1,10 @@
 //! `lieflow run`: a scene (the default scene without an argument) with a summary, CSV rows and
 //! a plot; the last line of stdout is a JSON summary.
 
+use crate::csv_rows::CsvRows;
+use crate::progress::Progress;
 use crate::{bad_scene, load, plot};
-use indicatif::{ProgressBar, ProgressStyle};
-use lieflow::scene::{Assembly, RunSummary, Sample, run};
-use std::io::Write;
+use lieflow::scene::{RunSummary, Sample, run};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -96,54 +96,35 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     }
     let every = args.every.unwrap_or((steps / 1000).max(1));
     let mut csv = match &args.csv {
-        Some(p) => match std::fs::File::create(p) {
-            Ok(f) => Some(std::io::BufWriter::new(f)),
-            Err(e) => {
-                eprintln!("error: cannot create {}: {e}", p.display());
-                return ExitCode::from(2);
+        Some(p) => {
+            let n = compiled.simulation.state().len();
+            match CsvRows::create(p, n, &compiled.assembly, every, steps) {
+                Ok(rows) => Some(rows),
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
             }
-        },
+        }
         None => None,
     };
     let bodies = compiled.simulation.bodies();
     let mut series = plot::Series::new(steps, bodies);
-    let bar = ProgressBar::new(steps as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} steps, {elapsed} (eta {eta})")
-            .expect("valid template"),
-    );
-    let tick = (steps / 200).max(1);
-    let mut io_error = None;
-    if let Some(w) = csv.as_mut() {
-        let n = compiled.simulation.state().len();
-        if let Err(e) = write_header(w, n, &compiled.assembly) {
-            io_error.get_or_insert(e);
-        }
-    }
-    // The last state seen and whether it was written: a run that stops early still ends its
-    // CSV and plot with its last good state.
+    let mut progress = Progress::new(steps);
+    // The last state seen: a run that stops early still ends its CSV and plot with it.
     let mut last = (0usize, 0.0f64, None, None, None);
-    let mut last_written = true;
     let mut observe = |s: &Sample<'_>| {
-        if s.step.is_multiple_of(tick) {
-            bar.set_position(s.step as u64);
-        }
+        progress.observe(s);
         if args.plot.is_some() {
             series.push(s, false);
         }
         last = (s.step, s.t, s.energy, s.g, s.phi);
-        last_written = false;
-        if let Some(w) = csv.as_mut()
-            && (s.step.is_multiple_of(every) || s.step == steps)
-        {
-            last_written = true;
-            if let Err(e) = write_row(w, s) {
-                io_error.get_or_insert(e);
-            }
+        if let Some(rows) = csv.as_mut() {
+            rows.observe(s);
         }
     };
     let summary = run(compiled.simulation.as_mut(), &compiled.plan, &mut observe);
-    bar.finish_and_clear();
+    progress.finish();
     let final_sample = Sample {
         step: last.0,
         t: last.1,
@@ -155,17 +136,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     if args.plot.is_some() {
         series.push(&final_sample, true);
     }
-    if !last_written
-        && let Some(w) = csv.as_mut()
-        && let Err(e) = write_row(w, &final_sample)
-    {
-        io_error.get_or_insert(e);
-    }
-    if let Some(mut w) = csv
-        && let Err(e) = w.flush()
-    {
-        io_error.get_or_insert(e);
-    }
+    let io_error = csv.and_then(|rows| rows.finish(&final_sample));
     print_summary(&summary);
     let mut code = ExitCode::SUCCESS;
     if let Some(e) = io_error {
@@ -236,28 +207,4 @@ pub(crate) fn print_summary(s: &RunSummary) {
         })
         .collect();
     println!("  evaluations: {}", counts.join(", "));
-}
-
-pub(crate) fn write_header(w: &mut impl Write, n: usize, a: &Assembly) -> std::io::Result<()> {
-    writeln!(
-        w,
-        "# lieflow {} scene: {}; scheme: {}",
-        env!("CARGO_PKG_VERSION"),
-        a.name,
-        a.scheme
-    )?;
-    write!(w, "step,t")?;
-    for i in 0..n {
-        write!(w, ",x{i}")?;
-    }
-    writeln!(w, ",energy,max_abs_g,max_abs_phi")
-}
-
-pub(crate) fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
-    write!(w, "{},{}", s.step, s.t)?;
-    for v in s.x {
-        write!(w, ",{v}")?;
-    }
-    let opt = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
-    writeln!(w, ",{},{},{}", opt(s.energy), opt(s.g), opt(s.phi))
 }

@@ -288,17 +288,21 @@ pub fn run(steps: usize) -> Result<Run, String> {
         .projected(system(), &x0, ProjectionOptions::default())
         .map_err(setup)?;
     let h = 0.03 / steps as f64;
-    let (mut x, mut g, mut max_g) = (x0, [0.0; 6], 0.0f64);
+    let (mut g, mut max_g) = ([0.0; 6], 0.0f64);
     let (mut newton_prev, mut newton_max) = (0, 0);
+    let mut stepper =
+        crate::Stepper::new(&mut flow, x0, 0.0, h).map_err(|e| format!("refused: {e}"))?;
     for k in 0..steps {
-        flow.step(h, &mut x)
+        stepper
+            .step()
             .map_err(|e| format!("typed error at step {k}: {e}"))?;
-        let n = flow.stats().newton_iterations;
+        let n = stepper.flow().stats().newton_iterations;
         newton_max = newton_max.max(n - newton_prev);
         newton_prev = n;
-        s.constraint.residual(&x, &mut g);
+        s.constraint.residual(stepper.state(), &mut g);
         max_g = g.iter().fold(max_g, |a, v| a.max(v.abs()));
     }
+    let x = *stepper.state();
     let mut end = [0.0; 14];
     end[..7].copy_from_slice(&x.as_slice()[..7]);
     end[7..].copy_from_slice(&velocities(x.as_slice()));

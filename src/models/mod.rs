@@ -106,15 +106,25 @@ where
         finite: true,
     };
     let mut newton_prev = flow.stats().newton_iterations;
+    let mut stepper = match crate::Stepper::new(flow, &mut *x, 0.0, h) {
+        Ok(s) => s,
+        Err(crate::IntegrateError::NonFiniteInitialState { component }) => {
+            run.error = Some(crate::error::StepError::NonFinite { component });
+            run.finite = false;
+            return run;
+        }
+        Err(_) => unreachable!("a new stepper fails only on its initial state"),
+    };
     for k in 0..steps {
-        if let Err(e) = flow.step(h, x) {
+        if let Err(e) = stepper.step() {
             run.error = Some(e);
             break;
         }
         run.steps += 1;
-        let n = flow.stats().newton_iterations;
+        let n = stepper.flow().stats().newton_iterations;
         run.newton_max = run.newton_max.max(n - newton_prev);
         newton_prev = n;
+        let x = stepper.state();
         constraint.residual(x, &mut g);
         run.max_g = g.iter().fold(run.max_g, |a, v| a.max(v.abs()));
         let de = (hamiltonian.energy(x) - e0).abs();
@@ -125,6 +135,7 @@ where
         }
         each(x);
     }
+    drop(stepper);
     run.finite = x.as_slice().iter().all(|v| v.is_finite());
     run
 }

@@ -42,6 +42,7 @@ mod compile;
 mod error;
 mod gram;
 mod model;
+pub mod observe;
 mod run;
 pub mod schema;
 
@@ -52,7 +53,9 @@ pub use compile::{
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
 pub use gram::MassGram;
 pub use model::{EffectKind, SceneModel};
-pub use run::{EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation, run};
+pub use run::{
+    Advanced, EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation, advance, run,
+};
 pub use schema::SceneFile;
 
 use std::path::Path;

@@ -10,7 +10,7 @@
 //! with its error kind, never a panic.
 
 use lieflow::scene::Scene;
-use lieflow::scene::{RunPlan, run};
+use lieflow::scene::{RunPlan, advance, run};
 
 pub(crate) mod plan;
 mod reference;
@@ -151,10 +151,9 @@ fn lieflow_row(
     'timed: for _ in 0..repeats {
         let Ok(mut c) = compile() else { break };
         let start = std::time::Instant::now();
-        for _ in 0..c.plan.steps {
-            if c.simulation.step().is_err() {
-                break 'timed;
-            }
+        let done = advance(c.simulation.as_mut(), c.plan.steps, &mut ());
+        if done.error.is_some() {
+            break 'timed;
         }
         times.push(start.elapsed().as_secs_f64());
     }

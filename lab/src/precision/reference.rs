@@ -116,7 +116,6 @@ pub(crate) fn double_double_run(
     t: f64,
     h: f64,
 ) -> Result<Vec<twofloat::TwoFloat>, String> {
-    use lieflow::Flow as _;
     use lieflow::Real;
     use twofloat::TwoFloat;
     type V = nalgebra::DVector<TwoFloat>;
@@ -129,10 +128,15 @@ pub(crate) fn double_double_run(
         lieflow::scene::splitting_flow(&dd, &x, table, true, eps).map_err(|e| e.to_string())?;
     let steps = (t / h).round().max(1.0);
     let step = TwoFloat::lit(t) / TwoFloat::lit(steps);
-    for k in 0..steps as usize {
-        flow.step(step, &mut x)
-            .map_err(|e| format!("step {k}: {e}"))?;
-    }
+    lieflow::integrate(
+        &mut flow,
+        &mut x,
+        TwoFloat::lit(0.0),
+        step,
+        steps as usize,
+        &mut (),
+    )
+    .map_err(|e| e.to_string())?;
     Ok(x.iter().copied().collect())
 }
 

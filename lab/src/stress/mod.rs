@@ -18,8 +18,9 @@ pub use cases::cases;
 use cases::hostile;
 use fekete::fekete;
 pub use fekete::{FEKETE_MULTIPLIER, FEKETE_REFERENCE, fekete_initial_positions, fekete_scene};
-use lieflow::StepError;
+use lieflow::scene::observe::{EnergyDrift, NewtonMax, Residuals};
 use lieflow::scene::{Compiled, Scene};
+use lieflow::scene::{RunFailure, advance};
 use mechanisms::{andrews, bricard, four_bar};
 pub use scenes::{
     chain_scene, damped_chain_scene, stiff_spring_among_pins_scene, stiff_spring_scene,
@@ -163,7 +164,7 @@ struct Measured {
     last_tenth: f64,
     newton_max: u64,
     condition: Option<f64>,
-    error: Option<StepError>,
+    error: Option<RunFailure>,
     x: Vec<f64>,
     multipliers: Option<Vec<f64>>,
     finite: bool,
@@ -174,42 +175,13 @@ fn simulate(c: &mut Compiled) -> Measured {
     sim.reset_counters();
     let steps = c.plan.steps;
     let cond0 = sim.multiplier_condition();
-    let e0 = sim.energy();
-    let (mut max_g, mut max_phi) = (None::<f64>, None::<f64>);
-    let (mut e_prev, mut max_rise, mut max_de) = (e0, f64::NEG_INFINITY, 0.0f64);
-    let mut rise_at = (0, e0);
-    let (mut first_tenth, mut last_tenth) = (0.0f64, 0.0f64);
-    let mut newton_prev = sim.stats().newton_iterations;
-    let mut newton_max = 0;
-    let mut error = None;
-    let mut taken = 0;
-    for k in 0..steps {
-        if let Err(e) = sim.step() {
-            error = Some(e);
-            break;
-        }
-        taken += 1;
-        let n = sim.stats().newton_iterations;
-        newton_max = newton_max.max(n - newton_prev);
-        newton_prev = n;
-        if let Some((g, phi)) = sim.residuals() {
-            max_g = Some(max_g.unwrap_or(0.0).max(g));
-            max_phi = Some(max_phi.unwrap_or(0.0).max(phi));
-        }
-        let e = sim.energy();
-        if e - e_prev > max_rise {
-            max_rise = e - e_prev;
-            rise_at = (k + 1, e);
-        }
-        e_prev = e;
-        let de = (e - e0).abs();
-        max_de = max_de.max(de);
-        if k < steps / 10 {
-            first_tenth = first_tenth.max(de);
-        } else if k >= steps - steps / 10 {
-            last_tenth = last_tenth.max(de);
-        }
-    }
+    let mut watch = (
+        Residuals::default(),
+        EnergyDrift::new(sim, steps),
+        NewtonMax::new(sim),
+    );
+    let done = advance(sim, steps, &mut watch);
+    let (residuals, drift, newton) = watch;
     let cond1 = sim.multiplier_condition();
     let condition = match (cond0, cond1) {
         (Some(a), Some(b)) => Some(a.max(b)),
@@ -217,18 +189,18 @@ fn simulate(c: &mut Compiled) -> Measured {
     };
     let x = sim.state().to_vec();
     Measured {
-        steps: taken,
-        max_g,
-        max_phi,
-        e0,
-        max_rise,
-        rise_at,
-        max_de,
-        first_tenth,
-        last_tenth,
-        newton_max,
+        steps: done.steps,
+        max_g: residuals.max_g,
+        max_phi: residuals.max_phi,
+        e0: drift.initial,
+        max_rise: drift.max_rise,
+        rise_at: drift.rise_at,
+        max_de: drift.max_abs_error,
+        first_tenth: drift.first_tenth,
+        last_tenth: drift.last_tenth,
+        newton_max: newton.max,
         condition,
-        error,
+        error: done.error,
         finite: x.iter().all(|v| v.is_finite()),
         multipliers: sim.multipliers(),
         x,
@@ -255,7 +227,7 @@ fn energy_text(m: &Measured) -> String {
 fn outcome_text(m: &Measured) -> String {
     match &m.error {
         None => "ok".into(),
-        Some(e) => format!("typed error: {e}"),
+        Some(f) => format!("typed error: {}", f.message),
     }
 }
 

@@ -2,7 +2,7 @@
 //! instead of declaring bodies.
 
 use super::{
-    Assembly, Compiled, MAX_BODIES, Result, err,
+    Assembly, Compiled, MAX_BODIES, Result, err, initial_state_error,
     scheme::{choose_scheme, plan, with_table},
 };
 use crate::error::SetupError;
@@ -134,7 +134,10 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                 steps,
             );
             (
-                Box::new(ModelRun::new(flow, paper::system(), x0, dt, 1, None)),
+                Box::new(
+                    ModelRun::new(flow, paper::system(), x0, dt, 1, None)
+                        .map_err(initial_state_error)?,
+                ),
                 assembly,
             )
         }
@@ -178,7 +181,9 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
             assembly.case = None;
             let system = System::new(body.structure(), body, Unconstrained);
             (
-                Box::new(ModelRun::new(flow, system, y0, dt, 0, None)),
+                Box::new(
+                    ModelRun::new(flow, system, y0, dt, 0, None).map_err(initial_state_error)?,
+                ),
                 assembly,
             )
         }
@@ -203,7 +208,10 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                 steps,
             );
             (
-                Box::new(ModelRun::new(flow, pend.system(), x0, dt, 1, None)),
+                Box::new(
+                    ModelRun::new(flow, pend.system(), x0, dt, 1, None)
+                        .map_err(initial_state_error)?,
+                ),
                 assembly,
             )
         }
@@ -237,7 +245,10 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                 steps,
             );
             (
-                Box::new(ModelRun::new(flow, chain.system(), x0, dt, links, None)),
+                Box::new(
+                    ModelRun::new(flow, chain.system(), x0, dt, links, None)
+                        .map_err(initial_state_error)?,
+                ),
                 assembly,
             )
         }

@@ -106,6 +106,12 @@ fn err(kind: SceneErrorKind, path: FieldPath, msg: impl Into<String>) -> SceneEr
     SceneError::new(kind, path, msg)
 }
 
+/// A non-finite initial state, found when the run is set up (the compile-time checks refuse
+/// non-finite inputs, so this names what they could not see).
+fn initial_state_error(e: crate::error::IntegrateError) -> SceneError {
+    err(SceneErrorKind::Value, FieldPath::root(), e.to_string())
+}
+
 /// Compiles a parsed scene (no source text: errors carry paths but no line numbers).
 pub fn compile(file: &SceneFile) -> Result<Compiled> {
     compile_impl(file, false)
@@ -328,7 +334,9 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         dropped_constraints,
     };
     let system = System::new(model.clone(), model.clone(), model.clone());
-    let simulation = Box::new(ModelRun::new(flow, system, x0, dt, m, Some(shared)));
+    let simulation = Box::new(
+        ModelRun::new(flow, system, x0, dt, m, Some(shared)).map_err(initial_state_error)?,
+    );
     Ok(Compiled {
         simulation,
         assembly,

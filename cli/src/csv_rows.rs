@@ -1,0 +1,91 @@
+//! The run's CSV: a header naming the scene and scheme, then every `every`-th sample (and the
+//! last one), written as the run goes; an I/O error is kept and reported after the run.
+
+use lieflow::scene::{Assembly, Sample};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// An observer of a run that writes its samples as CSV rows.
+pub(crate) struct CsvRows {
+    w: BufWriter<File>,
+    every: usize,
+    steps: usize,
+    /// The last sample seen was written (a run that stops early ends with its last state).
+    last_written: bool,
+    error: Option<std::io::Error>,
+}
+
+impl CsvRows {
+    /// Creates `path` and writes the header for states of length `n`.
+    pub(crate) fn create(
+        path: &Path,
+        n: usize,
+        a: &Assembly,
+        every: usize,
+        steps: usize,
+    ) -> Result<Self, String> {
+        let f = File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+        let mut rows = Self {
+            w: BufWriter::new(f),
+            every,
+            steps,
+            last_written: true,
+            error: None,
+        };
+        if let Err(e) = write_header(&mut rows.w, n, a) {
+            rows.error = Some(e);
+        }
+        Ok(rows)
+    }
+
+    /// Writes `s` if it is an `every`-th step or the last planned one.
+    pub(crate) fn observe(&mut self, s: &Sample<'_>) {
+        self.last_written = false;
+        if s.step.is_multiple_of(self.every) || s.step == self.steps {
+            self.last_written = true;
+            self.write(s);
+        }
+    }
+
+    /// Writes the final sample unless it was written, flushes, and returns the first I/O error.
+    pub(crate) fn finish(mut self, last: &Sample<'_>) -> Option<std::io::Error> {
+        if !self.last_written {
+            self.write(last);
+        }
+        if let Err(e) = self.w.flush() {
+            self.error.get_or_insert(e);
+        }
+        self.error
+    }
+
+    fn write(&mut self, s: &Sample<'_>) {
+        if let Err(e) = write_row(&mut self.w, s) {
+            self.error.get_or_insert(e);
+        }
+    }
+}
+
+fn write_header(w: &mut impl Write, n: usize, a: &Assembly) -> std::io::Result<()> {
+    writeln!(
+        w,
+        "# lieflow {} scene: {}; scheme: {}",
+        env!("CARGO_PKG_VERSION"),
+        a.name,
+        a.scheme
+    )?;
+    write!(w, "step,t")?;
+    for i in 0..n {
+        write!(w, ",x{i}")?;
+    }
+    writeln!(w, ",energy,max_abs_g,max_abs_phi")
+}
+
+fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
+    write!(w, "{},{}", s.step, s.t)?;
+    for v in s.x {
+        write!(w, ",{v}")?;
+    }
+    let opt = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
+    writeln!(w, ",{},{},{}", opt(s.energy), opt(s.g), opt(s.phi))
+}

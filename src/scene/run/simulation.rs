@@ -1,0 +1,229 @@
+//! The object-safe face of a run — a [`Stepper`], its system and, for scenes, its model —
+//! shared by compiled scenes and the built-in models.
+
+use crate::error::{IntegrateError, StepError};
+use crate::flow::{Flow, FlowStats};
+use crate::scene::gram::MassGram;
+use crate::scene::model::SceneModel;
+use crate::stepper::Stepper;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::vector::{Vector, ops};
+use serde::Serialize;
+use std::sync::Arc;
+
+/// One assembled term and what it cost in a run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EffectReport {
+    /// The label (the effect's `name`, or its type).
+    pub name: String,
+    /// The kind (`gravity`, `spring`, …).
+    pub kind: &'static str,
+    /// Evaluations of the term (energy, gradient, Hessian products, flows, `M` products).
+    pub evaluations: u64,
+    /// Share of the run's time (stepping and the diagnostics after each step) spent in the
+    /// term (with the `profile` diagnostic).
+    pub time_share: Option<f64>,
+}
+
+/// A simulation ready to step: a compiled scene or a built-in model.
+pub trait Simulation {
+    /// The state `x`.
+    fn state(&self) -> &[f64];
+    /// The time of the state.
+    fn time(&self) -> f64;
+    /// The step size.
+    fn dt(&self) -> f64;
+    /// One step. On error the state is unchanged (the last good state).
+    fn step(&mut self) -> Result<(), StepError>;
+    /// `H(x)`.
+    fn energy(&self) -> f64;
+    /// The dissipated power `∇Hᵀ R ∇H` at `x` (`None` without dissipation).
+    fn dissipation_power(&self) -> Option<f64>;
+    /// `(max |g(x)|, max |φ(x)|)`, `None` without constraints.
+    fn residuals(&mut self) -> Option<(f64, f64)>;
+    /// The assembled terms and their evaluation counts so far.
+    fn effects(&self) -> Vec<EffectReport>;
+    /// The scheme's work counters.
+    fn stats(&self) -> FlowStats;
+    /// `(dimension, bodies)` when the state is `(q, p)` of point bodies (for path plots).
+    fn bodies(&self) -> Option<(usize, usize)>;
+    /// Zeroes the terms' evaluation counters and clocks (a run starts with it, so that the
+    /// evaluations of the compile-time checks do not count).
+    fn reset_counters(&self) {}
+    /// The constraint multipliers of the last step, `(λ_k + λ_{k+1})/2` — the multiplier `λ`
+    /// of `x' = M (∇H + Gᵀλ)` at the step — when the scheme is a projection.
+    fn multipliers(&self) -> Option<Vec<f64>> {
+        None
+    }
+    /// An estimate of the 2-norm condition number of the mass-weighted Gram matrix
+    /// `G W⁻¹ Gᵀ` at the current positions (the matrix every multiplier system of a scene is a
+    /// perturbation of), for scenes with constraints; `None` otherwise. `Some(∞)` when it is
+    /// singular to working precision.
+    fn multiplier_condition(&mut self) -> Option<f64> {
+        None
+    }
+}
+
+/// A [`Stepper`] and the flow's system: the [`Simulation`] of a scene and of the built-in
+/// models.
+pub(crate) struct ModelRun<V: Vector, Ms, H, C> {
+    stepper: Stepper<V, Box<dyn Flow<V>>>,
+    pub(crate) system: System<Ms, H, C>,
+    t1: V,
+    t2: V,
+    g: Vec<f64>,
+    pub(crate) model: Option<Arc<SceneModel>>,
+    /// The Gram matrix of the condition estimate, built on first use.
+    gram: Option<MassGram>,
+}
+
+impl<V, Ms, H, C> ModelRun<V, Ms, H, C>
+where
+    V: Vector<Real = f64>,
+{
+    pub(crate) fn new(
+        flow: Box<dyn Flow<V>>,
+        system: System<Ms, H, C>,
+        x: V,
+        dt: f64,
+        m: usize,
+        model: Option<Arc<SceneModel>>,
+    ) -> Result<Self, IntegrateError> {
+        let (t1, t2) = (x.zeros_like(), x.zeros_like());
+        Ok(Self {
+            stepper: Stepper::new(flow, x, 0.0, dt)?,
+            system,
+            t1,
+            t2,
+            g: vec![0.0; m],
+            model,
+            gram: None,
+        })
+    }
+}
+
+impl<V, Ms, H, C> Simulation for ModelRun<V, Ms, H, C>
+where
+    V: Vector<Real = f64>,
+    Ms: StructureMatrix<V>,
+    H: Hamiltonian<V>,
+    C: HolonomicConstraint<V>,
+{
+    fn state(&self) -> &[f64] {
+        self.stepper.state().as_slice()
+    }
+    fn time(&self) -> f64 {
+        self.stepper.time()
+    }
+    fn dt(&self) -> f64 {
+        self.stepper.step_size()
+    }
+    fn step(&mut self) -> Result<(), StepError> {
+        self.stepper.step()
+    }
+    fn energy(&self) -> f64 {
+        self.system.hamiltonian.energy(self.stepper.state())
+    }
+    fn dissipation_power(&self) -> Option<f64> {
+        let model = self.model.as_ref()?;
+        let damping = model.damping.as_ref()?;
+        let (d, x) = (model.dim, self.state());
+        let p = &x[x.len() / 2..];
+        let mut power = 0.0;
+        for (b, c) in damping.per_body.iter().enumerate() {
+            let w = model.inv_masses[b];
+            for k in 0..d {
+                let v = w * p[b * d + k];
+                power += c * v * v;
+            }
+        }
+        Some(power)
+    }
+    fn residuals(&mut self) -> Option<(f64, f64)> {
+        if self.g.is_empty() {
+            return None;
+        }
+        let x = self.stepper.state();
+        self.system.constraint.residual(x, &mut self.g);
+        let g = ops::norm_inf(&self.g);
+        self.system
+            .hidden_constraint(x, &mut self.t1, &mut self.t2, &mut self.g);
+        Some((g, ops::norm_inf(&self.g)))
+    }
+    fn effects(&self) -> Vec<EffectReport> {
+        self.model.as_ref().map_or_else(Vec::new, |m| m.reports())
+    }
+    fn stats(&self) -> FlowStats {
+        self.stepper.flow().stats()
+    }
+    fn bodies(&self) -> Option<(usize, usize)> {
+        self.model.as_ref().map(|m| (m.space_dim(), m.bodies()))
+    }
+    fn reset_counters(&self) {
+        if let Some(m) = &self.model {
+            m.reset_counters();
+        }
+    }
+    fn multipliers(&self) -> Option<Vec<f64>> {
+        let (a, b) = self.stepper.flow().multipliers()?;
+        Some(a.iter().zip(b).map(|(a, b)| 0.5 * (a + b)).collect())
+    }
+    fn multiplier_condition(&mut self) -> Option<f64> {
+        let model = self.model.as_ref()?;
+        if model.m == 0 {
+            return None;
+        }
+        let x = self.stepper.state().as_slice();
+        let q = &x[..x.len() / 2];
+        if self.gram.is_none() {
+            self.gram = MassGram::new(model, q).ok();
+        }
+        let gram = self.gram.as_mut()?;
+        Some(gram.condition_estimate(model, q))
+    }
+}
+
+impl SceneModel {
+    /// The assembled terms with their evaluation counts (and time shares when profiling).
+    pub fn reports(&self) -> Vec<EffectReport> {
+        let mut out = vec![EffectReport {
+            name: "kinetic".into(),
+            kind: "kinetic",
+            evaluations: self.kinetic.evaluations(),
+            time_share: None,
+        }];
+        for t in &self.potentials {
+            out.push(EffectReport {
+                name: t.label.clone(),
+                kind: t.kind.name(),
+                evaluations: t.counter.evaluations(),
+                time_share: self.profile.then(|| t.counter.nanos() as f64),
+            });
+        }
+        if let Some(t) = &self.damping {
+            out.push(EffectReport {
+                name: t.label.clone(),
+                kind: "damping",
+                evaluations: t.counter.evaluations(),
+                time_share: None,
+            });
+        }
+        if let Some(t) = &self.magnetic {
+            out.push(EffectReport {
+                name: t.label.clone(),
+                kind: "magnetic",
+                evaluations: t.counter.evaluations(),
+                time_share: None,
+            });
+        }
+        if !self.constraints.is_empty() {
+            out.push(EffectReport {
+                name: "constraints".into(),
+                kind: "constraints",
+                evaluations: self.constraint_counter.evaluations(),
+                time_share: self.profile.then(|| self.constraint_counter.nanos() as f64),
+            });
+        }
+        out
+    }
+}

@@ -1,0 +1,105 @@
+//! What a run is asked to compute, what it passes its observer after each step, and the
+//! summary it returns.
+
+use crate::error::StepError;
+use crate::scene::run::EffectReport;
+use serde::Serialize;
+
+/// What to compute during a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunPlan {
+    /// Steps to take.
+    pub steps: usize,
+    /// Evaluate `H` after every step.
+    pub energy: bool,
+    /// Evaluate `|g|` and `|φ|` after every step.
+    pub residuals: bool,
+}
+
+/// The state after a step, with the diagnostics the plan asked for; passed to the run's observer.
+#[derive(Debug, Clone, Copy)]
+pub struct Sample<'a> {
+    /// Step index (0 for the initial state).
+    pub step: usize,
+    /// Time.
+    pub t: f64,
+    /// The state.
+    pub x: &'a [f64],
+    /// `H(x)`, if asked for.
+    pub energy: Option<f64>,
+    /// `max |g(x)|`, if asked for and there are constraints.
+    pub g: Option<f64>,
+    /// `max |φ(x)|`, likewise.
+    pub phi: Option<f64>,
+}
+
+/// Why a run stopped early.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunFailure {
+    /// The step that failed (the state is the one before it).
+    pub step: usize,
+    /// Its time.
+    pub t: f64,
+    /// The error's kind, e.g. `Newton`, `NonFinite`.
+    pub kind: String,
+    /// The error's message.
+    pub message: String,
+}
+
+/// The summary of a run (printed as the command's final JSON line).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunSummary {
+    /// Final time reached.
+    pub t: f64,
+    /// Steps taken.
+    pub steps: usize,
+    /// Steps planned.
+    pub steps_planned: usize,
+    /// Step size.
+    pub dt: f64,
+    /// The final state.
+    pub x: Vec<f64>,
+    /// `max |g|` over the run (`None` without constraints or with the diagnostic off).
+    pub max_abs_g: Option<f64>,
+    /// `max |φ|` over the run, likewise.
+    pub max_abs_phi: Option<f64>,
+    /// `H` at the start (`None` with the energy diagnostic off).
+    pub energy_initial: Option<f64>,
+    /// `H` at the end.
+    pub energy_final: Option<f64>,
+    /// `max |H − H₀|` over the run.
+    pub max_abs_energy_error: Option<f64>,
+    /// `max (H_{k+1} − H_k)` over the steps. With damping, ≤ 0 when the dissipation per step
+    /// dominates the splitting's `O(h³)` energy error, and ≤ 0 by construction with the
+    /// discrete gradient.
+    pub max_energy_increase: Option<f64>,
+    /// Energy dissipated, `∫ ∇Hᵀ R ∇H dt` by the trapezoidal rule (with damping).
+    pub dissipated: Option<f64>,
+    /// `max |H − H₀ + dissipated|` over the run: the energy budget's error (with damping; the
+    /// quadrature's `O(h²)` is part of it).
+    pub max_energy_balance_error: Option<f64>,
+    /// Per-term evaluation counts.
+    pub effects: Vec<EffectReport>,
+    /// Residual evaluations of the multiplier solves.
+    pub residual_evaluations: u64,
+    /// Newton iterations of the multiplier solves.
+    pub newton_iterations: u64,
+    /// Wall time per step, stepping only (diagnostics excluded).
+    pub ns_per_step: f64,
+    /// Why the run stopped early, if it did.
+    pub error: Option<RunFailure>,
+}
+
+/// The variant name of a step error, for summaries.
+pub(crate) fn step_error_kind(e: &StepError) -> &'static str {
+    match e {
+        StepError::Newton { .. } => "Newton",
+        StepError::FixedPointNotConverged { .. } => "FixedPointNotConverged",
+        StepError::NonFinite { .. } => "NonFinite",
+        StepError::BadStepSize { .. } => "BadStepSize",
+        StepError::BackwardDissipation { .. } => "BackwardDissipation",
+        StepError::CouplingViolated { .. } => "CouplingViolated",
+        StepError::StateLength { .. } => "StateLength",
+        StepError::OffManifold { .. } => "OffManifold",
+    }
+}
