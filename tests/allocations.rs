@@ -258,3 +258,22 @@ fn chain_steps_allocate_nothing(kind: lieflow::linalg::SolverKind) {
     assert_eq!(allocations_per_run(&mut f, &mut x, 1e-4), 0);
     assert!(f.stats().factorizations >= 1000, "{:?}", f.stats());
 }
+
+/// The driver itself: a step of the stepping object (its copy of the last good state, its
+/// finiteness check) allocates nothing once it is built.
+#[test]
+fn stepper_steps_allocate_nothing() {
+    type V = faer::Col<f64>;
+    let x: V = paper::initial_state();
+    let f = paper::drift()
+        .projected(paper::system(), &x, ProjectionOptions::default())
+        .unwrap()
+        .triple_jump();
+    let mut stepper = lieflow::Stepper::new(f, x, 0.0, 0.1).unwrap();
+    stepper.step().unwrap();
+    let before = allocations();
+    for _ in 0..1000 {
+        stepper.step().unwrap();
+    }
+    assert_eq!(allocations() - before, 0);
+}
