@@ -24,7 +24,7 @@ const ORDER: [&str; 6] = ["gravity", "springs", "pair", "trap", "magnetic", "dam
 fn scene_with(on: usize) -> Scene {
     let mut s = Scene::from_toml(ALL_EFFECTS, "all_effects.toml").expect("parses");
     for (i, flag) in ORDER.iter().enumerate() {
-        s.file.flags.set(flag, i < on).expect("a flag");
+        s.file.flags.set_named(flag, i < on).expect("a flag");
     }
     s
 }

@@ -515,7 +515,8 @@ fn bad_scenes_get_located_typed_errors() {
             "stiffness = 20.0",
             "stifness = 20.0",
             SceneErrorKind::Syntax,
-            "",
+            // A key the format does not know is named by its path, as the checks' errors are.
+            "effects[1].stifness",
             "stifness",
         ),
         (

@@ -4,6 +4,7 @@
 use crate::csv_rows::CsvRows;
 use crate::progress::Progress;
 use crate::{bad_scene, load, plot};
+use lieflow::scene::schema::Diagnostic;
 use lieflow::scene::{RunSummary, Sample, run};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -50,7 +51,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         }
     }
     for name in &args.off {
-        if let Err(e) = scene.file.flags.set(name, false) {
+        if let Err(e) = scene.file.flags.set_named(name, false) {
             eprintln!("error: --off: {e}");
             return ExitCode::from(2);
         }
@@ -61,15 +62,9 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     if let Some(t) = args.t_end {
         scene.file.integrator.t_end = t;
     }
-    if args.profile
-        && !scene
-            .file
-            .integrator
-            .diagnostics
-            .iter()
-            .any(|d| d == "profile")
-    {
-        scene.file.integrator.diagnostics.push("profile".into());
+    let diagnostics = &mut scene.file.integrator.diagnostics;
+    if args.profile && !diagnostics.contains(&Diagnostic::Profile) {
+        diagnostics.push(Diagnostic::Profile);
     }
     let mut compiled = match scene.compile() {
         Ok(c) => c,

@@ -142,8 +142,11 @@ impl SceneError {
             e.message().trim_end().to_owned(),
         );
         if let Some(span) = e.span() {
-            let at = unknown_key_offset(e.message(), text, span.clone());
-            se.location = Some(location_of(file, text, at.unwrap_or(span.start)));
+            let at = unknown_key_offset(e.message(), text, span.clone()).unwrap_or(span.start);
+            se.location = Some(location_of(file, text, at));
+            if let Some(path) = path_at(text, at) {
+                se.path = path;
+            }
         }
         se
     }
@@ -170,6 +173,44 @@ fn span_of(text: &str, path: &FieldPath) -> Option<usize> {
         }
     }
     Some(start)
+}
+
+/// The field path of the innermost key or array element of `text` whose value spans byte
+/// `offset` (the reverse of `span_of`), so that a value the format refuses is named by its
+/// path as well as its line.
+fn path_at(text: &str, offset: usize) -> Option<FieldPath> {
+    let doc = DeTable::parse(text).ok()?;
+    let mut path = FieldPath::root();
+    find_in_table(doc.get_ref(), offset, &mut path).then_some(path)
+}
+
+/// Depth first: a table's header span need not cover its entries, so every entry is searched.
+fn find_in_table(table: &DeTable<'_>, offset: usize, path: &mut FieldPath) -> bool {
+    table.iter().any(|(k, v)| {
+        path.0.push(PathSegment::Key(k.get_ref().to_string()));
+        let found = find_in_value(v, offset, path) || k.span().contains(&offset);
+        if !found {
+            path.0.pop();
+        }
+        found
+    })
+}
+
+fn find_in_value(value: &toml::Spanned<DeValue<'_>>, offset: usize, path: &mut FieldPath) -> bool {
+    match value.get_ref() {
+        DeValue::Table(t) => find_in_table(t, offset, path),
+        DeValue::Array(a) => {
+            a.iter().enumerate().any(|(i, v)| {
+                path.0.push(PathSegment::Index(i));
+                let found = find_in_value(v, offset, path);
+                if !found {
+                    path.0.pop();
+                }
+                found
+            }) || value.span().contains(&offset)
+        }
+        _ => value.span().contains(&offset),
+    }
 }
 
 /// Line and column (1-based, columns in characters) of byte `offset` in `text`.

@@ -42,6 +42,7 @@ mod compile;
 mod error;
 mod gram;
 mod model;
+mod names;
 pub mod observe;
 mod run;
 pub mod schema;

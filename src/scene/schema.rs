@@ -5,6 +5,9 @@
 //! own `name`, a generator's name (all its bodies), `"<generator>.<i>"` (its `i`-th body,
 //! counting from 0), or `"*"` (every body).
 
+use super::names::named_enum;
+use crate::flow::CompositionTable;
+use crate::flow::coefficients::table_by_name;
 use serde::Deserialize;
 
 /// The scene format version this library reads.
@@ -308,8 +311,8 @@ pub struct IntegratorSpec {
     /// Newton tolerance; dense Newton on `n + m` unknowns, for small scenes); `"midpoint"` (the
     /// implicit midpoint rule, projected); `"modified"` (the paper's §2 scheme, built-in paper
     /// model only).
-    #[serde(default = "default_scheme")]
-    pub scheme: String,
+    #[serde(default)]
+    pub scheme: Method,
     /// The order for `auto`: 2, 4, 6 or 8 (default 2). With damping only 2.
     #[serde(default)]
     pub order: Option<u32>,
@@ -320,7 +323,7 @@ pub struct IntegratorSpec {
     /// Diagnostics computed after every step: `"energy"`, `"constraints"` (`|g|`, `|φ|`),
     /// `"profile"` (time per effect). Default: energy and constraints.
     #[serde(default = "default_diagnostics")]
-    pub diagnostics: Vec<String>,
+    pub diagnostics: Vec<Diagnostic>,
     /// Project an initial state that is off the constraints onto them (mass-weighted,
     /// positions then velocities) and report by how much, instead of refusing it.
     #[serde(default)]
@@ -331,20 +334,121 @@ pub struct IntegratorSpec {
     /// remaining constraints carry the same forces; over-constrained mechanisms whose redundancy
     /// persists along the motion then run). Only single-row constraints (rods, spheres, planes)
     /// are dropped; a dependent row of a pin is refused.
-    #[serde(default = "default_redundant")]
-    pub redundant: String,
+    #[serde(default)]
+    pub redundant: Redundant,
 }
 
-fn default_redundant() -> String {
-    "refuse".to_owned()
+fn default_diagnostics() -> Vec<Diagnostic> {
+    vec![Diagnostic::Energy, Diagnostic::Constraints]
 }
 
-fn default_scheme() -> String {
-    "auto".to_owned()
+named_enum! {
+    /// The integrator of a scene (`integrator.scheme`).
+    pub enum Method {
+        /// The splitting of the declared effects, composed to `order` (default 2).
+        Auto = "auto",
+        /// The splitting itself (Strang, order 2).
+        Strang = "strang",
+        /// Yoshida's triple jump (order 4).
+        TripleJump = "triple-jump",
+        /// Suzuki's five-stage composition (order 4).
+        Suzuki4 = "suzuki4",
+        /// Yoshida's order-6 composition.
+        Yoshida6 = "yoshida6",
+        /// Kahan and Li's order-6 composition.
+        KahanLi6 = "kahan-li6",
+        /// Suzuki and Umeno's order-8 composition.
+        SuzukiUmeno8 = "suzuki-umeno8",
+        /// Kahan and Li's order-8 composition.
+        KahanLi8 = "kahan-li8",
+        /// Gonzalez's discrete gradient (order 2, implicit).
+        DiscreteGradient = "discrete-gradient",
+        /// The implicit midpoint rule, projected (order 2).
+        Midpoint = "midpoint",
+        /// The paper's §2 scheme (built-in paper model only).
+        Modified = "modified",
+    }
 }
 
-fn default_diagnostics() -> Vec<String> {
-    vec!["energy".to_owned(), "constraints".to_owned()]
+// The default is named in the variant list's documentation; the enum is declared by a macro.
+#[allow(clippy::derivable_impls)]
+impl Default for Method {
+    fn default() -> Self {
+        Method::Auto
+    }
+}
+
+impl Method {
+    /// The composition table of a named composition (`None` for `auto`, `strang` and the
+    /// implicit schemes).
+    pub fn composition(self) -> Option<&'static CompositionTable> {
+        match self {
+            Method::TripleJump
+            | Method::Suzuki4
+            | Method::Yoshida6
+            | Method::KahanLi6
+            | Method::SuzukiUmeno8
+            | Method::KahanLi8 => table_by_name(self.name()),
+            Method::Auto
+            | Method::Strang
+            | Method::DiscreteGradient
+            | Method::Midpoint
+            | Method::Modified => None,
+        }
+    }
+}
+
+named_enum! {
+    /// A diagnostic computed after every step (`integrator.diagnostics`).
+    pub enum Diagnostic {
+        /// `H`, and with damping the energy budget.
+        Energy = "energy",
+        /// `|g|` and `|φ|`.
+        Constraints = "constraints",
+        /// The time spent in each effect.
+        Profile = "profile",
+    }
+}
+
+named_enum! {
+    /// What to do with redundant constraints (`integrator.redundant`).
+    pub enum Redundant {
+        /// Refuse the scene, naming a dependent constraint.
+        Refuse = "refuse",
+        /// Drop dependent single-row constraints and report which.
+        DropDependent = "drop-dependent",
+    }
+}
+
+#[allow(clippy::derivable_impls)]
+impl Default for Redundant {
+    fn default() -> Self {
+        Redundant::Refuse
+    }
+}
+
+named_enum! {
+    /// A switch of `[flags]` (and of the command's `--off`).
+    pub enum Flag {
+        /// Gravity effects.
+        Gravity = "gravity",
+        /// Spring effects.
+        Springs = "springs",
+        /// Pair potentials.
+        Pair = "pair",
+        /// Traps.
+        Trap = "trap",
+        /// Damping.
+        Damping = "damping",
+        /// Magnetic fields.
+        Magnetic = "magnetic",
+        /// Every constraint.
+        Constraints = "constraints",
+        /// The energy diagnostic.
+        Energy = "energy",
+        /// The constraint-residual diagnostic.
+        Residuals = "residuals",
+    }
 }
 
 /// Switches (all on by default): `false` removes the declared parts of that kind from the
@@ -373,39 +477,42 @@ pub struct Flags {
 }
 
 impl Flags {
-    /// The names of the switches, as in the file.
-    pub const NAMES: [&'static str; 9] = [
-        "gravity",
-        "springs",
-        "pair",
-        "trap",
-        "damping",
-        "magnetic",
-        "constraints",
-        "energy",
-        "residuals",
-    ];
+    /// The switch `flag`.
+    pub fn get(&self, flag: Flag) -> bool {
+        match flag {
+            Flag::Gravity => self.gravity,
+            Flag::Springs => self.springs,
+            Flag::Pair => self.pair,
+            Flag::Trap => self.trap,
+            Flag::Damping => self.damping,
+            Flag::Magnetic => self.magnetic,
+            Flag::Constraints => self.constraints,
+            Flag::Energy => self.energy,
+            Flag::Residuals => self.residuals,
+        }
+    }
 
-    /// Sets the switch `name` (one of [`NAMES`](Self::NAMES)); `Err` names the valid ones.
-    pub fn set(&mut self, name: &str, on: bool) -> Result<(), String> {
-        let slot = match name {
-            "gravity" => &mut self.gravity,
-            "springs" => &mut self.springs,
-            "pair" => &mut self.pair,
-            "trap" => &mut self.trap,
-            "damping" => &mut self.damping,
-            "magnetic" => &mut self.magnetic,
-            "constraints" => &mut self.constraints,
-            "energy" => &mut self.energy,
-            "residuals" => &mut self.residuals,
-            _ => {
-                return Err(format!(
-                    "unknown flag '{name}' (one of {})",
-                    Self::NAMES.join(", ")
-                ));
-            }
+    /// Sets the switch `flag`.
+    pub fn set(&mut self, flag: Flag, on: bool) {
+        let slot = match flag {
+            Flag::Gravity => &mut self.gravity,
+            Flag::Springs => &mut self.springs,
+            Flag::Pair => &mut self.pair,
+            Flag::Trap => &mut self.trap,
+            Flag::Damping => &mut self.damping,
+            Flag::Magnetic => &mut self.magnetic,
+            Flag::Constraints => &mut self.constraints,
+            Flag::Energy => &mut self.energy,
+            Flag::Residuals => &mut self.residuals,
         };
         *slot = on;
+    }
+
+    /// Sets the switch called `name`; `Err` names the valid ones.
+    pub fn set_named(&mut self, name: &str, on: bool) -> Result<(), String> {
+        let flag = Flag::from_name(name)
+            .ok_or_else(|| format!("unknown flag '{name}' (one of {})", Flag::names()))?;
+        self.set(flag, on);
         Ok(())
     }
 }

@@ -10,6 +10,7 @@
 //! with its error kind, never a panic.
 
 use lieflow::scene::Scene;
+use lieflow::scene::schema::Method;
 use lieflow::scene::{RunPlan, advance, run};
 
 pub(crate) mod plan;
@@ -38,9 +39,9 @@ pub fn work_precision(
         .map(|c| c.assembly.dissipative)
         .unwrap_or(false);
     let is_builtin = scene.file.builtin.is_some();
-    let mut methods: Vec<(String, &str, Option<u32>)> = Vec::new();
+    let mut methods: Vec<(String, Method, Option<u32>)> = Vec::new();
     for &o in &plan.orders {
-        methods.push((format!("lieflow order {o}"), "auto", Some(o)));
+        methods.push((format!("lieflow order {o}"), Method::Auto, Some(o)));
     }
     let is_paper = scene
         .file
@@ -48,15 +49,15 @@ pub fn work_precision(
         .as_ref()
         .is_some_and(|b| b.model == "paper");
     let n = scene.compile().map(|c| c.assembly.state_len).unwrap_or(0);
-    let mut implicit: Vec<(String, &str)> = Vec::new();
+    let mut implicit: Vec<(String, Method)> = Vec::new();
     if plan.discrete_gradient && !is_builtin {
-        implicit.push(("lieflow discrete gradient".into(), "discrete-gradient"));
+        implicit.push(("lieflow discrete gradient".into(), Method::DiscreteGradient));
     }
     if plan.midpoint && (!is_builtin || is_paper) {
-        implicit.push(("lieflow implicit midpoint".into(), "midpoint"));
+        implicit.push(("lieflow implicit midpoint".into(), Method::Midpoint));
     }
     if plan.modified && is_paper {
-        implicit.push(("lieflow §2 scheme".into(), "modified"));
+        implicit.push(("lieflow §2 scheme".into(), Method::Modified));
     }
     for (name, scheme) in implicit {
         if n > DENSE_MAX_DIM {
@@ -89,7 +90,7 @@ pub fn work_precision(
                 );
                 continue;
             }
-            let row = lieflow_row(scene, name, scheme, *order, dt, plan.repeats, reference);
+            let row = lieflow_row(scene, name, *scheme, *order, dt, plan.repeats, reference);
             push(row, &mut rows);
         }
     }
@@ -105,7 +106,7 @@ pub fn work_precision(
 fn lieflow_row(
     scene: &Scene,
     name: &str,
-    scheme: &str,
+    scheme: Method,
     order: Option<u32>,
     dt: f64,
     repeats: usize,

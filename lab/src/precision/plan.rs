@@ -2,6 +2,7 @@
 //! per run; the helpers the lieflow and peer runs share.
 
 use lieflow::scene::Scene;
+use lieflow::scene::schema::Method;
 use serde::Serialize;
 
 /// What to run.
@@ -170,9 +171,9 @@ pub(crate) fn min_median(mut times: Vec<f64>) -> (Option<f64>, Option<f64>) {
     (Some(times[0]), Some(median))
 }
 
-pub(crate) fn with_scheme(scene: &Scene, scheme: &str, order: Option<u32>, dt: f64) -> Scene {
+pub(crate) fn with_scheme(scene: &Scene, scheme: Method, order: Option<u32>, dt: f64) -> Scene {
     let mut s = scene.clone();
-    s.file.integrator.scheme = scheme.to_owned();
+    s.file.integrator.scheme = scheme;
     s.file.integrator.order = order;
     s.file.integrator.dt = dt;
     s

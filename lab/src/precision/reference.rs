@@ -3,6 +3,7 @@
 
 use super::plan::{PrecisionPlan, Reference, distance, final_time, with_scheme};
 use lieflow::models::paper;
+use lieflow::scene::schema::Method;
 use lieflow::scene::{RunPlan, run};
 use lieflow::scene::{Scene, SceneError};
 
@@ -30,7 +31,7 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
         });
     }
     let h_min = plan.dts.iter().copied().fold(f64::INFINITY, f64::min);
-    let at = |scheme: &str, h: f64| -> Result<Vec<f64>, SceneError> {
+    let at = |scheme: Method, h: f64| -> Result<Vec<f64>, SceneError> {
         let mut c = lieflow::scene::compile_reference(&with_scheme(scene, scheme, None, h).file)?;
         let quiet = RunPlan {
             steps: c.plan.steps,
@@ -141,13 +142,13 @@ pub(crate) fn double_double_run(
 }
 
 /// A reference run: the final state of the scene with the named scheme at a step size.
-pub(crate) type RunAt<'a> = dyn Fn(&str, f64) -> Result<Vec<f64>, SceneError> + 'a;
+pub(crate) type RunAt<'a> = dyn Fn(Method, f64) -> Result<Vec<f64>, SceneError> + 'a;
 
 /// The double-precision reference: Kahan–Li 8 at `h_min/8` and `/16`, or, if that fails (stiff
 /// damping), Strang at `h_min/64` and `/128`, Richardson-extrapolated.
 pub(crate) fn f64_reference(h_min: f64, t: f64, at: &RunAt<'_>) -> Result<Reference, SceneError> {
     let h = dividing(t, h_min / 8.0);
-    if let (Ok(coarse), Ok(fine)) = (at("kahan-li8", h), at("kahan-li8", h / 2.0)) {
+    if let (Ok(coarse), Ok(fine)) = (at(Method::KahanLi8, h), at(Method::KahanLi8, h / 2.0)) {
         // In f64 the gap of the two runs is mostly round-off, not truncation: the gap itself,
         // plus the round-off the finer run accumulates.
         let roundoff = f64::EPSILON * (2.0 * t / h) * state_scale(&fine);
@@ -159,8 +160,8 @@ pub(crate) fn f64_reference(h_min: f64, t: f64, at: &RunAt<'_>) -> Result<Refere
         });
     }
     let h = dividing(t, h_min / 64.0);
-    let coarse = at("strang", h)?;
-    let fine = at("strang", h / 2.0)?;
+    let coarse = at(Method::Strang, h)?;
+    let fine = at(Method::Strang, h / 2.0)?;
     // Richardson: x(h/2) + (x(h/2) − x(h))/3 removes the h² term; the finer run's own error,
     // |x(h) − x(h/2)|/3, bounds the extrapolated one up to the next term.
     let x = fine

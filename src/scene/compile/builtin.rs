@@ -12,7 +12,7 @@ use crate::flow::{
 use crate::nonlinear::NewtonOptions;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::run::{ModelRun, RunPlan, Simulation};
-use crate::scene::schema::{Builtin, SceneFile};
+use crate::scene::schema::{Builtin, Method, Redundant, SceneFile};
 use crate::system::{System, Unconstrained};
 use faer::Col;
 
@@ -42,7 +42,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
             root.key("integrator").key("project_initial"),
         );
     }
-    if file.integrator.redundant != "refuse" {
+    if file.integrator.redundant != Redundant::Refuse {
         return unused("`redundant`", root.key("integrator").key("redundant"));
     }
     if profile {
@@ -62,9 +62,9 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
         );
     }
     let (table, order) = choose_scheme(&file.integrator, false)?;
-    let scheme = file.integrator.scheme.as_str();
-    if scheme == "discrete-gradient"
-        || (b.model != "paper" && matches!(scheme, "midpoint" | "modified"))
+    let scheme = file.integrator.scheme;
+    if scheme == Method::DiscreteGradient
+        || (b.model != "paper" && matches!(scheme, Method::Midpoint | Method::Modified))
     {
         return Err(err(
             SceneErrorKind::Unsupported,
@@ -85,12 +85,12 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
         "paper" => {
             type V = SVector<f64, 4>;
             let x0: V = paper::initial_state();
-            let (flow, inner): (Box<dyn Flow<V>>, &str) = match file.integrator.scheme.as_str() {
+            let (flow, inner): (Box<dyn Flow<V>>, &str) = match file.integrator.scheme {
                 // The paper's §2 scheme: projection around the flow of H_N1 = H + μ g by the
                 // implicit midpoint rule.
                 // The midpoint increment and λ_k are solved as one Newton system
                 // (ProjectedMidpoint: the same map as Projected around ImplicitMidpoint).
-                "modified" => {
+                Method::Modified => {
                     let p = ProjectedMidpoint::<V, _, _, _, _>::try_new(
                         paper::system(),
                         paper::modified_energy(),
@@ -103,7 +103,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                         "§2: projection around the implicit midpoint rule for H + μ g",
                     )
                 }
-                "midpoint" => {
+                Method::Midpoint => {
                     let p = ProjectedMidpoint::<V, _, _, _, _>::try_new(
                         paper::system(),
                         paper::Energy,
@@ -145,7 +145,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
             use crate::models::RigidBody;
             type V = SVector<f64, 3>;
             if table.is_some() {
-                let field = if file.integrator.scheme == "auto" {
+                let field = if file.integrator.scheme == Method::Auto {
                     "order"
                 } else {
                     "scheme"

@@ -12,7 +12,7 @@ mod validate;
 use super::error::{FieldPath, SceneError, SceneErrorKind};
 use super::model::{ConstraintKind, ConstraintTerm, SceneModel};
 use super::run::{ModelRun, RunPlan, Simulation};
-use super::schema::{SCENE_VERSION, SceneFile};
+use super::schema::{Redundant, SCENE_VERSION, SceneFile};
 use crate::system::System;
 use crate::vector::Vector;
 use bodies::expand_bodies;
@@ -225,22 +225,15 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         fx.magnetic,
         profile,
     );
-    let dropped_constraints = match file.integrator.redundant.as_str() {
-        "refuse" => Vec::new(),
-        "drop-dependent" => {
+    let dropped_constraints = match file.integrator.redundant {
+        Redundant::Refuse => Vec::new(),
+        Redundant::DropDependent => {
             let q0: Vec<f64> = bodies
                 .list
                 .iter()
                 .flat_map(|b| b.q[..dim].to_vec())
                 .collect();
             drop_dependent(&mut model, &q0)?
-        }
-        other => {
-            return Err(err(
-                SceneErrorKind::Value,
-                root.key("integrator").key("redundant"),
-                format!("unknown value '{other}': use \"refuse\" (default) or \"drop-dependent\""),
-            ));
         }
     };
     let model = Arc::new(model);
