@@ -39,6 +39,7 @@
 //! ```
 
 mod compile;
+pub mod effects;
 mod error;
 mod gram;
 mod model;

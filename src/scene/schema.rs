@@ -210,95 +210,9 @@ pub enum ConstraintSpec {
     },
 }
 
-/// A term of the Hamiltonian or of the structure matrix, by `type`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum EffectSpec {
-    /// Uniform gravity `V = −Σ m_b g · q_b`.
-    Gravity {
-        /// Label in summaries (default `gravity`).
-        #[serde(default)]
-        name: Option<String>,
-        /// Acceleration (`dim` entries), e.g. `[0, -9.81]`.
-        g: Vec<f64>,
-        /// Bodies it acts on (default: all).
-        #[serde(default)]
-        bodies: Option<Vec<String>>,
-    },
-    /// A spring between two bodies, `V = k/2 (|q_a − q_b| − L)²`.
-    Spring {
-        /// Label in summaries (default `spring`).
-        #[serde(default)]
-        name: Option<String>,
-        /// Exactly two bodies.
-        bodies: Vec<String>,
-        /// Stiffness `k ≥ 0`.
-        stiffness: f64,
-        /// Rest length `L ≥ 0` (default: the initial distance).
-        #[serde(default)]
-        rest_length: Option<f64>,
-    },
-    /// A pair potential between every two bodies of a group.
-    Pair {
-        /// Label in summaries (default `pair`).
-        #[serde(default)]
-        name: Option<String>,
-        /// The group (default: all bodies).
-        #[serde(default)]
-        bodies: Option<Vec<String>>,
-        /// `"inverse-power"` (`s / rⁿ`), `"log"` (`−s ln r`) or `"lennard-jones"`
-        /// (`4ε ((σ/r)¹² − (σ/r)⁶)`).
-        law: String,
-        /// `s` of `inverse-power` and `log`.
-        #[serde(default)]
-        strength: Option<f64>,
-        /// `n > 0` of `inverse-power` (default 1: Coulomb).
-        #[serde(default)]
-        power: Option<f64>,
-        /// `ε > 0` of `lennard-jones`.
-        #[serde(default)]
-        epsilon: Option<f64>,
-        /// `σ > 0` of `lennard-jones`.
-        #[serde(default)]
-        sigma: Option<f64>,
-    },
-    /// A harmonic trap `V = k/2 Σ |q_b − c|²`.
-    Trap {
-        /// Label in summaries (default `trap`).
-        #[serde(default)]
-        name: Option<String>,
-        /// Stiffness `k ≥ 0`.
-        stiffness: f64,
-        /// Centre (default: the origin).
-        #[serde(default)]
-        center: Option<Vec<f64>>,
-        /// Bodies it acts on (default: all).
-        #[serde(default)]
-        bodies: Option<Vec<String>>,
-    },
-    /// Viscous damping of the momenta, `p_b' = … − c v_b`: the `R` of `M = J − R`.
-    Damping {
-        /// Label in summaries (default `damping`).
-        #[serde(default)]
-        name: Option<String>,
-        /// Coefficient `c ≥ 0` (force per velocity).
-        coefficient: f64,
-        /// Bodies it acts on (default: all).
-        #[serde(default)]
-        bodies: Option<Vec<String>>,
-    },
-    /// A uniform magnetic field on charged bodies, `p_b' = … + e_b v_b × B`: a non-canonical `J`.
-    Magnetic {
-        /// Label in summaries (default `magnetic`).
-        #[serde(default)]
-        name: Option<String>,
-        /// `B`: one entry (`B_z`, out of the plane) in 2D, three in 3D.
-        field: Vec<f64>,
-        /// Bodies it acts on (default: all; bodies without charge feel nothing).
-        #[serde(default)]
-        bodies: Option<Vec<String>>,
-    },
-}
+pub use super::effects::{
+    DampingSpec, EffectSpec, GravitySpec, MagneticSpec, PairSpec, SpringSpec, TrapSpec,
+};
 
 /// The scheme, step size and horizon.
 #[derive(Debug, Clone, PartialEq, Deserialize)]

@@ -11,26 +11,26 @@ use crate::scene::schema::SceneFile;
 use std::collections::HashMap;
 
 /// A body after generators are expanded.
-pub(super) struct Body {
-    pub(super) name: String,
-    pub(super) mass: f64,
-    pub(super) q: [f64; 3],
-    pub(super) v: [f64; 3],
-    pub(super) charge: f64,
+pub(crate) struct Body {
+    pub(crate) name: String,
+    pub(crate) mass: f64,
+    pub(crate) q: [f64; 3],
+    pub(crate) v: [f64; 3],
+    pub(crate) charge: f64,
 }
 
 /// A constraint term as declared: its geometry, its label, where it is in the file.
-pub(super) type Declared = (ConstraintKind, String, FieldPath);
+pub(crate) type Declared = (ConstraintKind, String, FieldPath);
 
 /// Bodies, names and selectors.
-pub(super) struct Bodies {
-    pub(super) dim: usize,
-    pub(super) list: Vec<Body>,
-    pub(super) groups: HashMap<String, Vec<usize>>,
+pub(crate) struct Bodies {
+    pub(crate) dim: usize,
+    pub(crate) list: Vec<Body>,
+    pub(crate) groups: HashMap<String, Vec<usize>>,
 }
 
 impl Bodies {
-    pub(super) fn add_group(
+    pub(crate) fn add_group(
         &mut self,
         name: &str,
         members: Vec<usize>,
@@ -53,13 +53,13 @@ impl Bodies {
         Ok(())
     }
 
-    pub(super) fn push(&mut self, body: Body) -> usize {
+    pub(crate) fn push(&mut self, body: Body) -> usize {
         self.list.push(body);
         self.list.len() - 1
     }
 
     /// Refuses `more` bodies at `path` if they would take the scene past [`MAX_BODIES`].
-    pub(super) fn reserve(&mut self, more: usize, path: &FieldPath) -> Result<()> {
+    pub(crate) fn reserve(&mut self, more: usize, path: &FieldPath) -> Result<()> {
         if more > MAX_BODIES - self.list.len().min(MAX_BODIES) {
             return Err(err(
                 SceneErrorKind::Unsupported,
@@ -72,7 +72,7 @@ impl Bodies {
     }
 
     /// The bodies a selector names.
-    pub(super) fn select(&self, sel: &str, path: &FieldPath) -> Result<Vec<usize>> {
+    pub(crate) fn select(&self, sel: &str, path: &FieldPath) -> Result<Vec<usize>> {
         if sel == "*" {
             return Ok((0..self.list.len()).collect());
         }
@@ -104,7 +104,7 @@ impl Bodies {
     }
 
     /// The bodies the selectors name, each once, in order of first mention (`O(N)` with a mask).
-    pub(super) fn select_all(&self, sels: &[String], path: &FieldPath) -> Result<Vec<usize>> {
+    pub(crate) fn select_all(&self, sels: &[String], path: &FieldPath) -> Result<Vec<usize>> {
         let mut seen = vec![false; self.list.len()];
         let mut out = Vec::new();
         for (i, s) in sels.iter().enumerate() {
@@ -118,7 +118,7 @@ impl Bodies {
     }
 
     /// `None` → all bodies.
-    pub(super) fn select_opt(
+    pub(crate) fn select_opt(
         &self,
         sels: &Option<Vec<String>>,
         path: &FieldPath,
@@ -131,7 +131,7 @@ impl Bodies {
 }
 
 /// Expands bodies and generators; returns the bodies and the generators' own constraints.
-pub(super) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<Declared>)> {
+pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<Declared>)> {
     let mut bodies = Bodies {
         dim,
         list: Vec::new(),

@@ -1,13 +1,13 @@
 //! Scene → model and scheme: validation with located errors, the assembly of only the declared
 //! terms, the choice of scheme, and the initial-state checks.
 
-mod bodies;
+pub(crate) mod bodies;
 mod builtin;
 mod constraints;
 mod effects;
 mod initial;
 mod scheme;
-mod validate;
+pub(crate) mod validate;
 
 use super::error::{FieldPath, SceneError, SceneErrorKind};
 use super::model::{ConstraintKind, ConstraintTerm, SceneModel};
@@ -25,7 +25,7 @@ pub use scheme::splitting_flow;
 use scheme::{SchemeFlow, choose_scheme, plan, scheme_flow};
 use std::sync::Arc;
 
-type Result<T> = std::result::Result<T, SceneError>;
+pub(crate) type Result<T> = std::result::Result<T, SceneError>;
 
 /// The most bodies a scene may generate (the state alone is then 2·3·10⁷ doubles, 480 MB).
 pub const MAX_BODIES: usize = 10_000_000;
@@ -102,7 +102,7 @@ impl std::fmt::Debug for Compiled {
     }
 }
 
-fn err(kind: SceneErrorKind, path: FieldPath, msg: impl Into<String>) -> SceneError {
+pub(crate) fn err(kind: SceneErrorKind, path: FieldPath, msg: impl Into<String>) -> SceneError {
     SceneError::new(kind, path, msg)
 }
 

@@ -5,7 +5,7 @@ use super::{Result, err};
 use crate::scene::error::{FieldPath, SceneErrorKind};
 
 /// `x` if `ok(x)`, else a `Value` error at `path` saying what `x` must be.
-pub(super) fn check(
+pub(crate) fn check(
     x: f64,
     path: &FieldPath,
     ok: bool,
@@ -22,24 +22,24 @@ pub(super) fn check(
     }
 }
 
-pub(super) fn finite(x: f64, path: &FieldPath) -> Result<f64> {
+pub(crate) fn finite(x: f64, path: &FieldPath) -> Result<f64> {
     check(x, path, x.is_finite(), || "the value must be finite".into())
 }
 
-pub(super) fn positive(x: f64, path: &FieldPath, what: &str) -> Result<f64> {
+pub(crate) fn positive(x: f64, path: &FieldPath, what: &str) -> Result<f64> {
     check(x, path, x.is_finite() && x > 0.0, || {
         format!("the {what} must be positive and finite")
     })
 }
 
-pub(super) fn non_negative(x: f64, path: &FieldPath, what: &str) -> Result<f64> {
+pub(crate) fn non_negative(x: f64, path: &FieldPath, what: &str) -> Result<f64> {
     check(x, path, x.is_finite() && x >= 0.0, || {
         format!("the {what} must be non-negative and finite")
     })
 }
 
 /// A `dim`-vector as `[f64; 3]` (zero-padded).
-pub(super) fn vector(v: &[f64], dim: usize, path: &FieldPath) -> Result<[f64; 3]> {
+pub(crate) fn vector(v: &[f64], dim: usize, path: &FieldPath) -> Result<[f64; 3]> {
     if v.len() != dim {
         return Err(err(
             SceneErrorKind::Dimension,
@@ -54,7 +54,7 @@ pub(super) fn vector(v: &[f64], dim: usize, path: &FieldPath) -> Result<[f64; 3]
     Ok(out)
 }
 
-pub(super) fn vector_or(
+pub(crate) fn vector_or(
     v: &Option<Vec<f64>>,
     dim: usize,
     path: &FieldPath,
@@ -66,10 +66,10 @@ pub(super) fn vector_or(
     }
 }
 
-pub(super) fn norm(v: [f64; 3]) -> f64 {
+pub(crate) fn norm(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
-pub(super) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }

@@ -1,6 +1,6 @@
 //! The scene's `H = Σ_b |p_b|²/(2 m_b) + V(q)` as a [`Hamiltonian`].
 
-use super::{SceneModel, terms::Potential};
+use super::SceneModel;
 use crate::real::Real;
 use crate::system::Hamiltonian;
 use crate::vector::Vector;
@@ -59,11 +59,6 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
     }
 
     fn is_quadratic(&self) -> bool {
-        self.potentials.iter().all(|t| {
-            matches!(
-                t.potential,
-                Potential::Gravity { .. } | Potential::Trap { .. }
-            )
-        })
+        self.potentials.iter().all(|t| t.potential.is_quadratic())
     }
 }

@@ -25,52 +25,14 @@ mod scalar;
 mod structure;
 mod terms;
 
+pub use crate::scene::effects::EffectKind;
+use crate::scene::effects::PotentialTerm;
 use flight::Flight;
-pub(crate) use terms::{
-    ConstraintKind, ConstraintTerm, PairLaw, Potential, PotentialTerm, StructureTerm,
-};
+pub(crate) use terms::{ConstraintKind, ConstraintTerm, StructureTerm};
 
 use crate::real::Real;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
-
-/// What kind of physics a term is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[non_exhaustive]
-pub enum EffectKind {
-    /// The kinetic energy `Σ |p|²/2m` and its flow (the drift).
-    Kinetic,
-    /// Uniform gravity.
-    Gravity,
-    /// A spring between two bodies.
-    Spring,
-    /// A pair potential within a group.
-    Pair,
-    /// A harmonic trap.
-    Trap,
-    /// Viscous damping (`R` in `M = J − R`).
-    Damping,
-    /// A uniform magnetic field (a non-canonical `J`).
-    Magnetic,
-    /// The holonomic constraints.
-    Constraints,
-}
-
-impl EffectKind {
-    /// The name used in scene files and summaries.
-    pub fn name(self) -> &'static str {
-        match self {
-            EffectKind::Kinetic => "kinetic",
-            EffectKind::Gravity => "gravity",
-            EffectKind::Spring => "spring",
-            EffectKind::Pair => "pair",
-            EffectKind::Trap => "trap",
-            EffectKind::Damping => "damping",
-            EffectKind::Magnetic => "magnetic",
-            EffectKind::Constraints => "constraints",
-        }
-    }
-}
 
 /// Evaluation counter of one term (and its time when profiling). Atomic so that a model can be
 /// shared between the flows that use it; each run is single-threaded.

@@ -1,18 +1,9 @@
-//! The potential `V(q)`, the sum of the scene's potential terms: its value, gradient, Hessian
-//! product, and its exact flow, the kick `p ← p − t ∇V(q)`.
+//! The potential `V(q)`, the sum of the scene's potential terms (each computed by its effect's
+//! file): its value, gradient, Hessian product, and its exact flow, the kick
+//! `p ← p − t ∇V(q)`.
 
-use super::{SceneModel, terms::Potential};
+use super::SceneModel;
 use crate::real::Real;
-
-#[inline]
-pub(super) fn distance<T: Real>(q: &[T], d: usize, a: usize, b: usize) -> T {
-    let mut s = T::lit(0.0);
-    for k in 0..d {
-        let z = q[a * d + k] - q[b * d + k];
-        s = s + (z * z);
-    }
-    s.sqrt()
-}
 
 impl<T: Real> SceneModel<T> {
     /// `V(q)`, the sum of the potential terms.
@@ -20,38 +11,7 @@ impl<T: Real> SceneModel<T> {
         let d = self.dim;
         let mut v = T::lit(0.0);
         for term in &self.potentials {
-            v = v + self.timed(&term.counter, || match &term.potential {
-                Potential::Gravity { forces } => {
-                    let mut e = T::lit(0.0);
-                    for (b, f) in forces {
-                        for k in 0..d {
-                            e = e - (f[k] * q[b * d + k]);
-                        }
-                    }
-                    e
-                }
-                Potential::Pairs { pairs, law } => {
-                    let mut e = T::lit(0.0);
-                    for &(a, b) in pairs {
-                        e = e + (law.eval(distance(q, d, a, b)).0);
-                    }
-                    e
-                }
-                Potential::Trap {
-                    stiffness,
-                    center,
-                    bodies,
-                } => {
-                    let mut e = T::lit(0.0);
-                    for &b in bodies {
-                        for k in 0..d {
-                            let z = q[b * d + k] - center[k];
-                            e = e + (z * z);
-                        }
-                    }
-                    T::lit(0.5) * *stiffness * e
-                }
-            });
+            v = v + self.timed(&term.counter, || term.potential.energy(q, d));
         }
         v
     }
@@ -60,37 +20,8 @@ impl<T: Real> SceneModel<T> {
     pub fn potential_gradient_add(&self, q: &[T], alpha: T, out: &mut [T]) {
         let d = self.dim;
         for term in &self.potentials {
-            self.timed(&term.counter, || match &term.potential {
-                Potential::Gravity { forces } => {
-                    for (b, f) in forces {
-                        for k in 0..d {
-                            out[b * d + k] = out[b * d + k] - (alpha * f[k]);
-                        }
-                    }
-                }
-                Potential::Pairs { pairs, law } => {
-                    for &(a, b) in pairs {
-                        let r = distance(q, d, a, b);
-                        let s = alpha * law.eval(r).1;
-                        for k in 0..d {
-                            let z = s * (q[a * d + k] - q[b * d + k]);
-                            out[a * d + k] = out[a * d + k] + (z);
-                            out[b * d + k] = out[b * d + k] - (z);
-                        }
-                    }
-                }
-                Potential::Trap {
-                    stiffness,
-                    center,
-                    bodies,
-                } => {
-                    for &b in bodies {
-                        for k in 0..d {
-                            out[b * d + k] =
-                                out[b * d + k] + (alpha * *stiffness * (q[b * d + k] - center[k]));
-                        }
-                    }
-                }
+            self.timed(&term.counter, || {
+                term.potential.gradient_add(q, d, alpha, out)
             });
         }
     }
@@ -99,41 +30,8 @@ impl<T: Real> SceneModel<T> {
     pub(super) fn potential_hessian_apply_add(&self, q: &[T], v: &[T], out: &mut [T]) {
         let d = self.dim;
         for term in &self.potentials {
-            self.timed(&term.counter, || match &term.potential {
-                Potential::Gravity { .. } => {}
-                Potential::Pairs { pairs, law } => {
-                    for &(a, b) in pairs {
-                        let r = distance(q, d, a, b);
-                        let (_, d1, d2) = law.eval(r);
-                        // ∇²φ u = (φ'/r) u + (φ'' − φ'/r) (r̂·u) r̂, u = v_a − v_b.
-                        let mut ru = T::lit(0.0);
-                        for k in 0..d {
-                            ru = ru
-                                + ((q[a * d + k] - q[b * d + k]) * (v[a * d + k] - v[b * d + k]));
-                        }
-                        // A zero-length spring has d2 = d1: no radial term (and no 0/0 at r = 0).
-                        let s = if d2 == d1 {
-                            T::lit(0.0)
-                        } else {
-                            (d2 - d1) * ru / (r * r)
-                        };
-                        for k in 0..d {
-                            let z = d1 * (v[a * d + k] - v[b * d + k])
-                                + s * (q[a * d + k] - q[b * d + k]);
-                            out[a * d + k] = out[a * d + k] + (z);
-                            out[b * d + k] = out[b * d + k] - (z);
-                        }
-                    }
-                }
-                Potential::Trap {
-                    stiffness, bodies, ..
-                } => {
-                    for &b in bodies {
-                        for k in 0..d {
-                            out[b * d + k] = out[b * d + k] + (*stiffness * v[b * d + k]);
-                        }
-                    }
-                }
+            self.timed(&term.counter, || {
+                term.potential.hessian_apply_add(q, d, v, out)
             });
         }
     }

@@ -2,9 +2,10 @@
 
 use super::{
     Counter, SceneModel,
-    terms::{ConstraintKind, ConstraintTerm, PairLaw, Potential, PotentialTerm, StructureTerm},
+    terms::{ConstraintKind, ConstraintTerm, StructureTerm},
 };
 use crate::real::Real;
+use crate::scene::effects::PotentialTerm;
 
 impl SceneModel<f64> {
     /// The same model in another scalar (e.g. double-double for reference runs): every
@@ -12,47 +13,13 @@ impl SceneModel<f64> {
     pub fn with_scalar<T: Real>(&self) -> SceneModel<T> {
         let c = |x: f64| T::lit(x);
         let c3 = |v: [f64; 3]| v.map(T::lit);
-        let law = |l: &PairLaw| match *l {
-            PairLaw::InversePower { strength, power } => PairLaw::InversePower {
-                strength: c(strength),
-                power: c(power),
-            },
-            PairLaw::Log { strength } => PairLaw::Log {
-                strength: c(strength),
-            },
-            PairLaw::LennardJones { epsilon, sigma } => PairLaw::LennardJones {
-                epsilon: c(epsilon),
-                sigma: c(sigma),
-            },
-            PairLaw::Spring { stiffness, rest } => PairLaw::Spring {
-                stiffness: c(stiffness),
-                rest: c(rest),
-            },
-        };
         let potentials = self
             .potentials
             .iter()
             .map(|t| PotentialTerm {
                 label: t.label.clone(),
                 kind: t.kind,
-                potential: match &t.potential {
-                    Potential::Gravity { forces } => Potential::Gravity {
-                        forces: forces.iter().map(|&(b, f)| (b, c3(f))).collect(),
-                    },
-                    Potential::Pairs { pairs, law: l } => Potential::Pairs {
-                        pairs: pairs.clone(),
-                        law: law(l),
-                    },
-                    Potential::Trap {
-                        stiffness,
-                        center,
-                        bodies,
-                    } => Potential::Trap {
-                        stiffness: c(*stiffness),
-                        center: c3(*center),
-                        bodies: bodies.clone(),
-                    },
-                },
+                potential: t.potential.with_scalar(),
                 counter: Counter::default(),
             })
             .collect();

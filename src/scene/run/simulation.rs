@@ -3,6 +3,7 @@
 
 use crate::error::{IntegrateError, StepError};
 use crate::flow::{Flow, FlowStats};
+use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
 use crate::stepper::Stepper;
@@ -127,16 +128,13 @@ where
     fn dissipation_power(&self) -> Option<f64> {
         let model = self.model.as_ref()?;
         let damping = model.damping.as_ref()?;
-        let (d, x) = (model.dim, self.state());
-        let p = &x[x.len() / 2..];
-        let mut power = 0.0;
-        for (b, c) in damping.per_body.iter().enumerate() {
-            let w = model.inv_masses[b];
-            for k in 0..d {
-                let v = w * p[b * d + k];
-                power += c * v * v;
-            }
-        }
+        let x = self.state();
+        let power = dissipated_power(
+            &damping.per_body,
+            &model.inv_masses,
+            &x[x.len() / 2..],
+            model.dim,
+        );
         Some(power)
     }
     fn residuals(&mut self) -> Option<(f64, f64)> {

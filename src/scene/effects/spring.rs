@@ -1,0 +1,74 @@
+//! A spring between two bodies, `V = k/2 (|q_a − q_b| − L)²`: a pair term with the spring's
+//! radial law.
+
+use super::pair::{PairLaw, Pairs};
+use super::{Assembler, Effect, Potential};
+use crate::real::Real;
+use crate::scene::compile::validate::{non_negative, norm, sub};
+use crate::scene::compile::{Result, err};
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::schema::Flag;
+use serde::Deserialize;
+
+/// `type = "spring"`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringSpec {
+    /// Label in summaries (default `spring`).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Exactly two bodies.
+    pub bodies: Vec<String>,
+    /// Stiffness `k ≥ 0`.
+    pub stiffness: f64,
+    /// Rest length `L ≥ 0` (default: the initial distance).
+    #[serde(default)]
+    pub rest_length: Option<f64>,
+}
+
+impl Effect for SpringSpec {
+    const FLAG: Flag = Flag::Springs;
+    fn label(&self) -> Option<&String> {
+        self.name.as_ref()
+    }
+    fn assemble(
+        &self,
+        cx: &mut Assembler<'_>,
+        path: &FieldPath,
+        _label: &str,
+        _on: bool,
+    ) -> Result<Option<Potential<f64>>> {
+        let bodies = cx.bodies;
+        let bp = path.key("bodies");
+        let ends = bodies.select_all(&self.bodies, &bp)?;
+        if self.bodies.len() != 2 || ends.len() != 2 {
+            return Err(err(
+                SceneErrorKind::Value,
+                bp,
+                "a spring joins exactly two different bodies",
+            ));
+        }
+        let k = non_negative(self.stiffness, &path.key("stiffness"), "stiffness")?;
+        let rest = match self.rest_length {
+            Some(l) => non_negative(l, &path.key("rest_length"), "rest length")?,
+            None => norm(sub(bodies.list[ends[0]].q, bodies.list[ends[1]].q)),
+        };
+        Ok(Some(Potential::Pairs(Pairs::new(
+            vec![(ends[0], ends[1])],
+            PairLaw::Spring { stiffness: k, rest },
+        ))))
+    }
+}
+
+/// The spring's radial law `(φ(r), φ'(r)/r, φ''(r))` for `φ = k/2 (r − L)²`, with `1/r` given.
+#[inline]
+pub(super) fn law<T: Real>(stiffness: T, rest: T, r: T, inv_r: T) -> (T, T, T) {
+    let e = r - rest;
+    // φ'/r = k (1 − L/r): exact at L = 0 (a zero-length spring is linear).
+    let dr = if rest == T::lit(0.0) {
+        stiffness
+    } else {
+        stiffness * e * inv_r
+    };
+    (T::lit(0.5) * stiffness * e * e, dr, stiffness)
+}
