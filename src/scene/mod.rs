@@ -38,7 +38,9 @@
 //! # Ok::<(), lieflow::scene::SceneError>(())
 //! ```
 
+pub(crate) mod bodies;
 mod compile;
+mod counter;
 pub mod effects;
 mod error;
 mod gram;
@@ -47,6 +49,8 @@ mod names;
 pub mod observe;
 mod run;
 pub mod schema;
+pub(crate) mod simulation;
+pub(crate) mod validate;
 
 pub use compile::{
     Assembly, Compiled, DENSE_MAX_DIM, MAX_BODIES, MAX_PAIRS, compile, compile_reference,

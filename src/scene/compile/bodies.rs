@@ -2,133 +2,17 @@
 //! with the constraints their generators declare.
 
 use super::{
-    MAX_BODIES, Result, err,
+    Result, err,
     validate::{finite, norm, positive, sub, vector, vector_or},
 };
+pub(crate) use crate::scene::bodies::{Bodies, Body};
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::ConstraintKind;
 use crate::scene::schema::SceneFile;
 use std::collections::HashMap;
 
-/// A body after generators are expanded.
-pub(crate) struct Body {
-    pub(crate) name: String,
-    pub(crate) mass: f64,
-    pub(crate) q: [f64; 3],
-    pub(crate) v: [f64; 3],
-    pub(crate) charge: f64,
-}
-
 /// A constraint term as declared: its geometry, its label, where it is in the file.
 pub(crate) type Declared = (ConstraintKind, String, FieldPath);
-
-/// Bodies, names and selectors.
-pub(crate) struct Bodies {
-    pub(crate) dim: usize,
-    pub(crate) list: Vec<Body>,
-    pub(crate) groups: HashMap<String, Vec<usize>>,
-}
-
-impl Bodies {
-    pub(crate) fn add_group(
-        &mut self,
-        name: &str,
-        members: Vec<usize>,
-        path: &FieldPath,
-    ) -> Result<()> {
-        if name.is_empty() || name == "*" || name.contains('.') {
-            return Err(err(
-                SceneErrorKind::Reference,
-                path.clone(),
-                format!("the name '{name}' is reserved or empty (no '.', not '*')"),
-            ));
-        }
-        if self.groups.insert(name.to_owned(), members).is_some() {
-            return Err(err(
-                SceneErrorKind::Reference,
-                path.clone(),
-                format!("the name '{name}' is used twice"),
-            ));
-        }
-        Ok(())
-    }
-
-    pub(crate) fn push(&mut self, body: Body) -> usize {
-        self.list.push(body);
-        self.list.len() - 1
-    }
-
-    /// Refuses `more` bodies at `path` if they would take the scene past [`MAX_BODIES`].
-    pub(crate) fn reserve(&mut self, more: usize, path: &FieldPath) -> Result<()> {
-        if more > MAX_BODIES - self.list.len().min(MAX_BODIES) {
-            return Err(err(
-                SceneErrorKind::Unsupported,
-                path.clone(),
-                format!("the scene would have more than {MAX_BODIES} bodies"),
-            ));
-        }
-        self.list.reserve(more);
-        Ok(())
-    }
-
-    /// The bodies a selector names.
-    pub(crate) fn select(&self, sel: &str, path: &FieldPath) -> Result<Vec<usize>> {
-        if sel == "*" {
-            return Ok((0..self.list.len()).collect());
-        }
-        if let Some(g) = self.groups.get(sel) {
-            return Ok(g.clone());
-        }
-        if let Some((group, index)) = sel.rsplit_once('.')
-            && let (Some(g), Ok(i)) = (self.groups.get(group), index.parse::<usize>())
-        {
-            return g.get(i).map(|&b| vec![b]).ok_or_else(|| {
-                err(
-                    SceneErrorKind::Reference,
-                    path.clone(),
-                    format!(
-                        "'{sel}': '{group}' has {} bodies (0 … {})",
-                        g.len(),
-                        g.len().saturating_sub(1)
-                    ),
-                )
-            });
-        }
-        Err(err(
-            SceneErrorKind::Reference,
-            path.clone(),
-            format!(
-                "'{sel}' names no body or group (bodies, chains, shells and grids are named; '*' is all)"
-            ),
-        ))
-    }
-
-    /// The bodies the selectors name, each once, in order of first mention (`O(N)` with a mask).
-    pub(crate) fn select_all(&self, sels: &[String], path: &FieldPath) -> Result<Vec<usize>> {
-        let mut seen = vec![false; self.list.len()];
-        let mut out = Vec::new();
-        for (i, s) in sels.iter().enumerate() {
-            for b in self.select(s, &path.index(i))? {
-                if !std::mem::replace(&mut seen[b], true) {
-                    out.push(b);
-                }
-            }
-        }
-        Ok(out)
-    }
-
-    /// `None` → all bodies.
-    pub(crate) fn select_opt(
-        &self,
-        sels: &Option<Vec<String>>,
-        path: &FieldPath,
-    ) -> Result<Vec<usize>> {
-        match sels {
-            None => Ok((0..self.list.len()).collect()),
-            Some(s) => self.select_all(s, path),
-        }
-    }
-}
 
 /// Expands bodies and generators; returns the bodies and the generators' own constraints.
 pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<Declared>)> {

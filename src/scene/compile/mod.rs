@@ -7,7 +7,10 @@ mod constraints;
 mod effects;
 mod initial;
 mod scheme;
-pub(crate) mod validate;
+
+pub(crate) use super::validate::{self, Result, err};
+pub use crate::scene::bodies::MAX_BODIES;
+pub use crate::scene::effects::MAX_PAIRS;
 
 use super::error::{FieldPath, SceneError, SceneErrorKind};
 use super::model::{ConstraintKind, ConstraintTerm, SceneModel};
@@ -25,16 +28,8 @@ pub use scheme::splitting_flow;
 use scheme::{SchemeFlow, choose_scheme, plan, scheme_flow};
 use std::sync::Arc;
 
-pub(crate) type Result<T> = std::result::Result<T, SceneError>;
-
-/// The most bodies a scene may generate (the state alone is then 2·3·10⁷ doubles, 480 MB).
-pub const MAX_BODIES: usize = 10_000_000;
-
 /// The most steps a run may plan (`t_end / dt`).
 pub const MAX_STEPS: usize = 1_000_000_000_000;
-
-/// The most pairs a pair potential may visit per evaluation (it has no cut-off).
-pub const MAX_PAIRS: usize = 50_000_000;
 
 /// The largest number of unknowns (`n`, or `n + m` for the joint midpoint system) on which the
 /// implicit schemes factor a dense Newton matrix at every step.
@@ -100,10 +95,6 @@ impl std::fmt::Debug for Compiled {
             .field("plan", &self.plan)
             .finish_non_exhaustive()
     }
-}
-
-pub(crate) fn err(kind: SceneErrorKind, path: FieldPath, msg: impl Into<String>) -> SceneError {
-    SceneError::new(kind, path, msg)
 }
 
 /// A non-finite initial state, found when the run is set up (the compile-time checks refuse

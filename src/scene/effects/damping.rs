@@ -3,10 +3,10 @@
 //! (`model/flight.rs`), and it dissipates the power `Σ_b c_b |v_b|²`.
 
 use super::{Assembler, Effect, Potential};
-use crate::scene::compile::Result;
-use crate::scene::compile::validate::non_negative;
 use crate::scene::error::FieldPath;
-use crate::scene::schema::Flag;
+use crate::scene::names::Flag;
+use crate::scene::validate::Result;
+use crate::scene::validate::non_negative;
 use serde::Deserialize;
 
 /// `type = "damping"`.

@@ -3,10 +3,10 @@
 //! momentum) is part of the free flight (`model/flight.rs`). It does no work.
 
 use super::{Assembler, Effect, Potential};
-use crate::scene::compile::validate::{finite, vector};
-use crate::scene::compile::{Result, err};
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::schema::Flag;
+use crate::scene::names::Flag;
+use crate::scene::validate::{Result, err};
+use crate::scene::validate::{finite, vector};
 use serde::Deserialize;
 
 /// `type = "magnetic"`.

@@ -16,6 +16,7 @@ mod damping;
 mod gravity;
 mod magnetic;
 mod pair;
+mod radial;
 mod spring;
 mod trap;
 
@@ -23,16 +24,16 @@ pub use damping::DampingSpec;
 pub(crate) use damping::dissipated_power;
 pub use gravity::GravitySpec;
 pub use magnetic::MagneticSpec;
-pub use pair::PairSpec;
+pub use pair::{MAX_PAIRS, PairSpec};
 pub use spring::SpringSpec;
 pub use trap::TrapSpec;
 
 use crate::real::Real;
-use crate::scene::compile::Result;
-use crate::scene::compile::bodies::Bodies;
+use crate::scene::bodies::Bodies;
+use crate::scene::counter::Counter;
 use crate::scene::error::FieldPath;
-use crate::scene::model::Counter;
-use crate::scene::schema::Flag;
+use crate::scene::names::Flag;
+use crate::scene::validate::Result;
 use serde::Deserialize;
 
 /// What the effects of a scene assemble into, and what they read from it.
@@ -221,7 +222,7 @@ potentials! {
     /// `V = −Σ_b m_b g · q_b`.
     Gravity(gravity::Gravity),
     /// `Σ φ(|q_a − q_b|)` over listed pairs (springs and pair potentials).
-    Pairs(pair::Pairs),
+    Pairs(radial::Pairs),
     /// `k/2 Σ_b |q_b − c|²`.
     Trap(trap::Trap),
 }

@@ -1,13 +1,12 @@
 //! A spring between two bodies, `V = k/2 (|q_a − q_b| − L)²`: a pair term with the spring's
 //! radial law.
 
-use super::pair::{PairLaw, Pairs};
+use super::radial::{PairLaw, Pairs};
 use super::{Assembler, Effect, Potential};
-use crate::real::Real;
-use crate::scene::compile::validate::{non_negative, norm, sub};
-use crate::scene::compile::{Result, err};
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::schema::Flag;
+use crate::scene::names::Flag;
+use crate::scene::validate::{Result, err};
+use crate::scene::validate::{non_negative, norm, sub};
 use serde::Deserialize;
 
 /// `type = "spring"`.
@@ -58,17 +57,4 @@ impl Effect for SpringSpec {
             PairLaw::Spring { stiffness: k, rest },
         ))))
     }
-}
-
-/// The spring's radial law `(φ(r), φ'(r)/r, φ''(r))` for `φ = k/2 (r − L)²`, with `1/r` given.
-#[inline]
-pub(super) fn law<T: Real>(stiffness: T, rest: T, r: T, inv_r: T) -> (T, T, T) {
-    let e = r - rest;
-    // φ'/r = k (1 − L/r): exact at L = 0 (a zero-length spring is linear).
-    let dr = if rest == T::lit(0.0) {
-        stiffness
-    } else {
-        stiffness * e * inv_r
-    };
-    (T::lit(0.5) * stiffness * e * e, dr, stiffness)
 }

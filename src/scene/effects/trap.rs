@@ -2,10 +2,10 @@
 
 use super::{Assembler, Effect, Potential, PotentialOps};
 use crate::real::Real;
-use crate::scene::compile::Result;
-use crate::scene::compile::validate::{non_negative, vector_or};
 use crate::scene::error::FieldPath;
-use crate::scene::schema::Flag;
+use crate::scene::names::Flag;
+use crate::scene::validate::Result;
+use crate::scene::validate::{non_negative, vector_or};
 use serde::Deserialize;
 
 /// `type = "trap"`.

@@ -31,37 +31,8 @@ use flight::Flight;
 pub(crate) use terms::{ConstraintKind, ConstraintTerm, StructureTerm};
 
 use crate::real::Real;
-use std::sync::atomic::{AtomicU64, Ordering};
+pub(crate) use crate::scene::counter::Counter;
 use std::time::Instant;
-
-/// Evaluation counter of one term (and its time when profiling). Atomic so that a model can be
-/// shared between the flows that use it; each run is single-threaded.
-#[derive(Debug, Default)]
-pub(crate) struct Counter {
-    evaluations: AtomicU64,
-    nanos: AtomicU64,
-}
-
-impl Counter {
-    #[inline]
-    fn hit(&self) {
-        self.evaluations.fetch_add(1, Ordering::Relaxed);
-    }
-    fn add_time(&self, since: Instant) {
-        let ns = since.elapsed().as_nanos() as u64;
-        self.nanos.fetch_add(ns, Ordering::Relaxed);
-    }
-    pub(crate) fn evaluations(&self) -> u64 {
-        self.evaluations.load(Ordering::Relaxed)
-    }
-    pub(crate) fn nanos(&self) -> u64 {
-        self.nanos.load(Ordering::Relaxed)
-    }
-    fn reset(&self) {
-        self.evaluations.store(0, Ordering::Relaxed);
-        self.nanos.store(0, Ordering::Relaxed);
-    }
-}
 
 /// A scene's assembled model. It implements [`Hamiltonian`], [`StructureMatrix`] and
 /// [`HolonomicConstraint`] with only the declared terms, and provides the exact sub-flows

@@ -2,7 +2,7 @@
 //! the last tenth of the steps (a drift shows as a last tenth much above the first).
 
 use super::RunObserver;
-use crate::scene::run::Simulation;
+use crate::scene::simulation::Simulation;
 
 /// `H` after every step of a run of `steps` steps: `max |H − H₀|`, the largest rise
 /// `H_{k+1} − H_k` and where it happened, and `max |H − H₀|` over the first and the last tenth.

@@ -1,7 +1,7 @@
 //! The energy and, with damping, the energy budget of a run.
 
 use super::RunObserver;
-use crate::scene::run::Simulation;
+use crate::scene::simulation::Simulation;
 
 /// `H` after every step: its initial and last value, `max |H − H₀|`, `max (H_{k+1} − H_k)`,
 /// and, when the model dissipates, the dissipated energy `∫ ∇Hᵀ R ∇H dt` (trapezoidal rule

@@ -23,7 +23,7 @@ pub use energy::EnergyBudget;
 pub use newton::NewtonMax;
 pub use residuals::Residuals;
 
-use crate::scene::run::Simulation;
+use crate::scene::simulation::Simulation;
 
 /// Sees a simulation after each step (`step` counts the run's steps, 0 for the initial state).
 pub trait RunObserver {

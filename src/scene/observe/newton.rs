@@ -1,7 +1,7 @@
 //! The Newton iterations of the worst step of a run.
 
 use super::RunObserver;
-use crate::scene::run::Simulation;
+use crate::scene::simulation::Simulation;
 
 /// The most Newton iterations (of all the step's multiplier and implicit solves) one step took.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,7 +1,7 @@
 //! The constraint residuals of a run.
 
 use super::RunObserver;
-use crate::scene::run::Simulation;
+use crate::scene::simulation::Simulation;
 
 /// `(|g|, |φ|)` (max norms) after every step and their maxima over the run; all `None` without
 /// constraints.

@@ -7,11 +7,10 @@
 //!
 //! [`Stepper`]: crate::stepper::Stepper
 
-mod simulation;
 mod summary;
 
-pub(crate) use simulation::ModelRun;
-pub use simulation::{EffectReport, Simulation};
+pub(crate) use crate::scene::simulation::ModelRun;
+pub use crate::scene::simulation::{EffectReport, Simulation};
 pub(crate) use summary::step_error_kind;
 pub use summary::{RunFailure, RunPlan, RunSummary, Sample};
 

@@ -2,7 +2,7 @@
 //! summary it returns.
 
 use crate::error::StepError;
-use crate::scene::run::EffectReport;
+use crate::scene::simulation::EffectReport;
 use serde::Serialize;
 
 /// What to compute during a run.

@@ -1,8 +1,15 @@
 //! Checks of single values in a scene, each failing with a located error: finite, positive,
 //! non-negative numbers; vectors of the scene's dimension.
 
-use super::{Result, err};
-use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::error::{FieldPath, SceneError, SceneErrorKind};
+
+/// A scene's result: a located [`SceneError`] on failure.
+pub(crate) type Result<T> = std::result::Result<T, SceneError>;
+
+/// An error of `kind` at `path`.
+pub(crate) fn err(kind: SceneErrorKind, path: FieldPath, msg: impl Into<String>) -> SceneError {
+    SceneError::new(kind, path, msg)
+}
 
 /// `x` if `ok(x)`, else a `Value` error at `path` saying what `x` must be.
 pub(crate) fn check(
