@@ -87,7 +87,7 @@ fn bench(c: &mut Criterion) {
             x
         })
     });
-    let mut cdg: ConstrainedDiscreteGradient<V4, _, _, _, Col<f64>> =
+    let mut cdg: ConstrainedDiscreteGradient<V4, _, Col<f64>> =
         ConstrainedDiscreteGradient::try_new(model.system(), &x0, ProjectionOptions::default())
             .unwrap();
     group.bench_function("constrained_discrete_gradient", |b| {
@@ -108,7 +108,7 @@ fn bench(c: &mut Criterion) {
         let chain = PendulumChain::<f64>::uniform(2, links).unwrap();
         let x0: Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
         let options = chain.projection_options();
-        let mut joint: ProjectedMidpoint<Col<f64>, _, _, _, _> =
+        let mut joint: ProjectedMidpoint<Col<f64>, _, _> =
             ProjectedMidpoint::try_new(chain.system(), chain.clone(), &x0, options).unwrap();
         let midpoint: ImplicitMidpoint<Col<f64>, _, _> = ImplicitMidpoint::try_new(
             chain.system().structure,

@@ -478,7 +478,7 @@ fn check_same_algorithm() {
         "generic and hand-written schemes differ by {d:e}"
     );
     // The §2 scheme, generic (ProjectedMidpoint) and hand-written.
-    let mut generic: ProjectedMidpoint<V, _, _, _, _> = ProjectedMidpoint::try_new(
+    let mut generic: ProjectedMidpoint<V, _, _> = ProjectedMidpoint::try_new(
         paper::system(),
         paper::modified_energy(),
         &x0,
@@ -583,7 +583,7 @@ fn bench(c: &mut Criterion) {
         .projected(paper::system(), &x0, ProjectionOptions::default())
         .unwrap();
     // The same scheme with the midpoint increment and λ_k as one Newton system.
-    let mut joint: ProjectedMidpoint<V, _, _, _, _> = ProjectedMidpoint::try_new(
+    let mut joint: ProjectedMidpoint<V, _, _> = ProjectedMidpoint::try_new(
         paper::system(),
         paper::modified_energy(),
         &x0,

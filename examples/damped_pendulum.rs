@@ -35,7 +35,7 @@ fn build(
     x0: &V,
 ) -> Result<Box<dyn Flow<V>>, SetupError> {
     if scheme == "discrete-gradient" {
-        let dg: ConstrainedDiscreteGradient<V, _, _, _, Col<f64>> =
+        let dg: ConstrainedDiscreteGradient<V, _, Col<f64>> =
             ConstrainedDiscreteGradient::try_new(model.system(), x0, ProjectionOptions::default())?;
         return Ok(Box::new(dg));
     }

@@ -29,7 +29,7 @@ fn build(
         // The paper's §2 scheme: projection half-steps around the flow of H_N1 = H + μ g,
         // here by the implicit midpoint rule, its increment and λ_k solved as one Newton
         // system (ProjectedMidpoint; the same map as Projected around ImplicitMidpoint).
-        let flow: ProjectedMidpoint<V, _, _, _, _> = ProjectedMidpoint::try_new(
+        let flow: ProjectedMidpoint<V, _, _> = ProjectedMidpoint::try_new(
             paper::system(),
             paper::modified_energy(),
             x0,

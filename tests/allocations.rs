@@ -161,7 +161,7 @@ fn dissipative_and_general_flows_allocate_nothing_per_step() {
         .unwrap();
     assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
     let mut x = x0;
-    let mut f: ConstrainedDiscreteGradient<V, _, _, _, Col<f64>> =
+    let mut f: ConstrainedDiscreteGradient<V, _, Col<f64>> =
         ConstrainedDiscreteGradient::try_new(model.system(), &x0, ProjectionOptions::default())
             .unwrap();
     assert_eq!(allocations_per_run(&mut f, &mut x, 0.1), 0);
@@ -175,7 +175,7 @@ fn dissipative_and_general_flows_allocate_nothing_per_step() {
     use lieflow::models::PendulumChain;
     let chain = PendulumChain::<f64>::uniform(2, 6).unwrap();
     let mut x: Col<f64> = chain.at_rest(|i| 0.4 + 0.3 * i as f64);
-    let mut f: ProjectedMidpoint<Col<f64>, _, _, _, _> = ProjectedMidpoint::try_new(
+    let mut f: ProjectedMidpoint<Col<f64>, _, _> = ProjectedMidpoint::try_new(
         chain.system(),
         chain.clone(),
         &x,
@@ -188,7 +188,7 @@ fn dissipative_and_general_flows_allocate_nothing_per_step() {
 /// Allocations of 1000 steps of the §2 scheme as one Newton system (`ProjectedMidpoint`).
 fn joint_section2_allocations<W: Vector<Real = f64>>() -> u64 {
     let mut x: W = paper::initial_state();
-    let mut f: ProjectedMidpoint<W, _, _, _, _> = ProjectedMidpoint::try_new(
+    let mut f: ProjectedMidpoint<W, _, _> = ProjectedMidpoint::try_new(
         paper::system(),
         paper::modified_energy(),
         &x,

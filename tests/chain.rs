@@ -167,7 +167,7 @@ fn redundant_constraints_are_typed_errors_naming_one() {
         matches!(err, Some(SetupError::RankDeficient { constraint, .. }) if constraint == 1 || constraint == 4),
         "{err:?}"
     );
-    let err = lieflow::flow::ConstrainedDiscreteGradient::<V, _, _, _>::try_new(
+    let err = lieflow::flow::ConstrainedDiscreteGradient::<V, _>::try_new(
         small.system(),
         &xs,
         small.projection_options(),

@@ -13,9 +13,11 @@ use nalgebra::SVector;
 type V = SVector<f64, 4>;
 type Dg = ConstrainedDiscreteGradient<
     V,
-    lieflow::models::damped_pendulum::DampedStructure<f64>,
-    DampedPendulum<f64>,
-    lieflow::models::paper::Circle,
+    lieflow::System<
+        lieflow::models::damped_pendulum::DampedStructure<f64>,
+        DampedPendulum<f64>,
+        lieflow::models::paper::Circle,
+    >,
     Col<f64>,
 >;
 
@@ -391,7 +393,7 @@ fn discrete_gradient_closed_form_and_difference_jacobians_agree() {
     let sys = model.system();
     let fd_system = System::new(sys.structure, NoHessian(model), sys.constraint);
     let mut closed = dg(&model, &x0);
-    let mut fd: ConstrainedDiscreteGradient<V, _, _, _, Col<f64>> =
+    let mut fd: ConstrainedDiscreteGradient<V, _, Col<f64>> =
         ConstrainedDiscreteGradient::try_new(fd_system, &x0, ProjectionOptions::default()).unwrap();
     let (mut a, mut b) = (x0, x0);
     for _ in 0..200 {

@@ -11,7 +11,7 @@ type V = SVector<f64, 4>;
 fn joint<K: Hamiltonian<V>>(
     k: K,
     x0: &V,
-) -> ProjectedMidpoint<V, paper::Structure, paper::Energy, paper::Circle, K> {
+) -> ProjectedMidpoint<V, System<paper::Structure, paper::Energy, paper::Circle>, K> {
     ProjectedMidpoint::try_new(paper::system(), k, x0, ProjectionOptions::default()).unwrap()
 }
 
@@ -155,7 +155,7 @@ fn failures_are_typed_and_leave_the_state() {
 #[test]
 fn unsupported_models_are_refused() {
     let x0: V = paper::initial_state();
-    let r = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+    let r = ProjectedMidpoint::<V, _, _>::try_new(
         paper::system(),
         paper::Energy,
         &x0,
@@ -164,7 +164,7 @@ fn unsupported_models_are_refused() {
     assert!(matches!(r, Err(SetupError::Dimension { .. })));
     let mut off = x0;
     off[0] = 1.1;
-    let r = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+    let r = ProjectedMidpoint::<V, _, _>::try_new(
         paper::system(),
         paper::Energy,
         &off,
@@ -193,7 +193,7 @@ where
     let midpoint: ImplicitMidpoint<W, _, _> =
         ImplicitMidpoint::try_new(make().structure, inner(), x0, NewtonOptions::default()).unwrap();
     let mut a = midpoint.projected(make(), x0, options).unwrap();
-    let mut b: ProjectedMidpoint<W, _, _, _, _> =
+    let mut b: ProjectedMidpoint<W, _, _> =
         ProjectedMidpoint::try_new(make(), inner(), x0, options).unwrap();
     let (mut xa, mut xb) = (x0.clone(), x0.clone());
     let mut worst: f64 = 0.0;
@@ -342,7 +342,7 @@ fn more_than_four_constraints_take_the_general_path() {
         let d = chain_difference(links);
         assert!(d <= 7e-13, "{links}-link chain: forms differ by {d:e}");
         let (chain, x0) = chain(links);
-        let mut flow = ProjectedMidpoint::<faer::Col<f64>, _, _, _, _>::try_new(
+        let mut flow = ProjectedMidpoint::<faer::Col<f64>, _, _>::try_new(
             chain.system(),
             chain.clone(),
             &x0,
@@ -394,7 +394,7 @@ fn more_than_four_constraints_take_the_general_path() {
 #[test]
 fn other_cases_are_refused() {
     let x0: V = paper::initial_state();
-    let r = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+    let r = ProjectedMidpoint::<V, _, _>::try_new(
         paper::system(),
         paper::Energy,
         &x0,
@@ -462,7 +462,7 @@ fn state_dependent_structure() {
         300,
     );
     assert!(d <= 7e-13, "state-dependent M: forms differ by {d:e}");
-    let mut f: ProjectedMidpoint<V, _, _, _, _> =
+    let mut f: ProjectedMidpoint<V, _, _> =
         ProjectedMidpoint::try_new(system(), Quartic, &x0, ProjectionOptions::default()).unwrap();
     let mut x = x0;
     let n = 300;

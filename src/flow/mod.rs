@@ -28,7 +28,7 @@ pub use projection::{Coupling, Projected, ProjectedMidpoint, ProjectionOptions, 
 
 use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::Model;
 use crate::vector::Vector;
 
 /// The order reported by a flow that is exact (a closed-form flow of a sub-Hamiltonian).
@@ -238,34 +238,23 @@ pub trait FlowExt<V: Vector>: Flow<V> + Sized {
     /// The projection half-steps of Zhang & Deng (2004, §3) around `self`, for `system`,
     /// with the case and coupling decided at `x0` (see [`Projected`]).
     #[allow(clippy::type_complexity)]
-    fn projected<Ms, H, C>(
+    fn projected<Sys: Model<V>>(
         self,
-        system: System<Ms, H, C>,
+        system: Sys,
         x0: &V,
         options: ProjectionOptions<V::Real>,
-    ) -> Result<Projected<V, Self, Ms, H, C>, SetupError>
-    where
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
-    {
+    ) -> Result<Projected<V, Self, Sys>, SetupError> {
         Projected::try_new(self, system, x0, options)
     }
 
     /// As [`projected`](Self::projected), with a chosen linear solver `L` for the multiplier systems.
     #[allow(clippy::type_complexity)]
-    fn projected_with<Ms, H, C, L>(
+    fn projected_with<Sys: Model<V>, L: LinearSolver<V::Real>>(
         self,
-        system: System<Ms, H, C>,
+        system: Sys,
         x0: &V,
         options: ProjectionOptions<V::Real>,
-    ) -> Result<Projected<V, Self, Ms, H, C, L>, SetupError>
-    where
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
-        L: LinearSolver<V::Real>,
-    {
+    ) -> Result<Projected<V, Self, Sys, L>, SetupError> {
         Projected::try_new(self, system, x0, options)
     }
 }

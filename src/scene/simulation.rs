@@ -7,7 +7,7 @@ use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
 use crate::stepper::Stepper;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::{Hamiltonian, HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
 use serde::Serialize;
 use std::sync::Arc;
@@ -67,9 +67,9 @@ pub trait Simulation {
 
 /// A [`Stepper`] and the flow's system: the [`Simulation`] of a scene and of the built-in
 /// models.
-pub(crate) struct ModelRun<V: Vector, Ms, H, C> {
+pub(crate) struct ModelRun<V: Vector, Sys> {
     stepper: Stepper<V, Box<dyn Flow<V>>>,
-    pub(crate) system: System<Ms, H, C>,
+    pub(crate) system: Sys,
     t1: V,
     t2: V,
     g: Vec<f64>,
@@ -78,13 +78,13 @@ pub(crate) struct ModelRun<V: Vector, Ms, H, C> {
     gram: Option<MassGram>,
 }
 
-impl<V, Ms, H, C> ModelRun<V, Ms, H, C>
+impl<V, Sys> ModelRun<V, Sys>
 where
     V: Vector<Real = f64>,
 {
     pub(crate) fn new(
         flow: Box<dyn Flow<V>>,
-        system: System<Ms, H, C>,
+        system: Sys,
         x: V,
         dt: f64,
         m: usize,
@@ -103,12 +103,10 @@ where
     }
 }
 
-impl<V, Ms, H, C> Simulation for ModelRun<V, Ms, H, C>
+impl<V, Sys> Simulation for ModelRun<V, Sys>
 where
     V: Vector<Real = f64>,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     fn state(&self) -> &[f64] {
         self.stepper.state().as_slice()
@@ -123,7 +121,7 @@ where
         self.stepper.step()
     }
     fn energy(&self) -> f64 {
-        self.system.hamiltonian.energy(self.stepper.state())
+        self.system.hamiltonian().energy(self.stepper.state())
     }
     fn dissipation_power(&self) -> Option<f64> {
         let model = self.model.as_ref()?;
@@ -142,7 +140,7 @@ where
             return None;
         }
         let x = self.stepper.state();
-        self.system.constraint.residual(x, &mut self.g);
+        self.system.constraint().residual(x, &mut self.g);
         let g = ops::norm_inf(&self.g);
         self.system
             .hidden_constraint(x, &mut self.t1, &mut self.t2, &mut self.g);

@@ -4,7 +4,8 @@
 //! projection half-steps decouple. Shared by the projection and the constrained discrete
 //! gradient.
 
-use super::{Brackets, Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use super::Model;
+use super::{Brackets, Case, HolonomicConstraint};
 use crate::error::SetupError;
 use crate::linalg::{LinearSolver, SolverChoice, Structure, Triplets};
 use crate::real::Real;
@@ -39,12 +40,11 @@ struct HalfStepProbe<V: Vector> {
 }
 
 impl<V: Vector> HalfStepProbe<V> {
-    fn new<Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> Option<Self>
+    fn new<Sys>(system: &Sys, x0: &V) -> Option<Self>
     where
-        Ms: StructureMatrix<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
-        let m = system.constraint.dim();
+        let m = system.constraint().dim();
         let mu: Vec<V::Real> = (0..m)
             .map(|j| V::Real::one() + V::Real::lit(j as f64 / (m as f64 + 1.0)))
             .collect();
@@ -64,19 +64,18 @@ impl<V: Vector> HalfStepProbe<V> {
 /// direction `M Gᵀ μ` unchanged (position constraints with `M Gᵀ` acting on momenta).
 /// Every decoupled step re-checks that `g(x_{k+1})` equals `g(y)`, which catches a second
 /// half-step that moves `g`; a direction `M Gᵀ` that changes along it is only probed here.
-pub(crate) fn probe_decoupled<V, Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> bool
+pub(crate) fn probe_decoupled<V, Sys>(system: &Sys, x0: &V) -> bool
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     let Some(mut p) = HalfStepProbe::new(system, x0) else {
         return true;
     };
-    let m = system.constraint.dim();
+    let m = system.constraint().dim();
     let (mut g0, mut g1) = (vec![V::Real::zero(); m], vec![V::Real::zero(); m]);
-    system.constraint.residual(x0, &mut g0);
-    system.constraint.residual(&p.xp, &mut g1);
+    system.constraint().residual(x0, &mut g0);
+    system.constraint().residual(&p.xp, &mut g1);
     let mut d1 = x0.zeros_like();
     system.constraint_force(&p.xp, &p.mu, &mut p.tmp, &mut d1);
     let tol = V::Real::lit(64.0) * V::Real::epsilon();
@@ -90,23 +89,22 @@ where
 /// position constraints and a momentum-only direction it is, exactly): `G v` for a fixed `v`
 /// at both points. With a quadratic `H` and a constant `M` the hidden constraint is then
 /// affine in the half-step's multiplier.
-pub(crate) fn half_step_keeps_jacobian<V, Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> bool
+pub(crate) fn half_step_keeps_jacobian<V, Sys>(system: &Sys, x0: &V) -> bool
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     let Some(p) = HalfStepProbe::new(system, x0) else {
         return true;
     };
-    let (m, n) = (system.constraint.dim(), x0.len());
+    let (m, n) = (system.constraint().dim(), x0.len());
     let mut v = x0.zeros_like();
     for (i, vi) in v.as_mut_slice().iter_mut().enumerate() {
         *vi = V::Real::one() + V::Real::lit(i as f64 / (n as f64 + 1.0));
     }
     let (mut a, mut b) = (vec![V::Real::zero(); m], vec![V::Real::zero(); m]);
-    system.constraint.jacobian_apply(x0, &v, &mut a);
-    system.constraint.jacobian_apply(&p.xp, &v, &mut b);
+    system.constraint().jacobian_apply(x0, &v, &mut a);
+    system.constraint().jacobian_apply(&p.xp, &v, &mut b);
     let scale = V::Real::one() + ops::norm_inf(&a);
     ops::dist_inf(&a, &b) <= V::Real::lit(64.0) * V::Real::epsilon() * scale
 }
@@ -117,31 +115,29 @@ where
 /// `‖g(x0)‖∞ ≤ options.manifold_tol` — with `check_phi`, also `‖φ(x0)‖∞` in the degenerate
 /// case. Returns the case and the multiplier pattern (`None` for a dense `G`).
 #[allow(clippy::type_complexity)]
-pub(crate) fn check_initial_state<V, Ms, H, C, L>(
-    system: &System<Ms, H, C>,
+pub(crate) fn check_initial_state<V, Sys, L>(
+    system: &Sys,
     x0: &V,
     options: &InitialChecks<V::Real>,
     check_phi: bool,
 ) -> Result<(Case, Option<Vec<(usize, usize)>>), SetupError>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     L: LinearSolver<V::Real>,
 {
     if let Some(component) = ops::first_non_finite(x0.as_slice()) {
         return Err(SetupError::NonFiniteState { component });
     }
     let n = x0.len();
-    let m = system.constraint.dim();
+    let m = system.constraint().dim();
     if m > n {
         return Err(SetupError::Dimension {
             what: format!("{m} constraints on a state of dimension {n}"),
         });
     }
     // Redundant constraints first: the bracket matrices would only report them as singular.
-    let pattern = constraint_gram::<V, Ms, H, C, L>(system, x0, options.solver)?;
+    let pattern = constraint_gram::<V, Sys, L>(system, x0, options.solver)?;
     let brackets = Brackets::new(system);
     let case = match options.case {
         Some(c) => c,
@@ -157,7 +153,7 @@ where
     };
     if let Some(tol) = options.manifold_tol {
         let mut gv = vec![V::Real::zero(); m];
-        system.constraint.residual(x0, &mut gv);
+        system.constraint().residual(x0, &mut gv);
         let g = ops::norm_inf(&gv);
         if g.is_nan() || g > tol {
             return Err(SetupError::OffManifold {
@@ -188,19 +184,19 @@ pub const MAX_BRACKET_CONSTRAINTS: usize = 1024;
 /// whose gradients share a state variable, which is the sparsity of the multiplier systems when
 /// the inner flow moves each variable along its own gradient components. `None` when `G` is
 /// not provided. Errors: [`SetupError::RankDeficient`] naming a redundant constraint.
-pub(crate) fn constraint_gram<V, Ms, H, C, L>(
-    system: &System<Ms, H, C>,
+pub(crate) fn constraint_gram<V, Sys, L>(
+    system: &Sys,
     x0: &V,
     choice: SolverChoice,
 ) -> Result<Option<Vec<(usize, usize)>>, SetupError>
 where
     V: Vector,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     L: LinearSolver<V::Real>,
 {
-    let (m, n) = (system.constraint.dim(), x0.len());
+    let (m, n) = (system.constraint().dim(), x0.len());
     let mut g = Triplets::default();
-    if !system.constraint.jacobian_entries(x0, &mut g) {
+    if !system.constraint().jacobian_entries(x0, &mut g) {
         return Ok(None);
     }
     if let Some(&(row, col, _)) = g.entries.iter().find(|&&(r, c, _)| r >= m || c >= n) {

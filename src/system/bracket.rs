@@ -16,7 +16,8 @@
 //!
 //! These are analysis tools (they allocate); the integrators evaluate what they need in place.
 
-use super::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use super::Model;
+use super::{HolonomicConstraint, StructureMatrix};
 use crate::error::SetupError;
 use crate::real::Real;
 use crate::vector::{Vector, ops};
@@ -69,8 +70,8 @@ where
 /// computed by central differences of `φ` along `M Gᵀ e_j` and `M ∇H` (step `ε^{1/3}` scaled),
 /// accurate to about `ε^{2/3}` relative.
 #[derive(Debug)]
-pub struct Brackets<'a, Ms, H, C> {
-    sys: &'a System<Ms, H, C>,
+pub struct Brackets<'a, Sys> {
+    sys: &'a Sys,
 }
 
 /// `out = G(x)ᵀ μ`: the right factor of every bracket with `g`.
@@ -84,9 +85,9 @@ where
     }
 }
 
-impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
+impl<'a, Sys> Brackets<'a, Sys> {
     /// Bracket computations for `sys`.
-    pub fn new(sys: &'a System<Ms, H, C>) -> Self {
+    pub fn new(sys: &'a Sys) -> Self {
         Self { sys }
     }
 
@@ -94,13 +95,12 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
     pub fn g_g<V>(&self, x: &V) -> Vec<V::Real>
     where
         V: Vector,
-        Ms: StructureMatrix<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
-        let c = &self.sys.constraint;
+        let c = self.sys.constraint();
         let m = c.dim();
         bracket(
-            &self.sys.structure,
+            self.sys.structure(),
             x,
             m,
             |x, u, out| c.jacobian_apply(x, u, out),
@@ -113,11 +113,9 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
     pub fn g_h<V>(&self, x: &V) -> Vec<V::Real>
     where
         V: Vector,
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
-        let mut out = vec![V::Real::zero(); self.sys.constraint.dim()];
+        let mut out = vec![V::Real::zero(); self.sys.constraint().dim()];
         let (mut t1, mut t2) = (x.zeros_like(), x.zeros_like());
         self.sys.hidden_constraint(x, &mut t1, &mut t2, &mut out);
         out
@@ -127,9 +125,7 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
     fn dphi<V>(&self, x: &V, u: &V, out: &mut [V::Real])
     where
         V: Vector,
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
         let un = ops::norm_inf(u.as_slice());
         if un == V::Real::zero() {
@@ -154,14 +150,12 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
     pub fn phi_g<V>(&self, x: &V) -> Vec<V::Real>
     where
         V: Vector,
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
-        let c = &self.sys.constraint;
+        let c = self.sys.constraint();
         let m = c.dim();
         bracket(
-            &self.sys.structure,
+            self.sys.structure(),
             x,
             m,
             |x, u, out| self.dphi(x, u, out),
@@ -174,11 +168,9 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
     pub fn phi_h<V>(&self, x: &V) -> Vec<V::Real>
     where
         V: Vector,
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
-        let mut out = vec![V::Real::zero(); self.sys.constraint.dim()];
+        let mut out = vec![V::Real::zero(); self.sys.constraint().dim()];
         let (mut t, mut u) = (x.zeros_like(), x.zeros_like());
         self.sys.vector_field(x, &mut t, &mut u);
         self.dphi(x, &u, &mut out);
@@ -193,14 +185,12 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
     pub fn case<V>(&self, x: &V, tol: V::Real, rcond: V::Real) -> Result<Case, SetupError>
     where
         V: Vector,
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
         if let Some(component) = ops::first_non_finite(x.as_slice()) {
             return Err(SetupError::NonFiniteState { component });
         }
-        let c = &self.sys.constraint;
+        let c = self.sys.constraint();
         let m = c.dim();
         // Scale: largest column of Gᵀ times largest column of M Gᵀ.
         let (mut gt, mut mgt) = (x.zeros_like(), x.zeros_like());
@@ -210,7 +200,7 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
             e.iter_mut().for_each(|v| *v = V::Real::zero());
             e[j] = V::Real::one();
             c.jacobian_transpose_apply(x, &e, &mut gt);
-            self.sys.structure.apply(x, &gt, &mut mgt);
+            self.sys.structure().apply(x, &gt, &mut mgt);
             gmax = gmax.max(ops::norm_inf(gt.as_slice()));
             mgmax = mgmax.max(ops::norm_inf(mgt.as_slice()));
         }
@@ -255,11 +245,9 @@ impl<'a, Ms, H, C> Brackets<'a, Ms, H, C> {
     pub fn modified_multiplier<V>(&self, x: &V, case: Case) -> Result<Vec<V::Real>, SetupError>
     where
         V: Vector,
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
-        let m = self.sys.constraint.dim();
+        let m = self.sys.constraint().dim();
         let (a, b, name) = match case {
             Case::NonDegenerate => (self.g_g(x), self.g_h(x), "<g,g>"),
             Case::Degenerate => (self.phi_g(x), self.phi_h(x), "<phi,g>"),

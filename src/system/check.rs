@@ -7,7 +7,8 @@
 //! at a state the caller chooses, in `O(k)` evaluations for `k` probe directions (so it is
 //! usable on models with 10⁵ unknowns).
 
-use super::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use super::Model;
+use super::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::linalg::Sink;
 use crate::real::Real;
 use crate::vector::{Vector, ops};
@@ -204,14 +205,16 @@ impl Worst {
 /// `δ = ε^{1/3} max(1, ‖x‖∞)`; the difference checks hold to `1e-6` relative, the exact
 /// identities to `1e-11` relative (see the constants' docs). The report also lists the hints
 /// the model provides and what each enables.
-pub fn check_model<V, Ms, H, C>(system: &System<Ms, H, C>, x: &V) -> ModelReport
+pub fn check_model<V, Sys>(system: &Sys, x: &V) -> ModelReport
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
-    let (h, c, s) = (&system.hamiltonian, &system.constraint, &system.structure);
+    let (h, c, s) = (
+        system.hamiltonian(),
+        system.constraint(),
+        system.structure(),
+    );
     let n = x.len();
     let m = c.dim();
     let eps = V::Real::epsilon();

@@ -13,6 +13,7 @@ mod check;
 mod constraint;
 mod dependent;
 mod hamiltonian;
+mod model;
 mod modified;
 mod structure;
 
@@ -25,6 +26,7 @@ pub use check::{Hints, ModelCheck, ModelReport, check_model};
 pub use constraint::{HolonomicConstraint, Unconstrained};
 pub use dependent::DropDependent;
 pub use hamiltonian::Hamiltonian;
+pub use model::Model;
 pub use modified::ModifiedHamiltonian;
 pub use structure::{
     Canonical, Constant, JMinusR, LiePoissonSo3, MomentumDamping, StructureMatrix,

@@ -6,9 +6,8 @@ use super::projection::HiddenSolver;
 use super::{Flow, FlowStats, ProjectionOptions};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver, SMALL_MAX, SolveReport};
-use crate::system::{
-    Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System, check_initial_state,
-};
+use crate::system::Model;
+use crate::system::{Case, Hamiltonian, HolonomicConstraint, StructureMatrix, check_initial_state};
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
 use step_problem::Problem;
@@ -66,12 +65,10 @@ pub struct EnergyBalance<T> {
 /// allocated at construction; a step allocates nothing; on error the state is unchanged.
 pub struct ConstrainedDiscreteGradient<
     V: Vector,
-    Ms,
-    H,
-    C,
+    Sys,
     W: Vector<Real = V::Real> = faer::Col<<V as Vector>::Real>,
 > {
-    system: System<Ms, H, C>,
+    system: Sys,
     newton: Newton<W>,
     hidden: Option<HiddenSolver<V>>,
     /// Unknowns `(δ, ℓ = hλ)`.
@@ -105,8 +102,8 @@ pub struct ConstrainedDiscreteGradient<
     stats: FlowStats,
 }
 
-impl<V: Vector, Ms, H, C, W: Vector<Real = V::Real>> core::fmt::Debug
-    for ConstrainedDiscreteGradient<V, Ms, H, C, W>
+impl<V: Vector, Sys, W: Vector<Real = V::Real>> core::fmt::Debug
+    for ConstrainedDiscreteGradient<V, Sys, W>
 {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("ConstrainedDiscreteGradient")
@@ -118,12 +115,10 @@ impl<V: Vector, Ms, H, C, W: Vector<Real = V::Real>> core::fmt::Debug
     }
 }
 
-impl<V, Ms, H, C, W> ConstrainedDiscreteGradient<V, Ms, H, C, W>
+impl<V, Sys, W> ConstrainedDiscreteGradient<V, Sys, W>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     W: Vector<Real = V::Real>,
 {
     /// The constrained discrete-gradient flow of `system` for states shaped like `x0`, which
@@ -131,18 +126,18 @@ where
     /// exists) comes from `options.case` or the brackets at `x0`; `options.newton` is used for
     /// both Newton solves.
     pub fn try_new(
-        system: System<Ms, H, C>,
+        system: Sys,
         x0: &V,
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
         // φ(x0) need not vanish: the first hidden-constraint projection restores it.
-        let (case, _) = check_initial_state::<V, Ms, H, C, W::Solver>(
+        let (case, _) = check_initial_state::<V, Sys, W::Solver>(
             &system,
             x0,
             &options.initial_checks(),
             false,
         )?;
-        let (n, m) = (x0.len(), system.constraint.dim());
+        let (n, m) = (x0.len(), system.constraint().dim());
         let g0 = vec![V::Real::zero(); m];
         let hidden = match case {
             Case::Degenerate => Some(HiddenSolver::new(&system, x0, options.newton)?),
@@ -187,7 +182,7 @@ where
     }
 
     /// The system.
-    pub fn system(&self) -> &System<Ms, H, C> {
+    pub fn system(&self) -> &Sys {
         &self.system
     }
 
@@ -211,9 +206,9 @@ where
         let supplied = ops::dot(problem.grad.as_slice(), problem.f.as_slice()) / h;
         let sys = &self.system;
         Some(EnergyBalance {
-            before: sys.hamiltonian.energy(&self.start),
-            after_step: sys.hamiltonian.energy(&self.after_step),
-            after: sys.hamiltonian.energy(&self.last),
+            before: sys.hamiltonian().energy(&self.start),
+            after_step: sys.hamiltonian().energy(&self.after_step),
+            after: sys.hamiltonian().energy(&self.last),
             supplied,
         })
     }
@@ -245,12 +240,10 @@ macro_rules! problem {
 }
 use problem;
 
-impl<V, Ms, H, C, W> ConstrainedDiscreteGradient<V, Ms, H, C, W>
+impl<V, Sys, W> ConstrainedDiscreteGradient<V, Sys, W>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     W: Vector<Real = V::Real>,
 {
     fn m(&self) -> usize {
@@ -266,7 +259,7 @@ where
         let Some(hidden) = self.hidden.as_mut() else {
             unreachable!("project_hidden without a hidden projection");
         };
-        hidden.project::<K, _, _, _>(
+        hidden.project::<K, _>(
             &self.system,
             &self.after_step,
             &mut self.xe,
@@ -281,12 +274,10 @@ fn newton_error(stage: &'static str, e: NewtonError<StepError>) -> StepError {
     StepError::from_newton(stage, e)
 }
 
-impl<V, Ms, H, C, W> Flow<V> for ConstrainedDiscreteGradient<V, Ms, H, C, W>
+impl<V, Sys, W> Flow<V> for ConstrainedDiscreteGradient<V, Sys, W>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     W: Vector<Real = V::Real>,
 {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
@@ -304,17 +295,17 @@ where
         // The stored step is overwritten below; report no balance unless this step succeeds.
         self.have_step = false;
         self.start.copy_from(x);
-        self.system.constraint.residual(&self.start, &mut self.g0);
+        self.system.constraint().residual(&self.start, &mut self.g0);
         // The rounding floor of h M ∇H itself (a stiff term's gradient rounds at its Hessian
         // times the state's rounding): ε |h M ∇²H(x) x|∞ when the model has a Hessian.
         self.base_noise = V::Real::zero();
         if self
             .system
-            .hamiltonian
+            .hamiltonian()
             .hessian_apply(&self.start, &self.start, &mut self.tmp)
         {
             self.system
-                .structure
+                .structure()
                 .apply(&self.start, &self.tmp, &mut self.f);
             self.base_noise = V::Real::epsilon() * h.abs() * ops::norm_inf(self.f.as_slice());
         }
@@ -325,17 +316,17 @@ where
                 *l = h * lp;
             }
             let sys = &self.system;
-            sys.hamiltonian.gradient(&self.start, &mut self.grad);
+            sys.hamiltonian().gradient(&self.start, &mut self.grad);
             for g in self.grad.as_mut_slice() {
                 *g = *g * h;
             }
-            sys.constraint.jacobian_transpose_apply_add(
+            sys.constraint().jacobian_transpose_apply_add(
                 &self.start,
                 zl,
                 V::Real::one(),
                 &mut self.grad,
             );
-            sys.structure.apply(&self.start, &self.grad, &mut self.f);
+            sys.structure().apply(&self.start, &self.grad, &mut self.f);
             zd.copy_from_slice(self.f.as_slice());
         }
         let solved = {
@@ -414,6 +405,6 @@ where
         self.stats
     }
     fn dissipates(&self) -> bool {
-        self.system.structure.is_dissipative()
+        self.system.structure().is_dissipative()
     }
 }

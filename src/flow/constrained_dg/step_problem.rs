@@ -6,12 +6,13 @@ use crate::error::StepError;
 use crate::flow::implicit::{GonzalezRule, GradientRule, noise_image};
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::Model;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
 
 /// `F(δ, ℓ) = (δ − h M(x̄)(∇̄H + ∇̄gᵀℓ/h),  g(x + δ))`.
-pub(super) struct Problem<'a, V: Vector, Ms, H, C> {
+pub(super) struct Problem<'a, V: Vector, Sys> {
     pub(super) h: V::Real,
     pub(super) noise: V::Real,
     pub(super) base_noise: V::Real,
@@ -27,15 +28,13 @@ pub(super) struct Problem<'a, V: Vector, Ms, H, C> {
     pub(super) s1: &'a mut V,
     pub(super) s2: &'a mut V,
     pub(super) em: &'a mut [V::Real],
-    pub(super) system: &'a System<Ms, H, C>,
+    pub(super) system: &'a Sys,
 }
 
-impl<V, Ms, H, C> Problem<'_, V, Ms, H, C>
+impl<V, Sys> Problem<'_, V, Sys>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     /// `|δ|²` above which Gonzalez's correction term is evaluated (below, it is round-off).
     fn corrected(&self, delta: &[V::Real]) -> Option<V::Real> {
@@ -46,12 +45,10 @@ where
     }
 }
 
-impl<V, Ms, H, C> NonlinearProblem<V::Real> for Problem<'_, V, Ms, H, C>
+impl<V, Sys> NonlinearProblem<V::Real> for Problem<'_, V, Sys>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     type Error = StepError;
 
@@ -76,7 +73,7 @@ where
         let sys = self.system;
         // grad = h ∇̄H.
         let noise = GonzalezRule::gradient(
-            &sys.hamiltonian,
+            sys.hamiltonian(),
             self.x,
             delta,
             self.xm,
@@ -87,8 +84,8 @@ where
             *gi = *gi * self.h;
         }
         // grad += ∇̄gᵀ ℓ = G(x̄)ᵀ ℓ + (ℓ · c) δ,  cᵢ = (gᵢ(x') − gᵢ(x) − (G(x̄) δ)ᵢ) / |δ|².
-        sys.constraint.residual(self.xe, self.g1);
-        sys.constraint
+        sys.constraint().residual(self.xe, self.g1);
+        sys.constraint()
             .jacobian_transpose_apply_add(self.xm, ell, V::Real::one(), self.grad);
         // The rounding noise of grad along δ/|δ|: the energy's correction (scaled by h), and
         // the constraints' below.
@@ -97,10 +94,10 @@ where
             for (t, &d) in self.tmp.as_mut_slice().iter_mut().zip(delta) {
                 *t = d;
             }
-            sys.constraint.jacobian_apply(self.xm, self.tmp, self.gd);
+            sys.constraint().jacobian_apply(self.xm, self.tmp, self.gd);
             // G(x̄) x̄ bounds the size of the terms each gᵢ is formed from (|rᵢ|² for a rod),
             // so each difference gᵢ(x') − gᵢ(x) − (G δ)ᵢ rounds at about ε times that.
-            sys.constraint.jacobian_apply(self.xm, self.xm, self.em);
+            sys.constraint().jacobian_apply(self.xm, self.xm, self.em);
             let (mut lc, mut lc_abs) = (V::Real::zero(), V::Real::zero());
             for ((((&l, &g1), &g0), &gd), &e) in ell
                 .iter()
@@ -117,9 +114,9 @@ where
             // that rounding divided by |δ|: above the tolerance, and no iterate reduces it.
             noise = noise + V::Real::epsilon() * lc_abs / d2.sqrt();
         }
-        sys.structure.apply(self.xm, self.grad, self.f);
+        sys.structure().apply(self.xm, self.grad, self.f);
         self.noise = noise_image(
-            &sys.structure,
+            sys.structure(),
             self.xm,
             delta,
             noise,
@@ -155,7 +152,7 @@ where
         if j < n {
             ops::fill_zero(self.s1.as_mut_slice());
             self.s1.as_mut_slice()[j] = V::Real::one();
-            if !sys.hamiltonian.hessian_apply(self.xm, self.s1, self.s2) {
+            if !sys.hamiltonian().hessian_apply(self.xm, self.s1, self.s2) {
                 return false;
             }
             for v in self.s2.as_mut_slice() {
@@ -168,13 +165,13 @@ where
             let inv = V::Real::one() / (eps + eps);
             self.tmp.copy_from(self.xm);
             self.tmp.as_mut_slice()[j] = xj + eps;
-            sys.constraint
+            sys.constraint()
                 .jacobian_transpose_apply_add(self.tmp, ell, inv, self.s2);
             self.tmp.as_mut_slice()[j] = xj - eps;
-            sys.constraint
+            sys.constraint()
                 .jacobian_transpose_apply_add(self.tmp, ell, -inv, self.s2);
-            sys.structure.apply(self.xm, self.s2, self.tmp);
-            if !sys.structure.derivative_apply_add(
+            sys.structure().apply(self.xm, self.s2, self.tmp);
+            if !sys.structure().derivative_apply_add(
                 self.xm,
                 self.s1,
                 self.grad,
@@ -198,22 +195,26 @@ where
                 V::Real::one(),
                 delta,
             );
-            sys.constraint.jacobian_apply(self.tmp, self.s1, og);
+            sys.constraint().jacobian_apply(self.tmp, self.s1, og);
         } else {
             let i = j - n;
             ops::fill_zero(self.em);
             self.em[i] = V::Real::one();
             ops::fill_zero(self.s2.as_mut_slice());
-            sys.constraint
-                .jacobian_transpose_apply_add(self.xm, self.em, V::Real::one(), self.s2);
+            sys.constraint().jacobian_transpose_apply_add(
+                self.xm,
+                self.em,
+                V::Real::one(),
+                self.s2,
+            );
             if let Some(d2) = self.corrected(delta) {
                 // cᵢ δ, cᵢ = (gᵢ(x') − gᵢ(x) − (G(x̄) δ)ᵢ) / |δ|².
                 self.s1.as_mut_slice().copy_from_slice(delta);
-                sys.constraint.jacobian_apply(self.xm, self.s1, self.gd);
+                sys.constraint().jacobian_apply(self.xm, self.s1, self.gd);
                 let c = (self.g1[i] - self.g0[i] - self.gd[i]) / d2;
                 ops::axpy(self.s2.as_mut_slice(), c, delta);
             }
-            sys.structure.apply(self.xm, self.s2, self.tmp);
+            sys.structure().apply(self.xm, self.s2, self.tmp);
             for (o, &t) in od.iter_mut().zip(self.tmp.as_slice()) {
                 *o = -t;
             }

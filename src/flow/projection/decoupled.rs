@@ -11,18 +11,17 @@ use crate::flow::{Flow, FlowStats};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NonlinearSolver, SolveReport};
 use crate::real::Real;
+use crate::system::Model;
 use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::Zero;
 
-impl<V, F, Ms, H, C, L> Projected<V, F, Ms, H, C, L>
+impl<V, F, Sys, L> Projected<V, F, Sys, L>
 where
     V: Vector,
     F: Flow<V>,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     L: LinearSolver<V::Real>,
 {
     /// Solves one multiplier system. Newton evaluates the residual last at the iterate it
@@ -163,11 +162,11 @@ where
             // w_j = d_j + h M(x) ∇²H(x) d_j, so that G(y) w_j is column j of ∂g/∂λ_k.
             let mut exact = true;
             for (dj, wj) in d.iter().zip(cols.iter_mut()) {
-                if !self.system.hamiltonian.hessian_apply(x, dj, t1) {
+                if !self.system.hamiltonian().hessian_apply(x, dj, t1) {
                     exact = false;
                     break;
                 }
-                self.system.structure.apply(x, t1, t2);
+                self.system.structure().apply(x, t1, t2);
                 let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), t2.as_slice());
                 for ((o, &dv), &tv) in wj.iter_mut().zip(dj).zip(t2) {
                     *o = dv + h * tv;
@@ -177,7 +176,7 @@ where
                 h,
                 x,
                 inner: &mut self.inner,
-                constraint: &self.system.constraint,
+                constraint: self.system.constraint(),
                 d,
                 w: exact.then_some(&*cols),
                 y: &mut w.y,
@@ -252,7 +251,7 @@ where
     pub(super) fn decoupling_guard<const K: usize>(&mut self, m: usize) -> Result<(), StepError> {
         let w = &mut self.w;
         let gx = &mut w.r.as_mut_slice()[..m];
-        self.system.constraint.residual(&w.x_next, gx);
+        self.system.constraint().residual(&w.x_next, gx);
         // g(y) is the λ_k system's last residual.
         let change = match self.small.as_ref() {
             Some(small) if K > 0 => ops::dist_inf(gx, &small.g_y[..m]),

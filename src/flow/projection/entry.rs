@@ -3,7 +3,8 @@
 
 use crate::error::StepError;
 use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::HolonomicConstraint;
+use crate::system::Model;
 use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 
@@ -37,9 +38,9 @@ impl<V: Vector> EntryCheck<V> {
     /// tolerance). Called only when the step does not start from the flow's own last result:
     /// one residual evaluation (two with `φ`) when the caller changed the state between
     /// steps. `r` has the constraint's length; `t1`, `t2` are workspace of the state's length.
-    pub(super) fn check<Ms, H, C>(
+    pub(super) fn check<Sys>(
         &self,
-        system: &System<Ms, H, C>,
+        system: &Sys,
         x: &V,
         check_phi: bool,
         r: &mut [V::Real],
@@ -47,9 +48,7 @@ impl<V: Vector> EntryCheck<V> {
         t2: &mut V,
     ) -> Result<(), StepError>
     where
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
         let Some(tol) = self.tol else {
             return Ok(());
@@ -59,7 +58,7 @@ impl<V: Vector> EntryCheck<V> {
             residual: r.to_f64_lossy(),
             tol: tol.to_f64_lossy(),
         };
-        system.constraint.residual(x, r);
+        system.constraint().residual(x, r);
         let g = ops::norm_inf(r);
         if g.is_nan() || g > tol {
             return Err(off("g", g));

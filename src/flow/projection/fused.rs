@@ -7,18 +7,16 @@ use crate::flow::{CompositionTable, Flow, FlowStats};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::SMALL_MAX;
 use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
+use crate::system::Model;
 use crate::vector::Vector;
 use num_traits::Float as _;
 use num_traits::One;
 
-impl<V, F, Ms, H, C, L> Projected<V, F, Ms, H, C, L>
+impl<V, F, Sys, L> Projected<V, F, Sys, L>
 where
     V: Vector,
     F: Flow<V>,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     L: LinearSolver<V::Real>,
 {
     /// A composition's stages as one fused step (decoupled scheme). Stage `i`'s second

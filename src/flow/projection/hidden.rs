@@ -8,32 +8,29 @@ use crate::nonlinear::{
     Newton, NewtonOptions, NonlinearProblem, NonlinearSolver, SmallNewton, SolveReport,
 };
 use crate::real::Real;
-use crate::system::{
-    Hamiltonian, HolonomicConstraint, StructureMatrix, System, half_step_keeps_jacobian,
-};
+use crate::system::Model;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, half_step_keeps_jacobian};
 use crate::vector::{Vector, ops};
 use num_traits::{One, Zero};
 
 /// `F(ν) = φ(x' + M(x') G(x')ᵀ ν)`: the hidden-constraint projection (also the `λ_{k+1}`
 /// system of [`ProjectedMidpoint`](super::ProjectedMidpoint)'s general path, `ν = (h/2) λ_{k+1}`).
-pub(crate) struct Hidden<'a, V: Vector, Ms, H, C> {
+pub(crate) struct Hidden<'a, V: Vector, Sys> {
     pub(crate) base: &'a V,
     /// `M(x') G(x')ᵀ` applied to `ν` lands here: `x = base + dir(ν)`.
     pub(crate) x: &'a mut V,
     pub(crate) t1: &'a mut V,
     pub(crate) t2: &'a mut V,
-    pub(crate) system: &'a System<Ms, H, C>,
+    pub(crate) system: &'a Sys,
     /// Scratch for closed-form Jacobian columns (a state and `m` multipliers), for a caller
     /// whose case makes them exact (see `jacobian_column`); `None`: differences.
     pub(crate) columns: Option<(&'a mut V, &'a mut [V::Real])>,
 }
 
-impl<V, Ms, H, C> Hidden<'_, V, Ms, H, C>
+impl<V, Sys> Hidden<'_, V, Sys>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     /// `x = base + M(base) G(base)ᵀ ν`.
     pub(crate) fn place(&mut self, nu: &[V::Real]) {
@@ -48,17 +45,15 @@ where
     }
 }
 
-impl<V, Ms, H, C> NonlinearProblem<V::Real> for Hidden<'_, V, Ms, H, C>
+impl<V, Sys> NonlinearProblem<V::Real> for Hidden<'_, V, Sys>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     type Error = StepError;
 
     fn dim(&self) -> usize {
-        self.system.constraint.dim()
+        self.system.constraint().dim()
     }
 
     fn residual(&mut self, nu: &[V::Real], out: &mut [V::Real]) -> Result<(), StepError> {
@@ -82,11 +77,14 @@ where
         unit[j] = V::Real::one();
         let sys = self.system;
         sys.constraint_force(self.base, unit, self.t1, self.t2);
-        if !sys.hamiltonian.hessian_apply(&*self.x, &*self.t2, self.t1) {
+        if !sys
+            .hamiltonian()
+            .hessian_apply(&*self.x, &*self.t2, self.t1)
+        {
             return false;
         }
-        sys.structure.apply(&*self.x, &*self.t1, scratch);
-        sys.constraint.jacobian_apply(&*self.x, scratch, out);
+        sys.structure().apply(&*self.x, &*self.t1, scratch);
+        sys.constraint().jacobian_apply(&*self.x, scratch, out);
         true
     }
 }
@@ -108,25 +106,23 @@ pub(crate) enum HiddenSolver<V: Vector> {
 }
 
 impl<V: Vector> HiddenSolver<V> {
-    pub(crate) fn new<Ms, H, C>(
-        system: &System<Ms, H, C>,
+    pub(crate) fn new<Sys>(
+        system: &Sys,
         x0: &V,
         options: NewtonOptions<V::Real>,
     ) -> Result<Self, SetupError>
     where
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
-        let m = system.constraint.dim();
+        let m = system.constraint().dim();
         let mut out = x0.zeros_like();
         match SmallNewton::new(m, options) {
-            Some(newton) if system.hamiltonian.hessian_apply(x0, x0, &mut out) => {
+            Some(newton) if system.hamiltonian().hessian_apply(x0, x0, &mut out) => {
                 Ok(HiddenSolver::Small {
                     newton,
                     dirs: vec![x0.zeros_like(); m],
-                    affine: system.hamiltonian.is_quadratic()
-                        && system.structure.is_constant()
+                    affine: system.hamiltonian().is_quadratic()
+                        && system.structure().is_constant()
                         && half_step_keeps_jacobian(system, x0),
                 })
             }
@@ -137,9 +133,9 @@ impl<V: Vector> HiddenSolver<V> {
     /// The projection `x = base + M(base) G(base)ᵀ ν` with `φ(x) = 0` into `xe` (`nu` holds
     /// `ν`, warm-started by the caller). `K = m` on the small path, `K = 0` on the general one.
     #[inline(always)]
-    pub(crate) fn project<const K: usize, Ms, H, C>(
+    pub(crate) fn project<const K: usize, Sys>(
         &mut self,
-        system: &System<Ms, H, C>,
+        system: &Sys,
         base: &V,
         xe: &mut V,
         tmp: &mut V,
@@ -147,9 +143,7 @@ impl<V: Vector> HiddenSolver<V> {
         nu: &mut [V::Real],
     ) -> Result<SolveReport<V::Real>, NewtonError<StepError>>
     where
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
         match self {
             HiddenSolver::Small {

@@ -2,6 +2,7 @@
 //! `λ_k` found by one Newton iteration ([`ProjectedMidpoint`]).
 
 use super::{STAGE_LAMBDA_K1, entry::EntryCheck, options::ProjectionOptions};
+use crate::system::Model;
 mod general;
 mod joint;
 
@@ -13,8 +14,7 @@ use crate::linalg::LinearSolver;
 use crate::nonlinear::{NewtonOptions, SMALL_MAX, SmallNewton, SolveReport};
 use crate::real::Real;
 use crate::system::{
-    Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System, check_initial_state,
-    probe_decoupled,
+    Case, Hamiltonian, HolonomicConstraint, StructureMatrix, check_initial_state, probe_decoupled,
 };
 use crate::vector::{Vector, ops, take};
 use num_traits::Float as _;
@@ -87,8 +87,8 @@ const NOISE_FACTOR: f64 = 100.0;
 /// of up to a few hundred unknowns — large sparse ones belong to `Projected` with a closed-form or
 /// explicit inner flow. On any error the state, the warm start and the counters are unchanged. No
 /// allocation per step.
-pub struct ProjectedMidpoint<V: Vector, Ms, H, C, K, L = <V as Vector>::Solver> {
-    system: System<Ms, H, C>,
+pub struct ProjectedMidpoint<V: Vector, Sys, K, L = <V as Vector>::Solver> {
+    system: Sys,
     inner: K,
     m: usize,
     newton: NewtonOptions<V::Real>,
@@ -131,7 +131,7 @@ struct Work<V> {
     t2: V,
 }
 
-impl<V: Vector, Ms, H, C, K, L> core::fmt::Debug for ProjectedMidpoint<V, Ms, H, C, K, L> {
+impl<V: Vector, Sys, K, L> core::fmt::Debug for ProjectedMidpoint<V, Sys, K, L> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("ProjectedMidpoint")
             .field("m", &self.m)
@@ -140,12 +140,10 @@ impl<V: Vector, Ms, H, C, K, L> core::fmt::Debug for ProjectedMidpoint<V, Ms, H,
     }
 }
 
-impl<V, Ms, H, C, K, L> ProjectedMidpoint<V, Ms, H, C, K, L>
+impl<V, Sys, K, L> ProjectedMidpoint<V, Sys, K, L>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     K: Hamiltonian<V>,
     L: LinearSolver<V::Real>,
 {
@@ -160,12 +158,12 @@ where
     /// [`SetupError::Dimension`] for the cases this path does not cover — the non-degenerate
     /// or coupled case, `2m > n`, no constraints.
     pub fn try_new(
-        system: System<Ms, H, C>,
+        system: Sys,
         inner: K,
         x0: &V,
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
-        let (n, m) = (x0.len(), system.constraint.dim());
+        let (n, m) = (x0.len(), system.constraint().dim());
         let unsupported = |what: &str| {
             Err(SetupError::Dimension {
                 what: format!("ProjectedMidpoint: {what}; use Projected around ImplicitMidpoint"),
@@ -179,7 +177,7 @@ where
             return unsupported("need 2m <= n");
         }
         let (case, _) =
-            check_initial_state::<V, Ms, H, C, L>(&system, x0, &options.initial_checks(), true)?;
+            check_initial_state::<V, Sys, L>(&system, x0, &options.initial_checks(), true)?;
         if case != Case::Degenerate {
             return unsupported("the non-degenerate case (<g,g> invertible)");
         }
@@ -234,7 +232,7 @@ where
     }
 
     /// The system whose constraints are enforced.
-    pub fn system(&self) -> &System<Ms, H, C> {
+    pub fn system(&self) -> &Sys {
         &self.system
     }
 
@@ -267,13 +265,7 @@ where
     /// `d_j = s M(base) G(base)ᵀ e_j` (`M` of them), the directions of a half-step from `base`
     /// scaled by `s`.
     #[inline(always)]
-    fn directions<const M: usize>(
-        system: &System<Ms, H, C>,
-        base: &V,
-        s: V::Real,
-        tmp: &mut V,
-        d: &mut [V],
-    ) {
+    fn directions<const M: usize>(system: &Sys, base: &V, s: V::Real, tmp: &mut V, d: &mut [V]) {
         let mut unit = [V::Real::zero(); M];
         for (j, dj) in d.iter_mut().enumerate() {
             unit[j] = s;
@@ -316,17 +308,17 @@ where
         self.warm.record_lambda_k1(M, h, self.z.as_slice());
         // The decoupling assumption: the second half-step left g where it was.
         let mut g_next = [V::Real::zero(); M];
-        self.system.constraint.residual(&self.w.x_next, &mut g_next);
+        self.system
+            .constraint()
+            .residual(&self.w.x_next, &mut g_next);
         guard(self.guard_tol, &g_next, &g_y)
     }
 }
 
-impl<V, Ms, H, C, K, L> Flow<V> for ProjectedMidpoint<V, Ms, H, C, K, L>
+impl<V, Sys, K, L> Flow<V> for ProjectedMidpoint<V, Sys, K, L>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     K: Hamiltonian<V>,
     L: LinearSolver<V::Real>,
 {
@@ -391,7 +383,7 @@ where
         Some(ProjectedMidpoint::multipliers(self))
     }
     fn dissipates(&self) -> bool {
-        self.system.structure.is_dissipative()
+        self.system.structure().is_dissipative()
     }
 }
 
@@ -417,8 +409,8 @@ fn increment_tolerance<T: Real>(x: &[T], delta0: &[T]) -> T {
 /// The rounding floor of a stiff `h M∇K`, `4ε |h| ‖M ∇²K(x) x‖∞` (a stiff term's gradient
 /// rounds at its Hessian times the state's rounding; as in `IncrementFlow`); `None` without
 /// [`Hamiltonian::hessian_apply`]. `hv`, `out` are scratch.
-fn stiff_floor<V, Ms, H, C, K>(
-    system: &System<Ms, H, C>,
+fn stiff_floor<V, Sys, K>(
+    system: &Sys,
     inner: &K,
     h: V::Real,
     x: &V,
@@ -427,12 +419,12 @@ fn stiff_floor<V, Ms, H, C, K>(
 ) -> Option<V::Real>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
+    Sys: Model<V>,
     K: Hamiltonian<V>,
 {
     if !inner.hessian_apply(x, x, hv) {
         return None;
     }
-    system.structure.apply(x, hv, out);
+    system.structure().apply(x, hv, out);
     Some(V::Real::lit(4.0) * V::Real::epsilon() * h.abs() * ops::norm_inf(out.as_slice()))
 }

@@ -36,9 +36,9 @@ use super::{CompositionTable, Flow, FlowStats, Multipliers};
 use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, SMALL_MAX};
+use crate::system::Model;
 use crate::system::{
-    Case, Hamiltonian, HolonomicConstraint, StructureMatrix, System, check_initial_state,
-    probe_decoupled,
+    Case, HolonomicConstraint, StructureMatrix, check_initial_state, probe_decoupled,
 };
 use crate::vector::{Vector, ops, take};
 use entry::EntryCheck;
@@ -87,9 +87,9 @@ struct Work<V: Vector> {
 /// symmetric when `F` is. The multiplier systems are solved by [`Newton`] with the linear solver
 /// `L` (default: the state storage's dense solver); workspace is allocated at construction,
 /// so a step allocates nothing.
-pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
+pub struct Projected<V: Vector, F, Sys, L = <V as Vector>::Solver> {
     inner: F,
-    system: System<Ms, H, C>,
+    system: Sys,
     scheme: Scheme,
     m: usize,
     /// Newton for `λ_k` (decoupled), `(λ_k, λ_{k+1})` (coupled) or `λ` (symmetric).
@@ -108,7 +108,7 @@ pub struct Projected<V: Vector, F, Ms, H, C, L = <V as Vector>::Solver> {
     stats: FlowStats,
 }
 
-impl<V, F, Ms, H, C, L> core::fmt::Debug for Projected<V, F, Ms, H, C, L>
+impl<V, F, Sys, L> core::fmt::Debug for Projected<V, F, Sys, L>
 where
     V: Vector,
 {
@@ -121,13 +121,11 @@ where
     }
 }
 
-impl<V, F, Ms, H, C, L> Projected<V, F, Ms, H, C, L>
+impl<V, F, Sys, L> Projected<V, F, Sys, L>
 where
     V: Vector,
     F: Flow<V>,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     L: LinearSolver<V::Real>,
 {
     /// Builds the projected flow, deciding case and coupling at `x0` unless `options` fix them.
@@ -136,13 +134,13 @@ where
     /// Casimir of `M`); `⟨g,g⟩` neither zero nor invertible; a linear solver too small.
     pub fn try_new(
         mut inner: F,
-        system: System<Ms, H, C>,
+        system: Sys,
         x0: &V,
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
         let (case, pattern) =
-            check_initial_state::<V, Ms, H, C, L>(&system, x0, &options.initial_checks(), true)?;
-        let (n, m) = (x0.len(), system.constraint.dim());
+            check_initial_state::<V, Sys, L>(&system, x0, &options.initial_checks(), true)?;
+        let (n, m) = (x0.len(), system.constraint().dim());
         if case == Case::Degenerate && 2 * m > n {
             return Err(SetupError::Dimension {
                 what: format!(
@@ -231,7 +229,7 @@ where
     }
 
     /// The model.
-    pub fn system(&self) -> &System<Ms, H, C> {
+    pub fn system(&self) -> &Sys {
         &self.system
     }
 
@@ -369,13 +367,11 @@ where
     }
 }
 
-impl<V, F, Ms, H, C, L> Flow<V> for Projected<V, F, Ms, H, C, L>
+impl<V, F, Sys, L> Flow<V> for Projected<V, F, Sys, L>
 where
     V: Vector,
     F: Flow<V>,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     L: LinearSolver<V::Real>,
 {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
@@ -431,7 +427,7 @@ where
     }
     /// The inner flow dissipates, or the half-steps do: `M Gᵀλ` has a dissipative part when `M` has.
     fn dissipates(&self) -> bool {
-        self.inner.dissipates() || self.system.structure.is_dissipative()
+        self.inner.dissipates() || self.system.structure().is_dissipative()
     }
 }
 

@@ -7,9 +7,8 @@ use crate::error::NewtonError;
 use crate::error::StepError;
 use crate::flow::Flow;
 use crate::nonlinear::{NewtonOptions, NonlinearProblem, SMALL_MAX, SmallNewton, SolveReport};
-use crate::system::{
-    Hamiltonian, HolonomicConstraint, StructureMatrix, System, half_step_keeps_jacobian,
-};
+use crate::system::Model;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, half_step_keeps_jacobian};
 use crate::vector::{Vector, ops};
 use num_traits::Zero;
 
@@ -37,21 +36,19 @@ pub(super) struct SmallPath<V: Vector> {
 impl<V: Vector> SmallPath<V> {
     /// `Some` when the model qualifies at `x0`: at most [`SMALL_MAX`] constraints and a
     /// Hamiltonian that answers [`Hamiltonian::hessian_apply`].
-    pub(super) fn try_new<Ms, H, C>(
-        system: &System<Ms, H, C>,
+    pub(super) fn try_new<Sys>(
+        system: &Sys,
         x0: &V,
         options: NewtonOptions<V::Real>,
     ) -> Option<Self>
     where
-        Ms: StructureMatrix<V>,
-        H: Hamiltonian<V>,
-        C: HolonomicConstraint<V>,
+        Sys: Model<V>,
     {
-        let m = system.constraint.dim();
+        let m = system.constraint().dim();
         let newton_k = SmallNewton::new(m, options)?;
         let newton_k1 = SmallNewton::new(m, options)?;
         let mut out = x0.zeros_like();
-        if !system.hamiltonian.hessian_apply(x0, x0, &mut out) {
+        if !system.hamiltonian().hessian_apply(x0, x0, &mut out) {
             return None;
         }
         let affine_k1 = second_half_is_affine(system, x0);
@@ -68,17 +65,15 @@ impl<V: Vector> SmallPath<V> {
 
 /// `φ(y + (h/2) Σ λ_j e_j)` is affine in `λ_{k+1}`: a quadratic `H` with a Hessian, a constant
 /// `M`, and `G` unchanged along the second half-step (probed at `x0`).
-pub(super) fn second_half_is_affine<V, Ms, H, C>(system: &System<Ms, H, C>, x0: &V) -> bool
+pub(super) fn second_half_is_affine<V, Sys>(system: &Sys, x0: &V) -> bool
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     let mut out = x0.zeros_like();
-    system.hamiltonian.is_quadratic()
-        && system.structure.is_constant()
-        && system.hamiltonian.hessian_apply(x0, x0, &mut out)
+    system.hamiltonian().is_quadratic()
+        && system.structure().is_constant()
+        && system.hamiltonian().hessian_apply(x0, x0, &mut out)
         && half_step_keeps_jacobian(system, x0)
 }
 
@@ -202,10 +197,10 @@ where
 /// At `λ = 0` the residual is `φ(y)` itself: no shift along `d` (whose `y + 0 · d` the
 /// compiler must compute), two operations less on the latency chain of the affine solve,
 /// which starts there.
-pub(crate) struct SecondHalf<'a, V: Vector, Ms, H, C, const K: usize> {
+pub(crate) struct SecondHalf<'a, V: Vector, Sys, const K: usize> {
     pub(crate) h: V::Real,
     pub(crate) y: &'a V,
-    pub(crate) system: &'a System<Ms, H, C>,
+    pub(crate) system: &'a Sys,
     /// The half-step directions `(h/2) M Gᵀ(y) e_j`.
     pub(crate) d: &'a [V; K],
     pub(crate) x_next: &'a mut V,
@@ -213,12 +208,10 @@ pub(crate) struct SecondHalf<'a, V: Vector, Ms, H, C, const K: usize> {
     pub(crate) t2: &'a mut V,
 }
 
-impl<V, Ms, H, C, const K: usize> NonlinearProblem<V::Real> for SecondHalf<'_, V, Ms, H, C, K>
+impl<V, Sys, const K: usize> NonlinearProblem<V::Real> for SecondHalf<'_, V, Sys, K>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     type Error = StepError;
 
@@ -256,13 +249,14 @@ where
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
         let sys = self.system;
         if !sys
-            .hamiltonian
+            .hamiltonian()
             .hessian_apply(&*self.x_next, &self.d[j], self.t1)
         {
             return false;
         }
-        sys.structure.apply(&*self.x_next, &*self.t1, self.t2);
-        sys.constraint.jacobian_apply(&*self.x_next, &*self.t2, out);
+        sys.structure().apply(&*self.x_next, &*self.t1, self.t2);
+        sys.constraint()
+            .jacobian_apply(&*self.x_next, &*self.t2, out);
         true
     }
 }
@@ -272,17 +266,15 @@ where
 /// not read) — forming `x_{k+1}` at the solution, where that solve does not evaluate — and by
 /// full Newton otherwise (`x_{k+1}` from its last evaluation).
 #[inline(always)]
-pub(crate) fn solve_second_half<V, Ms, H, C, const K: usize>(
+pub(crate) fn solve_second_half<V, Sys, const K: usize>(
     newton: &SmallNewton<V::Real>,
     affine: bool,
-    problem: &mut SecondHalf<'_, V, Ms, H, C, K>,
+    problem: &mut SecondHalf<'_, V, Sys, K>,
     z: &mut [V::Real; K],
 ) -> Result<SolveReport<V::Real>, NewtonError<StepError>>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     if affine {
         // From zero: the closed form `λ_{k+1} = −J⁻¹ φ(y)`, any start giving the same root.

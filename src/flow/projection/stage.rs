@@ -6,7 +6,8 @@ use crate::error::StepError;
 use crate::flow::Flow;
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::Model;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
@@ -25,13 +26,13 @@ pub(super) enum Mode {
 }
 
 /// The residual of one multiplier system, borrowing the flow's pieces.
-pub(super) struct Stage<'a, V: Vector, F, Ms, H, C> {
+pub(super) struct Stage<'a, V: Vector, F, Sys> {
     pub(super) mode: Mode,
     pub(super) h: V::Real,
     pub(super) m: usize,
     pub(super) x: &'a V,
     pub(super) inner: &'a mut F,
-    pub(super) system: &'a System<Ms, H, C>,
+    pub(super) system: &'a Sys,
     pub(super) y: &'a mut V,
     pub(super) x_next: &'a mut V,
     pub(super) t1: &'a mut V,
@@ -46,13 +47,11 @@ pub(super) struct Stage<'a, V: Vector, F, Ms, H, C> {
     pub(super) fixed_point_tol: V::Real,
 }
 
-impl<V, F, Ms, H, C> Stage<'_, V, F, Ms, H, C>
+impl<V, F, Sys> Stage<'_, V, F, Sys>
 where
     V: Vector,
     F: Flow<V>,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     /// `y = Φ_h(x + h/2 M(x) G(x)ᵀ a)`, reusing the last `y` when `a` is unchanged.
     fn compute_y(&mut self, a: &[V::Real]) -> Result<(), StepError> {
@@ -138,13 +137,11 @@ where
     }
 }
 
-impl<V, F, Ms, H, C> NonlinearProblem<V::Real> for Stage<'_, V, F, Ms, H, C>
+impl<V, F, Sys> NonlinearProblem<V::Real> for Stage<'_, V, F, Sys>
 where
     V: Vector,
     F: Flow<V>,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     type Error = StepError;
 
@@ -202,30 +199,31 @@ where
         if mode == Mode::LambdaK {
             sys.constraint_force(x, e, self.t1, self.t2);
             if !sys
-                .hamiltonian
+                .hamiltonian()
                 .hessian_apply(self.x, &*self.t2, self.hess_v)
             {
                 return false;
             }
-            sys.structure.apply(self.x, &*self.hess_v, self.m_hess_v);
+            sys.structure().apply(self.x, &*self.hess_v, self.m_hess_v);
             ops::add_scaled(
                 self.hess_v.as_mut_slice(),
                 self.t2.as_slice(),
                 h,
                 self.m_hess_v.as_slice(),
             );
-            sys.constraint.jacobian_apply(&*self.y, &*self.hess_v, out);
+            sys.constraint()
+                .jacobian_apply(&*self.y, &*self.hess_v, out);
         } else {
             sys.constraint_force(&*self.y, e, self.t1, self.t2);
             if !sys
-                .hamiltonian
+                .hamiltonian()
                 .hessian_apply(&*self.x_next, &*self.t2, self.hess_v)
             {
                 return false;
             }
-            sys.structure
+            sys.structure()
                 .apply(&*self.x_next, &*self.hess_v, self.m_hess_v);
-            sys.constraint
+            sys.constraint()
                 .jacobian_apply(&*self.x_next, &*self.m_hess_v, out);
         }
         out.iter_mut().for_each(|v| *v = *v * half);
@@ -237,7 +235,7 @@ where
         match self.mode {
             Mode::LambdaK => {
                 self.compute_y(z)?;
-                self.system.constraint.residual(&*self.y, f);
+                self.system.constraint().residual(&*self.y, f);
                 for (g, &v) in self.g_y.as_mut_slice().iter_mut().zip(&*f) {
                     *g = v;
                 }
@@ -250,7 +248,7 @@ where
                 self.compute_y(&z[..m])?;
                 self.end_point_implicit(&z[m..])?;
                 let (fg, fp) = f.split_at_mut(m);
-                self.system.constraint.residual(&*self.x_next, fg);
+                self.system.constraint().residual(&*self.x_next, fg);
                 // g-rows of the Jacobian scale like h², φ-rows like h: g/h puts every row on the
                 // scale h that `jacobian_scale` reports (and asks |g| ≤ |h| ftol).
                 let inv_h = V::Real::one() / self.h;
@@ -260,7 +258,7 @@ where
             Mode::Symmetric => {
                 self.compute_y(z)?;
                 self.end_point_implicit(z)?;
-                self.system.constraint.residual(&*self.x_next, f);
+                self.system.constraint().residual(&*self.x_next, f);
             }
         }
         Ok(())

@@ -91,7 +91,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                 // The midpoint increment and λ_k are solved as one Newton system
                 // (ProjectedMidpoint: the same map as Projected around ImplicitMidpoint).
                 Method::Modified => {
-                    let p = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+                    let p = ProjectedMidpoint::<V, _, _>::try_new(
                         paper::system(),
                         paper::modified_energy(),
                         &x0,
@@ -104,7 +104,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                     )
                 }
                 Method::Midpoint => {
-                    let p = ProjectedMidpoint::<V, _, _, _, _>::try_new(
+                    let p = ProjectedMidpoint::<V, _, _>::try_new(
                         paper::system(),
                         paper::Energy,
                         &x0,

@@ -160,7 +160,7 @@ pub(super) fn scheme_flow(
             let options = projection_options(model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
             Box::new(
-                ConstrainedDiscreteGradient::<Col<f64>, _, _, _>::try_new(system, x0, options)
+                ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system, x0, options)
                     .map_err(setup)?,
             )
         }
@@ -190,7 +190,7 @@ pub(super) fn scheme_flow(
             // a dense (n + m)-square matrix at every step, so only up to DENSE_MAX_DIM
             // unknowns); nested solves otherwise.
             let joint = if m <= SMALL_MAX || x0.nrows() + m <= DENSE_MAX_DIM {
-                match ProjectedMidpoint::<Col<f64>, _, _, _, _>::try_new(
+                match ProjectedMidpoint::<Col<f64>, _, _>::try_new(
                     system(),
                     model.clone(),
                     x0,
@@ -374,16 +374,13 @@ pub fn splitting_flow<V: Vector + 'static>(
     }
 }
 
+/// A scene model as a [`System`] (the three parts share one model).
+type SceneSystem<T> = System<Arc<SceneModel<T>>, Arc<SceneModel<T>>, Arc<SceneModel<T>>>;
+
 /// A scene's projected flow, composed and boxed, with its description and what it assembled.
 #[allow(clippy::type_complexity)]
 pub(super) fn boxed_projection<V, F>(
-    p: Projected<
-        V,
-        F,
-        Arc<SceneModel<V::Real>>,
-        Arc<SceneModel<V::Real>>,
-        Arc<SceneModel<V::Real>>,
-    >,
+    p: Projected<V, F, SceneSystem<V::Real>>,
     table: Option<&'static CompositionTable>,
     backward: bool,
     name: &'static str,

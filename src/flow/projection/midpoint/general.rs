@@ -8,7 +8,8 @@ use crate::flow::projection::{Hidden, STAGE_LAMBDA_K1};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver};
 use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::Model;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::{Vector, ops};
 use nalgebra::DVector;
 use num_traits::Float as _;
@@ -56,10 +57,10 @@ impl<T: Real> General<T> {
 
 /// `F(δ, λ) = (δ − h M(x̄) ∇K(x̄),  g(y))` with `x̂ = x + (h/2) M(x) G(x)ᵀ λ`, `x̄ = x̂ + δ/2`,
 /// `y = x̂ + δ`: the midpoint rule's increment and the constraint at its end, as one system.
-struct Joint<'a, V: Vector, Ms, H, C, K> {
+struct Joint<'a, V: Vector, Sys, K> {
     h: V::Real,
     x: &'a V,
-    system: &'a System<Ms, H, C>,
+    system: &'a Sys,
     inner: &'a K,
     /// The tolerance of the increment rows over 4 (their noise floor, see `noise_floor`).
     noise: V::Real,
@@ -76,12 +77,10 @@ struct Joint<'a, V: Vector, Ms, H, C, K> {
     g: &'a mut [V::Real],
 }
 
-impl<V, Ms, H, C, K> Joint<'_, V, Ms, H, C, K>
+impl<V, Sys, K> Joint<'_, V, Sys, K>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     K: Hamiltonian<V>,
 {
     /// `x̂`, `x̄`, `y` of `z = (δ, λ)`, and `f = M(x̄) ∇K(x̄)` (gradient in `grad`).
@@ -108,16 +107,14 @@ where
         );
         ops::add_scaled(self.y.as_mut_slice(), self.xhat.as_slice(), one, delta);
         self.inner.gradient(self.xbar, self.grad);
-        self.system.structure.apply(self.xbar, self.grad, self.f);
+        self.system.structure().apply(self.xbar, self.grad, self.f);
     }
 }
 
-impl<V, Ms, H, C, K> NonlinearProblem<V::Real> for Joint<'_, V, Ms, H, C, K>
+impl<V, Sys, K> NonlinearProblem<V::Real> for Joint<'_, V, Sys, K>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     K: Hamiltonian<V>,
 {
     type Error = StepError;
@@ -140,7 +137,7 @@ where
         for ((r, &d), &f) in r1.iter_mut().zip(&z[..n]).zip(self.f.as_slice()) {
             *r = d - self.h * f;
         }
-        self.system.constraint.residual(self.y, r2);
+        self.system.constraint().residual(self.y, r2);
         self.g.copy_from_slice(r2);
         Ok(())
     }
@@ -167,8 +164,8 @@ where
         if !self.inner.hessian_apply(self.xbar, self.t1, self.hv) {
             return false;
         }
-        self.system.structure.apply(self.xbar, self.hv, self.t2);
-        if !self.system.structure.derivative_apply_add(
+        self.system.structure().apply(self.xbar, self.hv, self.t2);
+        if !self.system.structure().derivative_apply_add(
             self.xbar,
             self.t1,
             self.grad,
@@ -192,17 +189,15 @@ where
                 *o = -self.h * t;
             }
         }
-        self.system.constraint.jacobian_apply(self.y, self.t1, c2);
+        self.system.constraint().jacobian_apply(self.y, self.t1, c2);
         true
     }
 }
 
-impl<V, Ms, H, C, K, L> ProjectedMidpoint<V, Ms, H, C, K, L>
+impl<V, Sys, K, L> ProjectedMidpoint<V, Sys, K, L>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     K: Hamiltonian<V>,
     L: LinearSolver<V::Real>,
 {
@@ -284,7 +279,7 @@ where
         self.warm.record_lambda_k1(m, h, self.z.as_slice());
         // The decoupling assumption: the second half-step left g where it was.
         self.system
-            .constraint
+            .constraint()
             .residual(&w.x_next, &mut general.g_next);
         guard(self.guard_tol, &general.g_next, &general.g_y)
     }

@@ -7,23 +7,22 @@ use crate::flow::projection::small::{fixed, fixed_mut, half_step};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{SolveReport, solve_dense};
 use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, System};
+use crate::system::Model;
+use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::{One, Zero};
 
-impl<V, Ms, H, C, K, L> ProjectedMidpoint<V, Ms, H, C, K, L>
+impl<V, Sys, K, L> ProjectedMidpoint<V, Sys, K, L>
 where
     V: Vector,
-    Ms: StructureMatrix<V>,
-    H: Hamiltonian<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
     K: Hamiltonian<V>,
     L: LinearSolver<V::Real>,
 {
     /// `f = M(x̄) ∇K(x̄)` at `x̄ = x̂ + δ/2` (left in `w.xbar`, `w.grad`, `w.f`).
     #[inline(always)]
-    fn field(system: &System<Ms, H, C>, inner: &K, w: &mut Work<V>) {
+    fn field(system: &Sys, inner: &K, w: &mut Work<V>) {
         ops::add_scaled(
             w.xbar.as_mut_slice(),
             w.xhat.as_slice(),
@@ -31,7 +30,7 @@ where
             w.delta.as_slice(),
         );
         inner.gradient(&w.xbar, &mut w.grad);
-        system.structure.apply(&w.xbar, &w.grad, &mut w.f);
+        system.structure().apply(&w.xbar, &w.grad, &mut w.f);
     }
 
     /// Builds and factors `A = I − (h/2) D(M∇K)(x̄)` at the current `x̄` (where `w.grad` and
@@ -52,8 +51,8 @@ where
             ops::fill_zero(w.t1.as_mut_slice());
             w.t1.as_mut_slice()[j] = V::Real::one();
             let exact = inner.hessian_apply(&w.xbar, &w.t1, &mut w.hv) && {
-                system.structure.apply(&w.xbar, &w.hv, &mut w.t2);
-                system.structure.derivative_apply_add(
+                system.structure().apply(&w.xbar, &w.hv, &mut w.t2);
+                system.structure().derivative_apply_add(
                     &w.xbar,
                     &w.t1,
                     &w.grad,
@@ -68,7 +67,7 @@ where
                 w.t1.as_mut_slice()[j] = xj + eta;
                 let eta = w.t1.as_slice()[j] - xj;
                 inner.gradient(&w.t1, &mut w.hv);
-                system.structure.apply(&w.t1, &w.hv, &mut w.t2);
+                system.structure().apply(&w.t1, &w.hv, &mut w.t2);
                 for (t, &f) in w.t2.as_mut_slice().iter_mut().zip(w.f.as_slice()) {
                     *t = (*t - f) / eta;
                 }
@@ -100,7 +99,7 @@ where
             for (ci, &di) in c.as_mut_slice().iter_mut().zip(d.as_slice()) {
                 *ci = h * *ci - half * di;
             }
-            system.constraint.jacobian_apply(&w.y, c, &mut col);
+            system.constraint().jacobian_apply(&w.y, c, &mut col);
             for (row, &v) in s.iter_mut().zip(&col) {
                 row[j] = v;
             }
@@ -131,7 +130,7 @@ where
             let w = &mut self.w;
             half_step(&mut w.xhat, x, half, &lam, fixed::<V, M>(&w.d));
             self.inner.gradient(&w.xhat, &mut w.grad);
-            self.system.structure.apply(&w.xhat, &w.grad, &mut w.f);
+            self.system.structure().apply(&w.xhat, &w.grad, &mut w.f);
             for (d, &f) in w.delta.as_mut_slice().iter_mut().zip(w.f.as_slice()) {
                 *d = h * f;
             }
@@ -169,7 +168,7 @@ where
                 one,
                 w.delta.as_slice(),
             );
-            self.system.constraint.residual(&w.y, &mut g);
+            self.system.constraint().residual(&w.y, &mut g);
             report.residual_evaluations += 1;
             let (n1, n2) = (ops::norm_inf(w.r1.as_slice()), ops::norm_inf(&g));
             if !(n1.is_finite() && n2.is_finite()) {
@@ -213,7 +212,9 @@ where
                 .solve_in_place(w.r1.as_mut_slice())
                 .map_err(|e| fail(NewtonError::Linear(e)))?;
             let mut dl = [V::Real::zero(); M];
-            self.system.constraint.jacobian_apply(&w.y, &w.r1, &mut dl);
+            self.system
+                .constraint()
+                .jacobian_apply(&w.y, &w.r1, &mut dl);
             for (v, &gi) in dl.iter_mut().zip(&g) {
                 *v = *v - gi;
             }
@@ -254,7 +255,7 @@ where
                     one,
                     w.delta.as_slice(),
                 );
-                self.system.constraint.residual(&w.y, &mut g);
+                self.system.constraint().residual(&w.y, &mut g);
                 let n2 = ops::norm_inf(&g);
                 if n2 <= opts.ftol {
                     return Ok(self.accept(report, n2, lam, g));
