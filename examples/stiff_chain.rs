@@ -107,16 +107,21 @@ fn run(model: &SpringChain<f64>, scheme: &str, x0: &V, dt: f64, steps: usize) ->
         err_vs_exact: 0.0,
         x: x0.clone(),
     };
+    let mut stepper = Stepper::new(&mut flow, &mut x, 0.0, dt).unwrap_or_else(|e| fatal(&e));
     for k in 0..steps {
-        if let Err(e) = flow.step(dt, &mut x) {
+        // The stepper undoes a step that leaves the state non-finite (an explicit scheme past
+        // its stability limit) and says so.
+        if let Err(e) = stepper.step() {
             out.status = match e {
                 StepError::BackwardDissipation { .. } => format!("refused at step {k}: {e}"),
+                StepError::NonFinite { .. } => format!("blew up at step {k}: {e}"),
                 _ => format!("failed at step {k}: {e}"),
             };
             break;
         }
+        let x = stepper.state();
         exact.step(dt, &mut xe).unwrap_or_else(|e| fatal(&e));
-        let e = model.energy(&x);
+        let e = model.energy(x);
         if !e.is_finite() {
             out.status = format!("blew up at step {k}: energy {e}");
             out.energy = e;
@@ -135,6 +140,7 @@ fn run(model: &SpringChain<f64>, scheme: &str, x0: &V, dt: f64, steps: usize) ->
                 .fold(0.0, f64::max),
         );
     }
+    drop(stepper);
     out.x = x;
     out
 }

@@ -1,7 +1,7 @@
 //! The list of cases with the bounds each is judged by, and the hostile inputs.
 
 use super::{
-    Case, Check, EnergyRule, Expect, Kind, Row,
+    Check, EnergyRule, Expect, Kind, Row, StressCase,
     scenes::{
         alternating, chain_scene, damped_chain_scene, stiff_spring_among_pins_scene,
         stiff_spring_scene, taut_chain_scene,
@@ -20,8 +20,8 @@ pub(super) fn scene_case(
     source: &'static str,
     text: String,
     expect: Expect,
-) -> Case {
-    Case {
+) -> StressCase {
+    StressCase {
         name,
         about,
         source,
@@ -31,31 +31,31 @@ pub(super) fn scene_case(
 }
 
 /// The suite: the fast cases, then (marked `long`) the 10⁷-step runs.
-pub fn cases() -> Vec<Case> {
+pub fn cases() -> Vec<StressCase> {
     let kick = 3.0 * (9.81f64 * 0.01 / 2.0).powi(2) / 2.0;
     let mut v = vec![
-        Case {
+        StressCase {
             name: "fekete",
             about: "20 particles on the unit sphere, log repulsion, damping 0.5, t in [0, 1000]",
             source: "IVP test set (Bari), Fekete problem",
             long: false,
             kind: Kind::Fekete,
         },
-        Case {
+        StressCase {
             name: "andrews",
             about: "7 bodies, 6 loop closures, position-dependent mass matrix, t in [0, 0.03]",
             source: "IVP test set (Bari), Andrews' squeezing mechanism",
             long: false,
             kind: Kind::Andrews,
         },
-        Case {
+        StressCase {
             name: "n-four-bar",
             about: "40 four-bar windows (81 bars) through the horizontal, rank-deficient position, 10 s",
             source: "IFToMM multibody benchmark A02",
             long: false,
             kind: Kind::FourBar,
         },
-        Case {
+        StressCase {
             name: "bricard",
             about: "Bricard's over-constrained linkage (24 equations of rank 23, one degree of freedom Grubler's count denies) from rest under gravity, the dependent row dropped, 10 s",
             source: "IFToMM multibody benchmark A04",
@@ -199,7 +199,7 @@ pub fn cases() -> Vec<Case> {
                 energy: EnergyRule::Bounded { rel: 1e-5 },
             },
         ),
-        Case {
+        StressCase {
             name: "hostile-input",
             about: "NaN, infinite, zero and negative parameters, steps and states: typed, located errors",
             source: "hostile input",
@@ -207,7 +207,7 @@ pub fn cases() -> Vec<Case> {
             kind: Kind::Hostile,
         },
     ];
-    v.push(Case {
+    v.push(StressCase {
         name: "paper-1e7",
         about: "the paper's example, 1e7 steps of h = 0.1",
         source: "Zhang & Deng (2004), section 4; very long runs",
@@ -222,7 +222,7 @@ pub fn cases() -> Vec<Case> {
             },
         },
     });
-    v.push(Case {
+    v.push(StressCase {
         name: "spherical-pendulum-1e7",
         about: "the spherical pendulum, 1e7 steps of h = 0.01",
         source: "very long runs",

@@ -5,9 +5,9 @@
 //! level and its energy behaving, or stop with a typed error. `lieflow stress` prints the rows;
 //! `tests/stress.rs` asserts them.
 //!
-//! Every case is a [`Case`]; [`run_case`] runs it and returns a [`Row`] whose
+//! Every case is a [`StressCase`]; [`run_case`] runs it and returns a [`Row`] whose
 //! [`passed`](Row::passed) says whether every check held. The long cases (10⁷ steps) are
-//! marked [`Case::long`].
+//! marked [`StressCase::long`].
 
 mod cases;
 mod fekete;
@@ -75,7 +75,7 @@ pub enum EnergyRule {
 
 /// One case of the suite.
 #[derive(Debug, Clone)]
-pub struct Case {
+pub struct StressCase {
     /// Short name (the command's `--case` filter).
     pub name: &'static str,
     /// What it exercises.
@@ -250,7 +250,7 @@ fn energy_check(rule: EnergyRule, m: &Measured) -> Check {
 }
 
 /// Runs one case.
-pub fn run_case(case: &Case) -> Row {
+pub fn run_case(case: &StressCase) -> Row {
     let start = Instant::now();
     let mut row = match &case.kind {
         Kind::Scene { text, expect } => run_scene_case(case.name, text, *expect),

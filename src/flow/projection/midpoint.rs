@@ -102,7 +102,7 @@ pub struct ProjectedMidpoint<V: Vector, Sys, K, L = <V as Vector>::Solver> {
     guard_tol: V::Real,
     /// The midpoint rule's Newton matrix `A`, factored.
     lu: L,
-    w: Work<V>,
+    w: MidpointWork<V>,
     /// `(λ_k, λ_{k+1})` of the step in progress.
     z: V,
     warm: WarmStart<V>,
@@ -111,7 +111,7 @@ pub struct ProjectedMidpoint<V: Vector, Sys, K, L = <V as Vector>::Solver> {
 }
 
 /// Workspace (allocated at construction).
-struct Work<V> {
+struct MidpointWork<V> {
     /// `d_j = M Gᵀ e_j` at the half-step's base point (`x`, then `y`).
     d: Vec<V>,
     /// `c_j = (h/2)(2A⁻¹ − I) d_j`.
@@ -198,7 +198,7 @@ where
         };
         let small = if general.is_none() { m } else { 0 };
         let zeros = x0.zeros_like();
-        let w = Work {
+        let w = MidpointWork {
             d: vec![zeros.clone(); small],
             c: vec![zeros.clone(); small],
             delta: zeros.clone(),

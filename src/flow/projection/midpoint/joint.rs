@@ -1,7 +1,9 @@
 //! [`ProjectedMidpoint`]'s small path: the midpoint increment `δ` and `λ_k` as one Newton
 //! system on `n + m` unknowns, with its closed-form dense matrix.
 
-use super::{NOISE_FACTOR, ProjectedMidpoint, STAGE_JOINT, Work, increment_tolerance, stiff_floor};
+use super::{
+    MidpointWork, NOISE_FACTOR, ProjectedMidpoint, STAGE_JOINT, increment_tolerance, stiff_floor,
+};
 use crate::error::{LinearSolveError, NewtonError, StepError};
 use crate::flow::projection::small::{fixed, fixed_mut, half_step};
 use crate::linalg::LinearSolver;
@@ -22,7 +24,7 @@ where
 {
     /// `f = M(x̄) ∇K(x̄)` at `x̄ = x̂ + δ/2` (left in `w.xbar`, `w.grad`, `w.f`).
     #[inline(always)]
-    fn field(system: &Sys, inner: &K, w: &mut Work<V>) {
+    fn field(system: &Sys, inner: &K, w: &mut MidpointWork<V>) {
         ops::add_scaled(
             w.xbar.as_mut_slice(),
             w.xhat.as_slice(),
