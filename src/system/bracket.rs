@@ -62,7 +62,8 @@ where
     out
 }
 
-/// Bracket computations for one [`System`]: `⟨g,g⟩`, `⟨g,H⟩ = φ`, `⟨φ,g⟩`, `⟨φ,H⟩`, the case, and
+/// Bracket computations for one model ([`Model`], e.g. a [`System`](super::System)): `⟨g,g⟩`,
+/// `⟨g,H⟩ = φ`, `⟨φ,g⟩`, `⟨φ,H⟩`, the case, and
 /// the modified-Hamiltonian multiplier `μ`.
 ///
 /// Brackets with `g` on the right and `g` or `H` on the left are exact. Those with the hidden

@@ -15,7 +15,7 @@ pub enum Coupling {
     Coupled,
 }
 
-/// The variant a [`Projected`] flow runs, resolved at construction.
+/// The variant a [`Projected`](super::Projected) flow runs, resolved at construction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scheme {
     /// Degenerate case, decoupled solves (RATTLE-like).
@@ -26,7 +26,7 @@ pub enum Scheme {
     Symmetric,
 }
 
-/// Options of [`Projected`].
+/// Options of [`Projected`](super::Projected).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
 pub struct ProjectionOptions<T> {
@@ -44,7 +44,7 @@ pub struct ProjectionOptions<T> {
     /// Iteration limit of the fixed point for the implicit end point. Default 50.
     pub fixed_point_max_iterations: usize,
     /// The initial state must satisfy `‖g(x₀)‖∞ ≤ manifold_tol` (and `‖φ(x₀)‖∞ ≤ manifold_tol` in
-    /// the degenerate case), or construction fails with [`SetupError::OffManifold`]: the
+    /// the degenerate case), or construction fails with [`SetupError::OffManifold`](crate::error::SetupError::OffManifold): the
     /// scheme's symmetry and invariants hold on the manifold. So must every state a step starts
     /// from that is not the flow's own last result (a state changed between steps by the
     /// caller), or the step fails with [`StepError::OffManifold`](crate::StepError::OffManifold)

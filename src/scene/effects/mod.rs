@@ -2,9 +2,9 @@
 //! struct), its checks, the term it assembles and that term's value, gradient and Hessian
 //! product (a potential) or its per-body coefficients (a term of `M`), and its switch.
 //!
-//! **Adding an effect** is one new file here and one line in the [`effects!`] list below (two
-//! for a potential that brings a new kind of term: its line in [`potentials!`] too). The file
-//! implements [`Effect`] for its spec; a potential term implements [`PotentialOps`]. Terms of
+//! **Adding an effect** is one new file here and one line in the `effects!` list below (two
+//! for a potential that brings a new kind of term: its line in `potentials!` too). The file
+//! implements `Effect` for its spec; a potential term implements `PotentialOps`. Terms of
 //! `M` (damping, the magnetic field) add per-body coefficients that the model merges, because
 //! their flows do not commute: the kinetic flow under all of them is solved at once in closed
 //! form (`model/flight.rs`).

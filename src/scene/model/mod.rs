@@ -34,8 +34,9 @@ use crate::real::Real;
 pub(crate) use crate::scene::counter::Counter;
 use std::time::Instant;
 
-/// A scene's assembled model. It implements [`Hamiltonian`], [`StructureMatrix`] and
-/// [`HolonomicConstraint`] with only the declared terms, and provides the exact sub-flows
+/// A scene's assembled model. It implements [`Hamiltonian`](crate::Hamiltonian),
+/// [`StructureMatrix`](crate::StructureMatrix) and
+/// [`HolonomicConstraint`](crate::HolonomicConstraint) with only the declared terms, and provides the exact sub-flows
 /// ([`kick`](Self::kick), [`free_flight`](Self::free_flight)).
 #[derive(Debug)]
 pub struct SceneModel<T = f64> {
