@@ -108,12 +108,16 @@ where
     let mut newton_prev = flow.stats().newton_iterations;
     let mut stepper = match crate::Stepper::new(flow, &mut *x, 0.0, h) {
         Ok(s) => s,
-        Err(crate::IntegrateError::NonFiniteInitialState { component }) => {
-            run.error = Some(crate::error::StepError::NonFinite { component });
+        Err(e) => {
+            run.error = Some(match e {
+                crate::IntegrateError::NonFiniteInitialState { component } => {
+                    crate::error::StepError::NonFinite { component }
+                }
+                crate::IntegrateError::Step { source, .. } => source,
+            });
             run.finite = false;
             return run;
         }
-        Err(_) => unreachable!("a new stepper fails only on its initial state"),
     };
     for k in 0..steps {
         if let Err(e) = stepper.step() {

@@ -158,3 +158,25 @@ named_enum! {
         Residuals = "residuals",
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Method;
+
+    /// Every named composition resolves to the coefficient table of the same name (a name that
+    /// did not would silently run Strang).
+    #[test]
+    fn named_compositions_resolve_to_their_tables() {
+        for &m in Method::ALL {
+            let table = m.composition();
+            match m {
+                Method::Auto
+                | Method::Strang
+                | Method::DiscreteGradient
+                | Method::Midpoint
+                | Method::Modified => assert!(table.is_none(), "{m}"),
+                _ => assert_eq!(table.map(|t| t.name), Some(m.name()), "{m}"),
+            }
+        }
+    }
+}

@@ -25,9 +25,6 @@ pub struct DampingSpec {
 
 impl Effect for DampingSpec {
     const FLAG: Flag = Flag::Damping;
-    fn label(&self) -> Option<&String> {
-        self.name.as_ref()
-    }
     fn assemble(
         &self,
         cx: &mut Assembler<'_>,

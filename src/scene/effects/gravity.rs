@@ -30,9 +30,6 @@ pub(crate) struct Gravity<T> {
 
 impl Effect for GravitySpec {
     const FLAG: Flag = Flag::Gravity;
-    fn label(&self) -> Option<&String> {
-        self.name.as_ref()
-    }
     fn assemble(
         &self,
         cx: &mut Assembler<'_>,

@@ -25,9 +25,6 @@ pub struct MagneticSpec {
 
 impl Effect for MagneticSpec {
     const FLAG: Flag = Flag::Magnetic;
-    fn label(&self) -> Option<&String> {
-        self.name.as_ref()
-    }
     fn assemble(
         &self,
         cx: &mut Assembler<'_>,

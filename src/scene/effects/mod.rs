@@ -52,12 +52,11 @@ pub(crate) struct Assembler<'a> {
     pub(crate) magnetic_labels: Vec<String>,
 }
 
-/// What an effect file provides for its table in the scene file.
+/// What an effect file provides for its table in the scene file (whose struct also has the
+/// label in summaries, `name: Option<String>`, read by the `effects!` list).
 pub(crate) trait Effect {
     /// Its switch in `[flags]`.
     const FLAG: Flag;
-    /// Its `name`, if the file gives one.
-    fn label(&self) -> Option<&String>;
     /// Checks the declaration (also when it is switched off: a flag must not hide an error in
     /// the file) and returns its potential term, or, when `on`, adds its per-body coefficients
     /// to `cx` (a term of `M`) and returns `None`.
@@ -131,7 +130,7 @@ macro_rules! effects {
             /// Its `name`, if the file gives one.
             pub fn label(&self) -> Option<&String> {
                 match self {
-                    $( EffectSpec::$Variant(s) => s.label(), )+
+                    $( EffectSpec::$Variant(s) => s.name.as_ref(), )+
                 }
             }
             pub(crate) fn assemble(

@@ -42,9 +42,6 @@ pub struct PairSpec {
 
 impl Effect for PairSpec {
     const FLAG: Flag = Flag::Pair;
-    fn label(&self) -> Option<&String> {
-        self.name.as_ref()
-    }
     fn assemble(
         &self,
         cx: &mut Assembler<'_>,

@@ -27,9 +27,6 @@ pub struct SpringSpec {
 
 impl Effect for SpringSpec {
     const FLAG: Flag = Flag::Springs;
-    fn label(&self) -> Option<&String> {
-        self.name.as_ref()
-    }
     fn assemble(
         &self,
         cx: &mut Assembler<'_>,

@@ -35,9 +35,6 @@ pub(crate) struct Trap<T> {
 
 impl Effect for TrapSpec {
     const FLAG: Flag = Flag::Trap;
-    fn label(&self) -> Option<&String> {
-        self.name.as_ref()
-    }
     fn assemble(
         &self,
         cx: &mut Assembler<'_>,
