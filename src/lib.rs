@@ -60,6 +60,7 @@ pub mod linalg;
 pub mod models;
 pub mod nonlinear;
 pub mod observe;
+pub mod port;
 mod real;
 #[cfg(feature = "scene")]
 pub mod scene;

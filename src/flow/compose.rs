@@ -1,4 +1,4 @@
-use super::{CompositionTable, EXACT, Flow, FlowStats, Multipliers};
+use super::{CompositionTable, EXACT, Flow, FlowStats, Ledger, Multipliers};
 use crate::error::StepError;
 use crate::real::Real;
 use crate::vector::Vector;
@@ -24,11 +24,31 @@ impl<V: Vector, A, B> Then<V, A, B> {
 
 impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Then<V, A, B> {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.step_at(&mut Ledger::default(), h, x)
+    }
+    #[inline]
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
         let guard = self.b.is_fallible();
-        self.backup.run(guard, x, |x| {
-            self.a.step(h, x)?;
-            self.b.step(h, x)
-        })
+        let start = *ledger;
+        self.backup
+            .run(guard, x, |x| {
+                self.a.step_at(ledger, h, x)?;
+                self.b.step_at(ledger, h, x)
+            })
+            .inspect_err(|_| *ledger = start)
+    }
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.a.save_memory(out);
+        self.b.save_memory(out);
+    }
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.a.restore_memory(from);
+        self.b.restore_memory(from);
     }
     fn is_fallible(&self) -> bool {
         self.a.is_fallible() || self.b.is_fallible()
@@ -82,13 +102,33 @@ impl<V: Vector, A, B> Strang<V, A, B> {
 impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
     #[inline]
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.step_at(&mut Ledger::default(), h, x)
+    }
+    #[inline]
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
         let half = h * V::Real::lit(0.5);
         let guard = self.is_fallible();
-        self.backup.run(guard, x, |x| {
-            self.a.step(half, x)?;
-            self.b.step(h, x)?;
-            self.a.step(half, x)
-        })
+        let start = *ledger;
+        self.backup
+            .run(guard, x, |x| {
+                self.a.step_at(ledger, half, x)?;
+                self.b.step_at(ledger, h, x)?;
+                self.a.step_at(ledger, half, x)
+            })
+            .inspect_err(|_| *ledger = start)
+    }
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.a.save_memory(out);
+        self.b.save_memory(out);
+    }
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.a.restore_memory(from);
+        self.b.restore_memory(from);
     }
     fn is_fallible(&self) -> bool {
         self.a.is_fallible() || self.b.is_fallible()
@@ -170,6 +210,15 @@ impl<V: Vector, F> Composition<V, F> {
 impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
     #[inline]
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.step_at(&mut Ledger::default(), h, x)
+    }
+    #[inline]
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
         let table = self.table;
         if !self.allow_backward_dissipation && self.inner.dissipates() && table.has_negative_steps()
         {
@@ -184,8 +233,16 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
         }
         // A flow whose stages run atomically (the fused projection) restores the state itself.
         let guard = self.inner.is_fallible() && !self.inner.step_table_is_atomic();
+        let start = *ledger;
         self.backup
-            .run(guard, x, |x| self.inner.step_table(h, table, x))
+            .run(guard, x, |x| self.inner.step_table(ledger, h, table, x))
+            .inspect_err(|_| *ledger = start)
+    }
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.inner.save_memory(out);
+    }
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.inner.restore_memory(from);
     }
     fn is_fallible(&self) -> bool {
         self.inner.is_fallible()

@@ -1,4 +1,4 @@
-use super::{EXACT, Flow};
+use super::{EXACT, Flow, Ledger};
 use crate::error::StepError;
 use crate::vector::Vector;
 
@@ -62,6 +62,63 @@ impl<V: Vector, F: FnMut(V::Real, &mut V)> Flow<V> for FnFlow<F> {
     }
     fn is_symmetric(&self) -> bool {
         self.symmetric
+    }
+    fn is_fallible(&self) -> bool {
+        false
+    }
+    fn dissipates(&self) -> bool {
+        self.dissipative
+    }
+}
+
+/// An exact sub-flow from a closure `f(ledger, h, x)` that also advances the extended
+/// coordinates it owns (see [`Ledger`]): a time-dependent closed-form flow reads `ledger.t`
+/// and advances it by `h`; an exact damping flow adds the energy it removed to
+/// `ledger.dissipated`. Built by [`from_fn_at`].
+#[derive(Debug, Clone, Copy)]
+pub struct FnLedgerFlow<F> {
+    f: F,
+    dissipative: bool,
+}
+
+impl<F> FnLedgerFlow<F> {
+    /// Marks the flow as dissipative (see [`FnFlow::dissipative`]).
+    pub fn dissipative(mut self) -> Self {
+        self.dissipative = true;
+        self
+    }
+}
+
+/// An exact sub-flow that keeps a [`Ledger`]: `f(ledger, h, x)` advances `x` by the exact flow
+/// over `[ledger.t, ledger.t + h]` and updates the ledger's coordinates it owns. Order
+/// [`EXACT`], symmetric; `step(h, x)` runs it from a fresh ledger at `t = 0`.
+pub fn from_fn_at<F>(f: F) -> FnLedgerFlow<F> {
+    FnLedgerFlow {
+        f,
+        dissipative: false,
+    }
+}
+
+impl<V: Vector, F: FnMut(&mut Ledger<V::Real>, V::Real, &mut V)> Flow<V> for FnLedgerFlow<F> {
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        (self.f)(&mut Ledger::default(), h, x);
+        Ok(())
+    }
+    #[inline(always)]
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        (self.f)(ledger, h, x);
+        Ok(())
+    }
+    fn order(&self) -> u32 {
+        EXACT
+    }
+    fn is_symmetric(&self) -> bool {
+        true
     }
     fn is_fallible(&self) -> bool {
         false

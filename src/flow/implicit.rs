@@ -345,6 +345,19 @@ where
     R: GradientRule<V, H>,
     L: LinearSolver<V::Real>,
 {
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.newton.invalidate_jacobian();
+        for v in [self.comp.as_slice(), self.last.as_slice()] {
+            out.extend_from_slice(v);
+        }
+    }
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.newton.invalidate_jacobian();
+        for v in [self.comp.as_mut_slice(), self.last.as_mut_slice()] {
+            let saved = crate::flow::take_memory(from, v.len());
+            v[..saved.len()].copy_from_slice(saved);
+        }
+    }
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
         if x.len() != self.start.len() {
             return Err(StepError::StateLength {

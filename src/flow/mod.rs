@@ -13,16 +13,18 @@ mod compose;
 mod constrained_dg;
 mod exact;
 mod implicit;
+mod ledger;
 mod linear;
 mod projection;
 
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};
 pub use constrained_dg::{ConstrainedDiscreteGradient, EnergyBalance};
-pub use exact::{FnFlow, from_fn, from_fn_with_order};
+pub use exact::{FnFlow, FnLedgerFlow, from_fn, from_fn_at, from_fn_with_order};
 pub use implicit::{
     DiscreteGradient, GonzalezRule, GradientRule, ImplicitMidpoint, IncrementFlow, MidpointRule,
 };
+pub use ledger::Ledger;
 pub use linear::{LINEAR_FLOW_CACHE, LinearFlow};
 pub use projection::{Coupling, Projected, ProjectedMidpoint, ProjectionOptions, Scheme};
 
@@ -125,23 +127,63 @@ pub trait Flow<V: Vector> {
         let _ = (v, out);
         false
     }
+    /// Advances `x` by one step of size `h` that starts at time `ledger.t`, advancing the
+    /// extended coordinates the flow owns (see [`Ledger`]): a flow of a time-dependent part
+    /// (an input) reads `ledger.t`, advances it by `h` and adds the energy it supplied; an
+    /// exact damping flow adds the energy it dissipated. The default, for autonomous flows,
+    /// is [`step`](Self::step), leaving the ledger as it is. Wrappers (compositions, the
+    /// projection) pass the ledger through their sub-flows in order, so that each sub-step
+    /// sees its own time. Same contract as `step`; on `Err` the ledger is left as passed in.
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        let _ = ledger;
+        self.step(h, x)
+    }
     /// Advances `x` through the stages of a composition: steps of `γ_i h` for the table's
-    /// coefficients in order — the map [`Composition`] applies. The default takes them one
-    /// [`step`](Self::step) at a time. A flow whose consecutive steps can share work overrides
-    /// it with the same map: the projection fuses the `λ_{k+1}` half-step of one stage with the
-    /// `λ_k` half-step of the next (see [`Projected`]). Same contract as `step`: on `Err`, `x`
-    /// is left as it was passed in.
+    /// coefficients in order, each from the time the previous one reached — the map
+    /// [`Composition`] applies. The default takes them one [`step_at`](Self::step_at) at a
+    /// time. A flow whose consecutive steps can share work overrides it with the same map:
+    /// the projection fuses the `λ_{k+1}` half-step of one stage with the `λ_k` half-step of
+    /// the next (see [`Projected`]). Same contract as `step`: on `Err`, `x` is left as it was
+    /// passed in.
     fn step_table(
         &mut self,
+        ledger: &mut Ledger<V::Real>,
         h: V::Real,
         table: &CompositionTable,
         x: &mut V,
     ) -> Result<(), StepError> {
         for i in 0..table.stages {
-            self.step(table.gamma_in::<V::Real>(i) * h, x)?;
+            self.step_at(ledger, table.gamma_in::<V::Real>(i) * h, x)?;
         }
         Ok(())
     }
+    /// Appends to `out` what the flow remembers between steps and what its next step depends
+    /// on (warm starts of multipliers, held input values), so that [`restore_memory`] of it
+    /// makes the continuation equal, bit for bit, to the run that continued from here. A flow
+    /// forgets what it cannot save (a kept, factored Newton matrix): its next step rebuilds it,
+    /// in the run that saved and in every run restored from the save alike. Default: nothing.
+    ///
+    /// [`restore_memory`]: Self::restore_memory
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        let _ = out;
+    }
+    /// Reads back what [`save_memory`](Self::save_memory) appended, from the front of `from`,
+    /// and advances `from` past it. Default: nothing.
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        let _ = from;
+    }
+}
+
+/// Takes the first `n` values off the front of a checkpoint's memory (fewer if it has fewer).
+pub(crate) fn take_memory<'a, T>(from: &mut &'a [T], n: usize) -> &'a [T] {
+    let (head, tail) = from.split_at(n.min(from.len()));
+    *from = tail;
+    head
 }
 
 /// Forwards every [`Flow`] method through a pointer type (`&mut F`, `Box<F>`).
@@ -172,13 +214,28 @@ macro_rules! forward_flow {
             fn dissipates(&self) -> bool {
                 (**self).dissipates()
             }
+            fn step_at(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                h: V::Real,
+                x: &mut V,
+            ) -> Result<(), StepError> {
+                (**self).step_at(ledger, h, x)
+            }
             fn step_table(
                 &mut self,
+                ledger: &mut Ledger<V::Real>,
                 h: V::Real,
                 table: &CompositionTable,
                 x: &mut V,
             ) -> Result<(), StepError> {
-                (**self).step_table(h, table, x)
+                (**self).step_table(ledger, h, table, x)
+            }
+            fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+                (**self).save_memory(out)
+            }
+            fn restore_memory(&mut self, from: &mut &[V::Real]) {
+                (**self).restore_memory(from)
             }
             fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
                 (**self).tangent_apply(v, out)

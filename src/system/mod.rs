@@ -15,6 +15,7 @@ mod dependent;
 mod hamiltonian;
 mod model;
 mod modified;
+mod reproject;
 mod structure;
 
 pub use analysis::MAX_BRACKET_CONSTRAINTS;
@@ -28,6 +29,7 @@ pub use dependent::DropDependent;
 pub use hamiltonian::Hamiltonian;
 pub use model::Model;
 pub use modified::ModifiedHamiltonian;
+pub use reproject::{MAX_REPROJECT_CONSTRAINTS, ReprojectError, Reprojection, reproject};
 pub use structure::{
     Canonical, Constant, JMinusR, LiePoissonSo3, MomentumDamping, StructureMatrix,
 };

@@ -274,12 +274,42 @@ fn newton_error(stage: &'static str, e: NewtonError<StepError>) -> StepError {
     StepError::from_newton(stage, e)
 }
 
+impl<V: Vector, Sys, W: Vector<Real = V::Real>> ConstrainedDiscreteGradient<V, Sys, W> {
+    /// Forgets the kept Newton matrices (a checkpoint cannot hold them): the next step builds
+    /// them anew.
+    fn forget_jacobians(&mut self) {
+        self.newton.invalidate_jacobian();
+        if let Some(HiddenSolver::General(n)) = self.hidden.as_mut() {
+            n.invalidate_jacobian();
+        }
+    }
+}
+
 impl<V, Sys, W> Flow<V> for ConstrainedDiscreteGradient<V, Sys, W>
 where
     V: Vector,
     Sys: Model<V>,
     W: Vector<Real = V::Real>,
 {
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.forget_jacobians();
+        out.extend_from_slice(&self.lambda);
+        out.extend_from_slice(&self.nu);
+        out.extend_from_slice(self.comp.as_slice());
+        out.extend_from_slice(self.last.as_slice());
+    }
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.forget_jacobians();
+        for v in [
+            self.lambda.as_mut_slice(),
+            self.nu.as_mut_slice(),
+            self.comp.as_mut_slice(),
+            self.last.as_mut_slice(),
+        ] {
+            let saved = crate::flow::take_memory(from, v.len());
+            v[..saved.len()].copy_from_slice(saved);
+        }
+    }
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
         let n = self.start.len();
         if x.len() != n {

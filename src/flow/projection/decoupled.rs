@@ -52,6 +52,8 @@ where
             m_hess_v,
             indicator,
             prev,
+            ledger_in,
+            ledger_y,
             ..
         } = &mut self.w;
         let x = base.resolve(prev);
@@ -61,6 +63,8 @@ where
             m,
             x,
             inner: &mut self.inner,
+            ledger_in: *ledger_in,
+            ledger_y,
             system: &self.system,
             y,
             x_next,
@@ -176,6 +180,8 @@ where
                 h,
                 x,
                 inner: &mut self.inner,
+                ledger_in: w.ledger_in,
+                ledger_y: &mut w.ledger_y,
                 constraint: self.system.constraint(),
                 d,
                 w: exact.then_some(&*cols),

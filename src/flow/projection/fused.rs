@@ -61,6 +61,8 @@ where
                 *f = *v;
                 *v = *v * grow;
             }
+            // This stage's inner sub-step starts where the previous one ended.
+            self.w.ledger_in = self.w.ledger_y;
             self.solve_lambda_k::<K>(hi, Base::Prev, tally)?;
             // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate (the
             // previous one when the stages nearly cancel, h_prev ≈ −h_i).

@@ -322,6 +322,22 @@ where
     K: Hamiltonian<V>,
     L: LinearSolver<V::Real>,
 {
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        if let Some(g) = self.general.as_mut() {
+            g.save(out);
+        }
+        self.warm.save(out);
+        out.extend_from_slice(self.z.as_slice());
+    }
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        if let Some(g) = self.general.as_mut() {
+            g.restore(from);
+        }
+        self.warm.restore(from);
+        let z = self.z.as_mut_slice();
+        let saved = crate::flow::take_memory(from, z.len());
+        z[..saved.len()].copy_from_slice(saved);
+    }
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
         if x.len() != self.w.x_next.len() {
             return Err(StepError::StateLength {

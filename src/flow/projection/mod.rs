@@ -32,7 +32,7 @@ mod small;
 mod stage;
 mod warm;
 
-use super::{CompositionTable, Flow, FlowStats, Multipliers};
+use super::{CompositionTable, Flow, FlowStats, Ledger, Multipliers};
 use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, SMALL_MAX};
@@ -79,6 +79,10 @@ struct Work<V: Vector> {
     hess_v: V,
     m_hess_v: V,
     indicator: V,
+    /// The time and energies at the start of the inner flow's sub-step (see [`Ledger`]).
+    ledger_in: Ledger<V::Real>,
+    /// The ledger after the inner evaluation that produced `y`.
+    ledger_y: Ledger<V::Real>,
 }
 
 /// The projected flow of Zhang & Deng (2004, §3) around an inner flow `F` (see the module docs).
@@ -204,6 +208,8 @@ where
             hess_v: V::zeros(if grouped { n } else { 0 }),
             m_hess_v: V::zeros(if grouped { n } else { 0 }),
             indicator: V::zeros(if grouped { m } else { 0 }),
+            ledger_in: Ledger::default(),
+            ledger_y: Ledger::default(),
         };
         Ok(Self {
             inner,
@@ -375,6 +381,17 @@ where
     L: LinearSolver<V::Real>,
 {
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.step_at(&mut Ledger::default(), h, x)
+    }
+    /// The half-steps own no extended coordinate: the ledger is the inner flow's, from the
+    /// evaluation that produced the accepted `y`.
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        self.w.ledger_in = *ledger;
         if self.scheme != Scheme::Decoupled {
             self.w.warm.start_from_last(&mut self.w.z);
         }
@@ -385,27 +402,53 @@ where
             let decoupled = self.scheme == Scheme::Decoupled;
             self.w.warm.commit(&mut self.w.z, h, decoupled);
             self.stats.projected_steps += 1;
+            *ledger = self.w.ledger_y;
         }
         Ok(())
+    }
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.w.warm.save(out);
+        out.extend_from_slice(self.w.z.as_slice());
+        self.newton.invalidate_jacobian();
+        if let Some(n) = self.newton_k1.as_mut() {
+            n.invalidate_jacobian();
+        }
+        self.inner.save_memory(out);
+    }
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.w.warm.restore(from);
+        let z = self.w.z.as_mut_slice();
+        let saved = super::take_memory(from, z.len());
+        z[..saved.len()].copy_from_slice(saved);
+        self.newton.invalidate_jacobian();
+        if let Some(n) = self.newton_k1.as_mut() {
+            n.invalidate_jacobian();
+        }
+        self.inner.restore_memory(from);
     }
     /// The decoupled scheme fuses the stages (see `step_fused`): one multiplier solve per
     /// stage instead of two. The other schemes take the stages one step at a time.
     fn step_table(
         &mut self,
+        ledger: &mut Ledger<V::Real>,
         h: V::Real,
         table: &CompositionTable,
         x: &mut V,
     ) -> Result<(), StepError> {
         if self.scheme != Scheme::Decoupled || table.stages < 2 {
+            let start = *ledger;
             for i in 0..table.stages {
-                self.step(table.gamma_in::<V::Real>(i) * h, x)?;
+                self.step_at(ledger, table.gamma_in::<V::Real>(i) * h, x)
+                    .inspect_err(|_| *ledger = start)?;
             }
             return Ok(());
         }
+        self.w.ledger_in = *ledger;
         let fused = self.run_atomic(h, x, |flow, x| flow.step_fused_any(h, table, x))?;
         if let Some(h_last) = fused {
             self.w.warm.commit_fused(&mut self.w.z, h_last);
             self.stats.projected_steps += 1;
+            *ledger = self.w.ledger_y;
         }
         Ok(())
     }

@@ -5,7 +5,7 @@
 
 use crate::error::NewtonError;
 use crate::error::StepError;
-use crate::flow::Flow;
+use crate::flow::{Flow, Ledger};
 use crate::nonlinear::{NewtonOptions, NonlinearProblem, SMALL_MAX, SmallNewton, SolveReport};
 use crate::system::Model;
 use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix, half_step_keeps_jacobian};
@@ -124,6 +124,8 @@ pub(super) struct FirstHalf<'a, V: Vector, F, C, const K: usize> {
     pub(crate) h: V::Real,
     pub(crate) x: &'a V,
     pub(crate) inner: &'a mut F,
+    pub(crate) ledger_in: Ledger<V::Real>,
+    pub(crate) ledger_y: &'a mut Ledger<V::Real>,
     pub(crate) constraint: &'a C,
     /// The half-step directions `(h/2) M Gᵀ e_j` at `x`.
     pub(super) d: &'a [V; K],
@@ -156,12 +158,16 @@ where
             // the half-step, the inner flow and the constraint, and store it once.
             let mut y = self.x.clone();
             shift(&mut y, self.x, z, self.d);
-            self.inner.step(self.h, &mut y)?;
+            let mut ledger = self.ledger_in;
+            self.inner.step_at(&mut ledger, self.h, &mut y)?;
+            *self.ledger_y = ledger;
             self.constraint.residual(&y, f);
             *self.y = y;
         } else {
             shift(self.y, self.x, z, self.d);
-            self.inner.step(self.h, self.y)?;
+            let mut ledger = self.ledger_in;
+            self.inner.step_at(&mut ledger, self.h, self.y)?;
+            *self.ledger_y = ledger;
             self.constraint.residual(&*self.y, f);
         }
         for (g, &v) in self.g.iter_mut().zip(&*f) {

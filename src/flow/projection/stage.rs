@@ -3,7 +3,7 @@
 //! closed-form Jacobians — any number of constraints, dense or sparse.
 
 use crate::error::StepError;
-use crate::flow::Flow;
+use crate::flow::{Flow, Ledger};
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
 use crate::system::Model;
@@ -32,6 +32,8 @@ pub(super) struct Stage<'a, V: Vector, F, Sys> {
     pub(super) m: usize,
     pub(super) x: &'a V,
     pub(super) inner: &'a mut F,
+    pub(super) ledger_in: Ledger<V::Real>,
+    pub(super) ledger_y: &'a mut Ledger<V::Real>,
     pub(super) system: &'a Sys,
     pub(super) y: &'a mut V,
     pub(super) x_next: &'a mut V,
@@ -74,7 +76,9 @@ where
             half,
             self.t2.as_slice(),
         );
-        self.inner.step(self.h, self.y)?;
+        let mut ledger = self.ledger_in;
+        self.inner.step_at(&mut ledger, self.h, self.y)?;
+        *self.ledger_y = ledger;
         // An element loop: `copy_from_slice` of a run-time length is a `memcpy` call, which
         // costs more than the copy for a handful of multipliers.
         for (c, &v) in self.a_cached.as_mut_slice()[..m].iter_mut().zip(a) {

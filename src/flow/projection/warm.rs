@@ -171,4 +171,31 @@ impl<V: Vector> WarmStart<V> {
         self.last_h = h_last;
         self.steps += 1;
     }
+
+    /// Appends the warm-start state (multipliers, offsets, sums, trends, last step, count).
+    pub(super) fn save(&self, out: &mut Vec<V::Real>) {
+        for v in [&self.last, &self.offset, &self.sum, &self.trend] {
+            out.extend_from_slice(v.as_slice());
+        }
+        out.push(self.last_h);
+        out.push(V::Real::lit(self.steps as f64));
+    }
+
+    /// Reads back what [`save`](Self::save) appended.
+    pub(super) fn restore(&mut self, from: &mut &[V::Real]) {
+        for v in [
+            &mut self.last,
+            &mut self.offset,
+            &mut self.sum,
+            &mut self.trend,
+        ] {
+            let dst = v.as_mut_slice();
+            let src = crate::flow::take_memory(from, dst.len());
+            dst[..src.len()].copy_from_slice(src);
+        }
+        if let [h, steps] = crate::flow::take_memory(from, 2) {
+            self.last_h = *h;
+            self.steps = steps.to_f64_lossy() as u64;
+        }
+    }
 }

@@ -37,6 +37,25 @@ pub(super) struct General<T: Real> {
 }
 
 impl<T: Real> General<T> {
+    /// Forgets the kept Newton matrices (the next solves build them anew) and appends the
+    /// unknowns that warm-start the next step.
+    pub(super) fn save(&mut self, out: &mut Vec<T>) {
+        self.newton.invalidate_jacobian();
+        self.hidden.invalidate_jacobian();
+        out.extend_from_slice(&self.z);
+        out.extend_from_slice(&self.nu);
+    }
+
+    /// Reads back what [`save`](Self::save) appended.
+    pub(super) fn restore(&mut self, from: &mut &[T]) {
+        self.newton.invalidate_jacobian();
+        self.hidden.invalidate_jacobian();
+        for v in [self.z.as_mut_slice(), self.nu.as_mut_slice()] {
+            let saved = crate::flow::take_memory(from, v.len());
+            v[..saved.len()].copy_from_slice(saved);
+        }
+    }
+
     pub(super) fn new(
         n: usize,
         m: usize,

@@ -1,0 +1,257 @@
+//! Events `e(t, x) = 0`: detected by a sign change over a step, located on the dense output,
+//! and stepped to.
+
+use super::Stepper;
+use crate::error::StepError;
+use crate::flow::Flow;
+use crate::real::Real;
+use crate::vector::Vector;
+use num_traits::Float as _;
+use num_traits::{One, Zero};
+use std::borrow::BorrowMut;
+
+/// Which crossings of zero count.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Direction {
+    /// From `e < 0` to `e ≥ 0`.
+    Rising,
+    /// From `e > 0` to `e ≤ 0`.
+    Falling,
+    /// Either way.
+    Either,
+}
+
+/// The event function type: `e(t, x)`.
+type EventFn<V> = Box<dyn FnMut(<V as Vector>::Real, &V) -> <V as Vector>::Real + Send>;
+
+/// An event function `e(t, x)` with the direction of the crossings it reports and whether
+/// the run should stop there.
+pub struct Event<V: Vector> {
+    function: EventFn<V>,
+    direction: Direction,
+    terminal: bool,
+}
+
+impl<V: Vector> core::fmt::Debug for Event<V> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Event")
+            .field("direction", &self.direction)
+            .field("terminal", &self.terminal)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<V: Vector> Event<V> {
+    /// A non-terminal event (recorded, the run goes on).
+    pub fn new(
+        function: impl FnMut(V::Real, &V) -> V::Real + Send + 'static,
+        direction: Direction,
+    ) -> Self {
+        Self {
+            function: Box::new(function),
+            direction,
+            terminal: false,
+        }
+    }
+    /// Makes the event terminal: the run should stop at it.
+    pub fn terminal(mut self) -> Self {
+        self.terminal = true;
+        self
+    }
+    fn crosses(&self, before: V::Real, after: V::Real) -> bool {
+        let zero = V::Real::zero();
+        let rising = before < zero && after >= zero;
+        let falling = before > zero && after <= zero;
+        match self.direction {
+            Direction::Rising => rising,
+            Direction::Falling => falling,
+            Direction::Either => rising || falling,
+        }
+    }
+}
+
+/// An event that occurred: which one, when, and whether it is terminal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EventHit<T> {
+    /// Its index in the [`Events`].
+    pub index: usize,
+    /// The located time.
+    pub t: T,
+    /// `e(t, x)` at the located state (zero to the location's accuracy).
+    pub value: T,
+    /// The event asked the run to stop.
+    pub terminal: bool,
+    /// Dense evaluations (steps) spent locating it.
+    pub evaluations: usize,
+}
+
+/// The events watched during a run, with their values at the last step point.
+#[derive(Debug)]
+pub struct Events<V: Vector> {
+    events: Vec<Event<V>>,
+    previous: Vec<V::Real>,
+    started: bool,
+    scratch: Option<V>,
+    /// The time tolerance of the location (absolute, scaled by `max(1, |t|)`).
+    pub tolerance: V::Real,
+}
+
+impl<V: Vector> Events<V> {
+    /// Watches `events`; locates their times to `1e-13 · max(1, |t|)`.
+    pub fn new(events: Vec<Event<V>>) -> Self {
+        let n = events.len();
+        Self {
+            events,
+            previous: vec![V::Real::zero(); n],
+            started: false,
+            scratch: None,
+            tolerance: V::Real::lit(1e-13),
+        }
+    }
+    /// The number of events.
+    pub fn len(&self) -> usize {
+        self.events.len()
+    }
+    /// `true` when no event is watched.
+    pub fn is_empty(&self) -> bool {
+        self.events.is_empty()
+    }
+    fn evaluate_all(&mut self, t: V::Real, x: &V) {
+        for (e, p) in self.events.iter_mut().zip(self.previous.iter_mut()) {
+            *p = (e.function)(t, x);
+        }
+    }
+}
+
+impl<V, F, S> Stepper<V, F, S>
+where
+    V: Vector,
+    F: Flow<V>,
+    S: BorrowMut<V>,
+{
+    /// One step, watching `events`. When one or more cross zero over the step (in their
+    /// direction), the earliest crossing is located on the dense output (Illinois regula
+    /// falsi on `θ ↦ e(t_prev + θ h, x(t_prev + θ h))`, each evaluation one step of the
+    /// scheme from the previous point) and the stepper is moved to it — a step to the root,
+    /// so a projected flow's state is on the constraint manifold at round-off there — and the
+    /// event is returned. The grid of later steps starts at the event. An event is not
+    /// reported again at the root it was stepped to. A sign change and back within one step
+    /// is not seen.
+    ///
+    /// # Errors
+    /// The step's [`StepError`] (the stepper is then at the start of the step).
+    pub fn step_with_events(
+        &mut self,
+        events: &mut Events<V>,
+    ) -> Result<Option<EventHit<V::Real>>, StepError> {
+        if !events.started {
+            let (t, x) = (self.time(), self.x.borrow());
+            events.evaluate_all(t, x);
+            events.started = true;
+        }
+        self.step()?;
+        let t1 = self.time();
+        let t0 = self.previous_time();
+        let mut earliest: Option<EventHit<V::Real>> = None;
+        let mut scratch = events
+            .scratch
+            .take()
+            .unwrap_or_else(|| self.x.borrow().clone());
+        for i in 0..events.len() {
+            let after = (events.events[i].function)(t1, self.x.borrow());
+            let before = events.previous[i];
+            if !events.events[i].crosses(before, after) {
+                continue;
+            }
+            let end = earliest.map_or(t1, |e| e.t);
+            let hit = self.locate(events, i, (t0, before), (t1, after), end, &mut scratch);
+            match hit {
+                Ok(Some(hit)) if earliest.is_none_or(|e| hit.t < e.t) => earliest = Some(hit),
+                Ok(_) => {}
+                Err(e) => {
+                    events.scratch = Some(scratch);
+                    return Err(e);
+                }
+            }
+        }
+        let result = match earliest {
+            Some(hit) => {
+                if hit.t < t1 {
+                    self.step_back_to(hit.t, &mut scratch)?;
+                }
+                let (t, x) = (self.time(), self.x.borrow());
+                events.evaluate_all(t, x);
+                // Stepped to its root: the next step starts from zero, not re-reported.
+                events.previous[hit.index] = V::Real::zero();
+                Some(hit)
+            }
+            None => {
+                let (t, x) = (self.time(), self.x.borrow());
+                events.evaluate_all(t, x);
+                None
+            }
+        };
+        events.scratch = Some(scratch);
+        Ok(result)
+    }
+
+    /// Locates the crossing of event `i` in `[t0, t1]` (values `e0`, `e1` of opposite signs, or
+    /// `e1 = 0`); `None` when it lies after `end` (an earlier event was found).
+    fn locate(
+        &mut self,
+        events: &mut Events<V>,
+        i: usize,
+        (mut a, mut fa): (V::Real, V::Real),
+        (mut b, mut fb): (V::Real, V::Real),
+        end: V::Real,
+        scratch: &mut V,
+    ) -> Result<Option<EventHit<V::Real>>, StepError> {
+        let tol = events.tolerance * V::Real::one().max(b.abs());
+        let zero = V::Real::zero();
+        let half = V::Real::lit(0.5);
+        let mut evaluations = 0;
+        // `b` is always on the crossed side (or at zero); Illinois halves the weight of an
+        // end that is kept twice (Dowell & Jarratt, BIT 11, 1971).
+        let mut side = 0i8;
+        while (b - a).abs() > tol && fb != zero && evaluations < 100 {
+            let mut c = b - fb * (b - a) / (fb - fa);
+            let lo = a.min(b);
+            let hi = a.max(b);
+            if !(c > lo && c < hi) || evaluations % 8 == 7 {
+                c = (a + b) * half;
+            }
+            self.dense(c, scratch)?;
+            evaluations += 1;
+            let fc = (events.events[i].function)(c, scratch);
+            if (fc < zero) == (fb < zero) || fc == zero {
+                // c is on the crossed side: it replaces b.
+                b = c;
+                fb = fc;
+                if side == 1 {
+                    fa = fa * half;
+                }
+                side = 1;
+            } else {
+                a = c;
+                fa = fc;
+                if side == -1 {
+                    fb = fb * half;
+                }
+                side = -1;
+            }
+            if a > end && b > end {
+                return Ok(None);
+            }
+        }
+        if b > end {
+            return Ok(None);
+        }
+        Ok(Some(EventHit {
+            index: i,
+            t: b,
+            value: fb,
+            terminal: events.events[i].terminal,
+            evaluations,
+        }))
+    }
+}
