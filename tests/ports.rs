@@ -91,7 +91,12 @@ const DAMPED: Oscillator = Oscillator {
 };
 
 /// Runs `flow` to `t_end` with `n` steps; the state and the ledger.
-fn run<V: Vector<Real = f64>, F: Flow<V>>(flow: F, x0: V, t_end: f64, n: usize) -> (V, Ledger<f64>) {
+fn run<V: Vector<Real = f64>, F: Flow<V>>(
+    flow: F,
+    x0: V,
+    t_end: f64,
+    n: usize,
+) -> (V, Ledger<f64>) {
     let mut s = Stepper::new(flow, x0, 0.0, t_end / n as f64).unwrap();
     s.advance(n, &mut ()).unwrap();
     assert!((s.time() - t_end).abs() < 1e-12);
@@ -116,7 +121,9 @@ fn forced_damped_oscillator_converges_at_order_two_with_its_energy_balance() {
     assert!((p - 2.0).abs() < 0.1, "order {p}, errors {errs:?}");
     // The balance's residual is the error of H(x_T), D and S: O(h²), not worse.
     let pb = fitted_order(&hs, &balances, 1e-13);
-    eprintln!("damped forced oscillator: order {p:.3}, balance order {pb:.3}, errors {errs:?}, balance {balances:?}");
+    eprintln!(
+        "damped forced oscillator: order {p:.3}, balance order {pb:.3}, errors {errs:?}, balance {balances:?}"
+    );
     assert!(pb > 1.9, "balance order {pb}, residuals {balances:?}");
 }
 
@@ -139,10 +146,21 @@ fn forced_oscillator_composed_reaches_orders_four_and_six() {
             assert_eq!(l.dissipated, 0.0);
         }
         let p = fitted_order(&hs, &errs, 1e-12);
-        assert!((p - order).abs() < 0.25, "{}: order {p}, errors {errs:?}", table.name);
+        assert!(
+            (p - order).abs() < 0.25,
+            "{}: order {p}, errors {errs:?}",
+            table.name
+        );
         let pb = fitted_order(&hs, &balances, 1e-12);
-        eprintln!("forced oscillator, {}: order {p:.3}, balance order {pb:.3}", table.name);
-        assert!(pb > order - 0.25, "{}: balance order {pb}: {balances:?}", table.name);
+        eprintln!(
+            "forced oscillator, {}: order {p:.3}, balance order {pb:.3}",
+            table.name
+        );
+        assert!(
+            pb > order - 0.25,
+            "{}: balance order {pb}: {balances:?}",
+            table.name
+        );
     }
 }
 
@@ -199,7 +217,8 @@ fn forced_pendulum_keeps_its_orders_and_the_constraint() {
             for _ in 0..n {
                 s.step().unwrap();
                 let q = s.state();
-                worst_g = worst_g.max(((q[0] * q[0] + q[1] * q[1] + q[2] * q[2]) - 1.0).abs() / 2.0);
+                worst_g =
+                    worst_g.max(((q[0] * q[0] + q[1] * q[1] + q[2] * q[2]) - 1.0).abs() / 2.0);
             }
             assert!(worst_g < 1e-14, "max |g| {worst_g:e}");
             let l = s.ledger();
@@ -209,9 +228,14 @@ fn forced_pendulum_keeps_its_orders_and_the_constraint() {
             balances.push(balance.abs());
         }
         let p = fitted_order(&hs, &errs, 1e-12);
-        assert!((p - order).abs() < 0.25, "order {p} (expected {order}): {errs:?}");
+        assert!(
+            (p - order).abs() < 0.25,
+            "order {p} (expected {order}): {errs:?}"
+        );
         let pb = fitted_order(&hs, &balances, 1e-12);
-        eprintln!("forced pendulum, order {order}: fitted {p:.3}, balance order {pb:.3}, errors {errs:?}");
+        eprintln!(
+            "forced pendulum, order {order}: fitted {p:.3}, balance order {pb:.3}, errors {errs:?}"
+        );
         assert!(pb > order - 0.25, "balance order {pb}: {balances:?}");
     }
     // The reference's own balance closes to its accuracy.
@@ -223,11 +247,8 @@ fn forced_pendulum_keeps_its_orders_and_the_constraint() {
 fn held_inputs_are_integrated_as_zero_order_hold_set_between_steps() {
     // p' = u (no other force): p(T) = Σ u_k h exactly, whatever the splitting.
     let held = Held::new(0.0);
-    let input = InputFlow::try_new(
-        ComponentInputs::new(&[1]),
-        vec![Signal::Held(held.clone())],
-    )
-    .unwrap();
+    let input =
+        InputFlow::try_new(ComponentInputs::new(&[1]), vec![Signal::Held(held.clone())]).unwrap();
     let drift = from_fn(|h: f64, x: &mut V2| x[0] += h * x[1]);
     let mut s = Stepper::new(input.strang(drift), V2::zeros(), 0.0, 0.1).unwrap();
     let mut expected_p = 0.0;
@@ -242,9 +263,16 @@ fn held_inputs_are_integrated_as_zero_order_hold_set_between_steps() {
 
 #[test]
 fn the_signal_count_must_match_the_input_map() {
-    let e = InputFlow::<V2, _>::try_new(ComponentInputs::<f64>::new(&[0, 1]), vec![Signal::Constant(1.0)])
-        .unwrap_err();
-    assert!(e.to_string().contains("1 signals for an input map with 2 inputs"), "{e}");
+    let e = InputFlow::<V2, _>::try_new(
+        ComponentInputs::<f64>::new(&[0, 1]),
+        vec![Signal::Constant(1.0)],
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("1 signals for an input map with 2 inputs"),
+        "{e}"
+    );
 }
 
 #[test]

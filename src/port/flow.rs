@@ -4,9 +4,9 @@ use super::{InputMap, Signal};
 use crate::error::StepError;
 use crate::flow::{EXACT, Flow, Ledger};
 use crate::real::Real;
-use num_traits::Zero;
 use crate::system::Hamiltonian;
 use crate::vector::Vector;
+use num_traits::Zero;
 
 /// The exact flow of `x' = B(x) u(t)` over a sub-step `[τ, τ + h]`: `x ← x + B(x) w` with
 /// `w_j = ∫_τ^{τ+h} u_j dt` (exact under the [`InputMap`] contract).

@@ -2,9 +2,9 @@
 //! gives the collocated output `y = B(x)ᵀ ∇H(x)`.
 
 use crate::real::Real;
-use num_traits::Zero;
 use crate::system::Hamiltonian;
 use crate::vector::Vector;
+use num_traits::Zero;
 
 /// The input map `B(x)` of an open system `x' = … + B(x) u`, with `k` inputs.
 ///

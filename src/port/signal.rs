@@ -131,9 +131,7 @@ impl<T: Real> Signal<T> {
     /// increase and every value is finite.
     pub fn table(points: &[(T, T)]) -> Option<Self> {
         let ok = !points.is_empty()
-            && points
-                .iter()
-                .all(|(t, v)| t.is_finite() && v.is_finite())
+            && points.iter().all(|(t, v)| t.is_finite() && v.is_finite())
             && points.windows(2).all(|w| w[0].0 < w[1].0);
         ok.then(|| Self::Table(points.into()))
     }
@@ -288,10 +286,10 @@ mod tests {
         };
         assert_eq!(step.integral(0.5, 2.0), 0.5 + 3.0);
         assert_eq!(step.integral(2.0, 0.5), -3.5);
-        let table = Signal::table(&[(0.0, 0.0), (1.0, 2.0), (3.0, 0.0)]).unwrap();
+        let table = Signal::<f64>::table(&[(0.0, 0.0), (1.0, 2.0), (3.0, 0.0)]).unwrap();
         assert!((table.integral(-1.0, 4.0) - 3.0).abs() < 1e-15);
-        assert!((table.integral(0.5, 2.0) - (0.75 + 1.5 + 1.5)).abs() < 1e-15);
-        let ramp = Signal::Ramp {
+        assert!((table.integral(0.5, 2.0) - (0.75 + 1.5)).abs() < 1e-15);
+        let ramp = Signal::<f64>::Ramp {
             start: 1.0,
             end: 2.0,
             from: 0.0,

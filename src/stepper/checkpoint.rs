@@ -50,7 +50,9 @@ pub enum CheckpointError {
         expected: usize,
     },
     /// The saved flow memory has another length (another flow, or another model size).
-    #[error("the checkpoint's flow memory has {saved} values, this flow keeps {expected}: it was saved from another scheme or model")]
+    #[error(
+        "the checkpoint's flow memory has {saved} values, this flow keeps {expected}: it was saved from another scheme or model"
+    )]
     Memory {
         /// Values in the checkpoint.
         saved: usize,

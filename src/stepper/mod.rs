@@ -33,9 +33,9 @@ use crate::error::{IntegrateError, StepError};
 use crate::flow::{Flow, FlowStats, Ledger};
 use crate::observe::Observer;
 use crate::real::Real;
+use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::Zero;
-use crate::vector::{Vector, ops};
 use std::borrow::BorrowMut;
 use std::marker::PhantomData;
 

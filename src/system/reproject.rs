@@ -39,7 +39,9 @@ pub enum ReprojectError {
         max: usize,
     },
     /// Newton did not reduce the residual below the tolerance (the state is left unchanged).
-    #[error("re-projection onto {what} = 0 did not converge: residual {residual:e} after {iterations} iterations (the change moved the state too far from the manifold, or the constraints are singular there)")]
+    #[error(
+        "re-projection onto {what} = 0 did not converge: residual {residual:e} after {iterations} iterations (the change moved the state too far from the manifold, or the constraints are singular there)"
+    )]
     NotConverged {
         /// `"g"` or `"phi"`.
         what: &'static str,
