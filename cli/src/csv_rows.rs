@@ -21,6 +21,7 @@ impl CsvRows {
     pub(crate) fn create(
         path: &Path,
         n: usize,
+        outputs: &[String],
         a: &Assembly,
         every: usize,
         steps: usize,
@@ -33,7 +34,7 @@ impl CsvRows {
             last_written: true,
             error: None,
         };
-        if let Err(e) = write_header(&mut rows.w, n, a) {
+        if let Err(e) = write_header(&mut rows.w, n, outputs, a) {
             rows.error = Some(e);
         }
         Ok(rows)
@@ -66,7 +67,12 @@ impl CsvRows {
     }
 }
 
-fn write_header(w: &mut impl Write, n: usize, a: &Assembly) -> std::io::Result<()> {
+fn write_header(
+    w: &mut impl Write,
+    n: usize,
+    outputs: &[String],
+    a: &Assembly,
+) -> std::io::Result<()> {
     writeln!(
         w,
         "# lieflow {} scene: {}; scheme: {}",
@@ -78,7 +84,11 @@ fn write_header(w: &mut impl Write, n: usize, a: &Assembly) -> std::io::Result<(
     for i in 0..n {
         write!(w, ",x{i}")?;
     }
-    writeln!(w, ",energy,max_abs_g,max_abs_phi")
+    write!(w, ",energy,max_abs_g,max_abs_phi")?;
+    for name in outputs {
+        write!(w, ",{name}")?;
+    }
+    writeln!(w)
 }
 
 fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
@@ -87,5 +97,9 @@ fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
         write!(w, ",{v}")?;
     }
     let opt = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
-    writeln!(w, ",{},{},{}", opt(s.energy), opt(s.g), opt(s.phi))
+    write!(w, ",{},{},{}", opt(s.energy), opt(s.g), opt(s.phi))?;
+    for v in s.outputs {
+        write!(w, ",{v}")?;
+    }
+    writeln!(w)
 }

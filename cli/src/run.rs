@@ -93,7 +93,8 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     let mut csv = match &args.csv {
         Some(p) => {
             let n = compiled.simulation.state().len();
-            match CsvRows::create(p, n, &compiled.assembly, every, steps) {
+            let names = compiled.simulation.output_names();
+            match CsvRows::create(p, n, &names, &compiled.assembly, every, steps) {
                 Ok(rows) => Some(rows),
                 Err(e) => {
                     eprintln!("error: {e}");
@@ -108,12 +109,15 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     let mut progress = Progress::new(steps);
     // The last state seen: a run that stops early still ends its CSV and plot with it.
     let mut last = (0usize, 0.0f64, None, None, None);
+    let mut last_outputs: Vec<f64> = Vec::new();
     let mut observe = |s: &Sample<'_>| {
         progress.observe(s);
         if args.plot.is_some() {
             series.push(s, false);
         }
         last = (s.step, s.t, s.energy, s.g, s.phi);
+        last_outputs.clear();
+        last_outputs.extend_from_slice(s.outputs);
         if let Some(rows) = csv.as_mut() {
             rows.observe(s);
         }
@@ -127,6 +131,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         energy: last.2,
         g: last.3,
         phi: last.4,
+        outputs: &last_outputs,
     };
     if args.plot.is_some() {
         series.push(&final_sample, true);
@@ -187,11 +192,35 @@ pub(crate) fn print_summary(s: &RunSummary) {
             opt(s.max_energy_increase)
         );
     }
-    if let Some(d) = s.dissipated {
-        println!(
-            "  dissipated {d:.9}, energy budget error {}",
+    match (s.dissipated, s.supplied) {
+        (None, None) => {}
+        (d, u) => println!(
+            "  dissipated {}, supplied {}, energy budget error {}",
+            opt(d),
+            opt(u),
             opt(s.max_energy_balance_error)
+        ),
+    }
+    if !s.events.is_empty() {
+        let shown: Vec<String> = s
+            .events
+            .iter()
+            .take(5)
+            .map(|e| format!("{} at t = {:.12}", e.name, e.t))
+            .collect();
+        let more = s.events.len().saturating_sub(5);
+        println!(
+            "  events: {}{}",
+            shown.join(", "),
+            if more > 0 {
+                format!(" (and {more} more)")
+            } else {
+                String::new()
+            }
         );
+    }
+    if let Some(name) = &s.stopped_by {
+        println!("  stopped by event '{name}' at t = {}", s.t);
     }
     let counts: Vec<String> = s
         .effects

@@ -47,10 +47,12 @@ mod gram;
 mod model;
 mod names;
 pub mod observe;
+pub mod ports;
 mod run;
 pub mod schema;
 pub(crate) mod simulation;
 pub(crate) mod validate;
+mod watch;
 
 pub use compile::{
     Assembly, Compiled, DENSE_MAX_DIM, MAX_BODIES, MAX_PAIRS, compile, compile_reference,
@@ -63,6 +65,7 @@ pub use run::{
     Advanced, EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation, advance, run,
 };
 pub use schema::SceneFile;
+pub use watch::EventRecord;
 
 use std::path::Path;
 

@@ -47,6 +47,15 @@ pub struct SceneFile {
     /// Terms of the Hamiltonian or of the structure matrix.
     #[serde(default)]
     pub effects: Vec<EffectSpec>,
+    /// Inputs: forces and torques driven by signals of time or held values.
+    #[serde(default)]
+    pub inputs: Vec<InputSpec>,
+    /// Quantities a run writes (CSV columns) and draws.
+    #[serde(default)]
+    pub outputs: Vec<OutputSpec>,
+    /// Crossings that stop the run or are recorded.
+    #[serde(default)]
+    pub events: Vec<EventSpec>,
     /// The scheme, step and horizon.
     pub integrator: IntegratorSpec,
     /// Switches that turn declared parts off without deleting them.
@@ -211,6 +220,7 @@ pub enum ConstraintSpec {
 pub use super::effects::{
     DampingSpec, EffectSpec, GravitySpec, MagneticSpec, PairSpec, SpringSpec, TrapSpec,
 };
+pub use super::ports::{EventSpec, InputSpec, OutputSpec, SignalSpec};
 
 /// The scheme, step size and horizon.
 #[derive(Debug, Clone, PartialEq, Deserialize)]

@@ -6,6 +6,7 @@ use crate::flow::{Flow, FlowStats};
 use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
+use crate::scene::watch::{EventRecord, Watch};
 use crate::stepper::Stepper;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
@@ -51,6 +52,32 @@ pub trait Simulation {
     /// Zeroes the terms' evaluation counters and clocks (a run starts with it, so that the
     /// evaluations of the compile-time checks do not count).
     fn reset_counters(&self) {}
+    /// Energy supplied through the inputs so far, as the flow books it exactly (`None` without
+    /// inputs).
+    fn supplied(&self) -> Option<f64> {
+        None
+    }
+    /// Energy dissipated so far, when the flow books it exactly (the damping's closed-form
+    /// sub-flow in a splitting); `None` otherwise.
+    fn dissipated(&self) -> Option<f64> {
+        None
+    }
+    /// The names of the declared outputs.
+    fn output_names(&self) -> Vec<String> {
+        Vec::new()
+    }
+    /// The declared outputs at the current state, into `out`.
+    fn outputs(&self, out: &mut Vec<f64>) {
+        out.clear();
+    }
+    /// The events that happened so far.
+    fn events(&self) -> &[EventRecord] {
+        &[]
+    }
+    /// The name of the event that stopped the run, if one did.
+    fn stopped(&self) -> Option<&str> {
+        None
+    }
     /// The constraint multipliers of the last step, `(λ_k + λ_{k+1})/2` — the multiplier `λ`
     /// of `x' = M (∇H + Gᵀλ)` at the step — when the scheme is a projection.
     fn multipliers(&self) -> Option<Vec<f64>> {
@@ -76,6 +103,8 @@ pub(crate) struct ModelRun<V: Vector, Sys> {
     pub(crate) model: Option<Arc<SceneModel>>,
     /// The Gram matrix of the condition estimate, built on first use.
     gram: Option<MassGram>,
+    /// Outputs, events and exact energy accounts (scenes).
+    pub(crate) watch: Option<Watch<V>>,
 }
 
 impl<V, Sys> ModelRun<V, Sys>
@@ -99,6 +128,7 @@ where
             g: vec![0.0; m],
             model,
             gram: None,
+            watch: None,
         })
     }
 }
@@ -118,7 +148,54 @@ where
         self.stepper.step_size()
     }
     fn step(&mut self) -> Result<(), StepError> {
-        self.stepper.step()
+        match self.watch.as_mut() {
+            Some(Watch {
+                events: Some(events),
+                ..
+            }) => {
+                let hit = self.stepper.step_with_events(events)?;
+                if let (Some(hit), Some(w)) = (hit, self.watch.as_mut()) {
+                    w.record(hit, self.stepper.steps_taken());
+                }
+                Ok(())
+            }
+            _ => self.stepper.step(),
+        }
+    }
+    fn supplied(&self) -> Option<f64> {
+        let w = self.watch.as_ref()?;
+        w.supplied.then(|| self.stepper.ledger().supplied)
+    }
+    fn dissipated(&self) -> Option<f64> {
+        let w = self.watch.as_ref()?;
+        w.dissipated.then(|| self.stepper.ledger().dissipated)
+    }
+    fn output_names(&self) -> Vec<String> {
+        self.watch.as_ref().map_or_else(Vec::new, |w| {
+            w.outputs.iter().map(|o| o.name.clone()).collect()
+        })
+    }
+    fn outputs(&self, out: &mut Vec<f64>) {
+        out.clear();
+        let Some(w) = self.watch.as_ref() else {
+            return;
+        };
+        let multipliers = self.multipliers();
+        let l = self.stepper.ledger();
+        w.values(
+            self.stepper.time(),
+            self.state(),
+            multipliers.as_deref(),
+            (l.supplied, l.dissipated),
+            out,
+        );
+    }
+    fn events(&self) -> &[EventRecord] {
+        self.watch.as_ref().map_or(&[], |w| &w.log)
+    }
+    fn stopped(&self) -> Option<&str> {
+        let w = self.watch.as_ref()?;
+        w.log.iter().find(|e| e.stop).map(|e| e.name.as_str())
     }
     fn energy(&self) -> f64 {
         self.system.hamiltonian().energy(self.stepper.state())

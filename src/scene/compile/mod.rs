@@ -14,8 +14,11 @@ pub use crate::scene::effects::MAX_PAIRS;
 
 use super::error::{FieldPath, SceneError, SceneErrorKind};
 use super::model::{ConstraintKind, ConstraintTerm, SceneModel};
+use super::ports::{compile_events, compile_inputs, compile_outputs};
 use super::run::{ModelRun, RunPlan, Simulation};
-use super::schema::{Redundant, SCENE_VERSION, SceneFile};
+use super::schema::{Method, Redundant, SCENE_VERSION, SceneFile};
+use super::watch::Watch;
+use crate::stepper::Events;
 use crate::system::System;
 use crate::vector::Vector;
 use bodies::expand_bodies;
@@ -134,11 +137,14 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             || !file.grids.is_empty()
             || !file.constraints.is_empty()
             || !file.effects.is_empty()
+            || !file.inputs.is_empty()
+            || !file.outputs.is_empty()
+            || !file.events.is_empty()
         {
             return Err(err(
                 SceneErrorKind::Value,
                 root.key("builtin"),
-                "a built-in model takes no bodies, constraints or effects of its own",
+                "a built-in model takes no bodies, constraints, effects, inputs, outputs or events of its own",
             ));
         }
         return compile_builtin(file, b);
@@ -216,6 +222,21 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         fx.magnetic,
         profile,
     );
+    model.inputs = compile_inputs(&file.inputs, &bodies, dim)?;
+    let splitting = !matches!(
+        file.integrator.scheme,
+        Method::DiscreteGradient | Method::Midpoint | Method::Modified
+    );
+    if model.inputs.is_some() && !splitting {
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            root.key("integrator").key("scheme"),
+            format!(
+                "inputs enter the splitting schemes (their exact sub-flow joins the kick); scheme '{}' takes none: use \"auto\" or a composition",
+                file.integrator.scheme
+            ),
+        ));
+    }
     let dropped_constraints = match file.integrator.redundant {
         Redundant::Refuse => Vec::new(),
         Redundant::DropDependent => {
@@ -317,10 +338,25 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         initial_projection,
         dropped_constraints,
     };
+    let outputs = compile_outputs(&file.outputs, &bodies, dim, model.inputs.as_ref(), m)?;
+    let (events, event_names) =
+        compile_events(&file.events, &bodies, dim, model.inputs.as_ref(), &model)?;
     let system = System::new(model.clone(), model.clone(), model.clone());
-    let simulation = Box::new(
-        ModelRun::new(flow, system, x0, dt, m, Some(shared)).map_err(initial_state_error)?,
-    );
+    let mut run =
+        ModelRun::new(flow, system, x0, dt, m, Some(shared)).map_err(initial_state_error)?;
+    let books_dissipation = dissipative && splitting;
+    if model.inputs.is_some() || !outputs.is_empty() || !events.is_empty() || books_dissipation {
+        run.watch = Some(Watch {
+            model: model.clone(),
+            outputs,
+            events: (!events.is_empty()).then(|| Events::new(events)),
+            event_names,
+            log: Vec::new(),
+            supplied: model.inputs.is_some(),
+            dissipated: books_dissipation,
+        });
+    }
+    let simulation = Box::new(run);
     Ok(Compiled {
         simulation,
         assembly,

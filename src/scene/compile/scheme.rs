@@ -5,10 +5,12 @@ use super::{DENSE_MAX_DIM, MAX_STEPS, Result, constraints::setup_error, err, val
 use crate::error::SetupError;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
-    ImplicitMidpoint, Projected, ProjectedMidpoint, ProjectionOptions, Scheme, from_fn,
+    ImplicitMidpoint, Ledger, Projected, ProjectedMidpoint, ProjectionOptions, Scheme, from_fn,
+    from_fn_at,
 };
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NewtonOptions, SMALL_MAX};
+use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{ConstraintKind, SceneModel};
@@ -335,18 +337,101 @@ pub fn splitting_flow<V: Vector + 'static>(
         let model = model.clone();
         from_fn(move |t: V::Real, x: &mut V| model.kick(t, x.as_mut_slice(), &mut scratch))
     };
-    let dissipative = model.is_dissipative();
-    let drift = {
-        let model = model.clone();
-        from_fn(move |t: V::Real, x: &mut V| model.free_flight(t, x.as_mut_slice()))
-            .dissipative_if(dissipative)
-    };
-    let has_potential = !model.potentials.is_empty();
+    if model.is_dissipative() {
+        // The damped free flight books the energy it removes (exactly, per sub-step).
+        let m2 = model.clone();
+        let drift = from_fn_at(move |l: &mut Ledger<V::Real>, t: V::Real, x: &mut V| {
+            l.dissipated = l.dissipated + m2.free_flight(t, x.as_mut_slice());
+        })
+        .dissipative();
+        with_inputs(model, x0, table, backward, eps, kick, drift)
+    } else {
+        let m2 = model.clone();
+        let drift = from_fn(move |t: V::Real, x: &mut V| {
+            m2.free_flight(t, x.as_mut_slice());
+        });
+        with_inputs(model, x0, table, backward, eps, kick, drift)
+    }
+}
+
+/// The splitting with the scene's inputs joined to the kick when it declares any (their
+/// sub-flow carries the time and books the energy supplied); the kick and drift alone
+/// otherwise, at no cost.
+#[allow(clippy::type_complexity)]
+fn with_inputs<V, K, D>(
+    model: &Arc<SceneModel<V::Real>>,
+    x0: &V,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+    eps: V::Real,
+    kick: K,
+    drift: D,
+) -> std::result::Result<
+    (
+        Box<dyn Flow<V>>,
+        &'static str,
+        Option<(Scheme, bool, String)>,
+    ),
+    SetupError,
+>
+where
+    V: Vector + 'static,
+    K: Flow<V> + 'static,
+    D: Flow<V> + 'static,
+{
+    match model.inputs.as_ref() {
+        None => assemble(model, x0, table, backward, eps, kick, drift, false),
+        Some(inputs) => {
+            let input = InputFlow::try_new(inputs.map.clone(), inputs.signals.clone())?
+                .supplying(model.clone());
+            assemble(
+                model,
+                x0,
+                table,
+                backward,
+                eps,
+                kick.strang(input),
+                drift,
+                true,
+            )
+        }
+    }
+}
+
+/// The splitting of a kick (with or without inputs) and a drift, projected when constrained.
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+fn assemble<V, K, D>(
+    model: &Arc<SceneModel<V::Real>>,
+    x0: &V,
+    table: Option<&'static CompositionTable>,
+    backward: bool,
+    eps: V::Real,
+    kick: K,
+    drift: D,
+    forced: bool,
+) -> std::result::Result<
+    (
+        Box<dyn Flow<V>>,
+        &'static str,
+        Option<(Scheme, bool, String)>,
+    ),
+    SetupError,
+>
+where
+    V: Vector + 'static,
+    K: Flow<V> + 'static,
+    D: Flow<V> + 'static,
+{
+    let has_potential = !model.potentials.is_empty() || forced;
     if model.m == 0 {
         return Ok(if has_potential {
             (
                 with_table_backward(drift.strang(kick), table, backward),
-                "free flight ∘ kick ∘ free flight (Strang)",
+                if forced {
+                    "free flight ∘ kick and inputs ∘ free flight (Strang)"
+                } else {
+                    "free flight ∘ kick ∘ free flight (Strang)"
+                },
                 None,
             )
         } else {
@@ -361,7 +446,11 @@ pub fn splitting_flow<V: Vector + 'static>(
             p,
             table,
             backward,
-            "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)",
+            if forced {
+                "projection around kick and inputs ∘ free flight ∘ kick and inputs (Strang, RATTLE)"
+            } else {
+                "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)"
+            },
         ))
     } else {
         let p = drift.projected(system, x0, options)?;

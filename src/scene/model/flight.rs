@@ -73,7 +73,11 @@ impl<T: Real> SceneModel<T> {
     ///
     /// evaluated without cancellation (`expm1`, `1 − cos = 2 sin²`). Bodies without field and
     /// damping take the plain drift `q += t p/m`.
-    pub fn free_flight(&self, t: T, x: &mut [T]) {
+    ///
+    /// Returns the kinetic energy the damping removed, `Σ (|p_b|² − |p_b(t)|²)/(2 m_b)` over the
+    /// damped bodies: the exact `∫ vᵀ R v dt` along this sub-flow (the field only turns `p`).
+    pub fn free_flight(&self, t: T, x: &mut [T]) -> T {
+        let mut removed = T::lit(0.0);
         let d = self.dim;
         let nq = d * self.masses.len();
         let (q, p) = x.split_at_mut(nq);
@@ -100,9 +104,16 @@ impl<T: Real> SceneModel<T> {
                     for k in 0..d {
                         qb[k] = qb[k] + (w * dq[k]);
                     }
+                    if gamma != T::lit(0.0) {
+                        // |p|² − |p(t)|² = (1 − e^{−2γt}) |p|², without cancellation.
+                        let p2 = p3.iter().fold(T::lit(0.0), |s, &v| s + v * v);
+                        let lost = -(T::lit(-2.0) * gamma * t).exp_m1();
+                        removed = removed + T::lit(0.5) * w * lost * p2;
+                    }
                     pb.copy_from_slice(&pn[..d]);
                 }
             }
         }
+        removed
     }
 }

@@ -6,11 +6,11 @@ use crate::system::Hamiltonian;
 use crate::vector::Vector;
 use std::sync::Arc;
 
-impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
-    fn energy(&self, x: &V) -> T {
-        let x = x.as_slice();
+impl<T: Real> SceneModel<T> {
+    /// `Σ_b |p_b|²/(2 m_b)` of the state `x = (q, p)`.
+    pub fn kinetic_energy(&self, x: &[T]) -> T {
         let nq = self.dim * self.masses.len();
-        let (q, p) = x.split_at(nq);
+        let p = &x[nq..];
         let d = self.dim;
         let mut t = T::lit(0.0);
         self.kinetic.hit();
@@ -21,7 +21,15 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
             }
             t = t + (T::lit(0.5) * *w * s);
         }
-        t + self.potential_energy(q)
+        t
+    }
+}
+
+impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
+    fn energy(&self, x: &V) -> T {
+        let x = x.as_slice();
+        let nq = self.dim * self.masses.len();
+        self.kinetic_energy(x) + self.potential_energy(&x[..nq])
     }
 
     fn gradient(&self, x: &V, out: &mut V) {

@@ -56,6 +56,8 @@ pub struct SceneModel<T = f64> {
     /// projection's small dense path is faster.
     pub(crate) sparse: bool,
     flights: Vec<Flight<T>>,
+    /// The declared inputs (`None`: no input, no input sub-flow).
+    pub(crate) inputs: Option<crate::scene::ports::SceneInputs<T>>,
 }
 
 impl<T: Real> SceneModel<T> {
@@ -103,6 +105,7 @@ impl<T: Real> SceneModel<T> {
             profile,
             sparse: m > 4,
             flights,
+            inputs: None,
         }
     }
 
@@ -160,6 +163,11 @@ impl<T: Real> SceneModel<T> {
         if let Some(t) = &self.magnetic {
             t.counter.reset();
         }
+    }
+
+    /// The declared inputs.
+    pub fn inputs(&self) -> Option<&crate::scene::ports::SceneInputs<T>> {
+        self.inputs.as_ref()
     }
 
     /// `true` if a damping term is assembled (`M` has a dissipative part).

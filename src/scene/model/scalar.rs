@@ -77,7 +77,7 @@ impl SceneModel<f64> {
             per_body: t.per_body.iter().map(|&x| c3(x)).collect(),
             counter: Counter::default(),
         };
-        SceneModel::new(
+        let mut model = SceneModel::new(
             self.dim,
             self.masses.iter().map(|&m| c(m)).collect(),
             potentials,
@@ -85,6 +85,8 @@ impl SceneModel<f64> {
             self.damping.as_ref().map(structure),
             self.magnetic.as_ref().map(field),
             false,
-        )
+        );
+        model.inputs = self.inputs.as_ref().map(|i| i.with_scalar());
+        model
     }
 }

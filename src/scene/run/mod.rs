@@ -44,6 +44,12 @@ pub fn advance(sim: &mut dyn Simulation, steps: usize, observer: &mut dyn RunObs
             };
         }
         observer.observe(k + 1, sim);
+        if sim.stopped().is_some() {
+            return Advanced {
+                steps: k + 1,
+                error: None,
+            };
+        }
     }
     Advanced { steps, error: None }
 }
@@ -61,11 +67,16 @@ pub fn run(
     let mut energy = plan.energy.then(|| EnergyBudget::new(sim));
     let mut residuals = plan.residuals.then(Residuals::default);
     let mut clock = StepClock::default();
+    let with_outputs = !sim.output_names().is_empty();
+    let mut outputs = Vec::new();
     let mut each = |step: usize, sim: &mut dyn Simulation| {
         clock.stop();
         energy.observe(step, sim);
         residuals.observe(step, sim);
         let last = residuals.as_ref().and_then(|r| r.last);
+        if with_outputs {
+            sim.outputs(&mut outputs);
+        }
         observe(&Sample {
             step,
             t: sim.time(),
@@ -73,6 +84,7 @@ pub fn run(
             energy: energy.as_ref().map(|e| e.last),
             g: last.map(|r| r.0),
             phi: last.map(|r| r.1),
+            outputs: &outputs,
         });
         clock.start();
     };
@@ -105,7 +117,12 @@ pub fn run(
         max_abs_energy_error: e.map(|e| e.max_abs_error),
         max_energy_increase: e.filter(|_| taken > 0).map(|e| e.max_increase),
         dissipated: e.and_then(|e| e.dissipated),
-        max_energy_balance_error: e.and_then(|e| e.dissipated.map(|_| e.max_balance_error)),
+        supplied: e.and_then(|e| e.supplied),
+        events: sim.events().to_vec(),
+        stopped_by: sim.stopped().map(str::to_owned),
+        max_energy_balance_error: e
+            .filter(|e| e.dissipated.is_some() || e.supplied.is_some())
+            .map(|e| e.max_balance_error),
         effects,
         residual_evaluations: stats.residual_evaluations,
         newton_iterations: stats.newton_iterations,

@@ -31,6 +31,8 @@ pub struct Sample<'a> {
     pub g: Option<f64>,
     /// `max |φ(x)|`, likewise.
     pub phi: Option<f64>,
+    /// The declared outputs (see [`Simulation::output_names`](crate::scene::Simulation::output_names)).
+    pub outputs: &'a [f64],
 }
 
 /// Why a run stopped early.
@@ -73,10 +75,18 @@ pub struct RunSummary {
     /// dominates the splitting's `O(h³)` energy error, and ≤ 0 by construction with the
     /// discrete gradient.
     pub max_energy_increase: Option<f64>,
-    /// Energy dissipated, `∫ ∇Hᵀ R ∇H dt` by the trapezoidal rule (with damping).
+    /// Energy dissipated, `∫ ∇Hᵀ R ∇H dt` (with damping): the damping sub-flow's exact
+    /// account in a splitting, the trapezoidal rule over the steps otherwise (see
+    /// [`EnergyBudget`](crate::scene::observe::EnergyBudget)).
     pub dissipated: Option<f64>,
-    /// `max |H − H₀ + dissipated|` over the run: the energy budget's error (with damping; the
-    /// quadrature's `O(h²)` is part of it).
+    /// Energy supplied through the inputs, `∫ yᵀu dt` (with inputs).
+    pub supplied: Option<f64>,
+    /// The events that happened, in order.
+    pub events: Vec<crate::scene::EventRecord>,
+    /// The event that stopped the run, if one did.
+    pub stopped_by: Option<String>,
+    /// `max |H − H₀ + dissipated − supplied|` over the run: the energy budget's error (with
+    /// damping or inputs).
     pub max_energy_balance_error: Option<f64>,
     /// Per-term evaluation counts.
     pub effects: Vec<EffectReport>,

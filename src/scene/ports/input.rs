@@ -1,0 +1,237 @@
+//! A scene's inputs: forces on bodies and torques about pivots, each driven by one signal.
+
+use super::signal::SignalSpec;
+use crate::real::Real;
+use crate::scene::bodies::Bodies;
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::validate::{Result, err, norm, sub, vector};
+use serde::Deserialize;
+
+/// An input, by `type`: its name (for the CSV, the embedder's `set_input`, outputs and
+/// events), where it acts, and its signal.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum InputSpec {
+    /// The force `u(t) · direction` on each selected body.
+    Force {
+        /// Unique name.
+        name: String,
+        /// The bodies pushed (names or groups).
+        bodies: Vec<String>,
+        /// The force per unit input (`dim` entries, not normalized).
+        direction: Vec<f64>,
+        /// `u(t)`.
+        signal: SignalSpec,
+    },
+    /// The torque `u(t)` about `axis` (3D; the plane's normal in 2D) turning `body` about a
+    /// fixed `pivot` point or about `pivot_body` (which feels the reaction): the force
+    /// `u (â × r)/|r⊥|²` on the body, `r` from the pivot to the body (`r⊥` its part across
+    /// the axis), whose moment about the axis is exactly `u`.
+    Torque {
+        /// Unique name.
+        name: String,
+        /// The body turned.
+        body: String,
+        /// A fixed pivot point.
+        #[serde(default)]
+        pivot: Option<Vec<f64>>,
+        /// A body as the pivot (it receives the opposite force).
+        #[serde(default)]
+        pivot_body: Option<String>,
+        /// The axis (3D only; default the z axis).
+        #[serde(default)]
+        axis: Option<Vec<f64>>,
+        /// `u(t)`.
+        signal: SignalSpec,
+    },
+}
+
+impl InputSpec {
+    pub(crate) fn name(&self) -> &str {
+        match self {
+            Self::Force { name, .. } | Self::Torque { name, .. } => name,
+        }
+    }
+    pub(crate) fn signal(&self) -> &SignalSpec {
+        match self {
+            Self::Force { signal, .. } | Self::Torque { signal, .. } => signal,
+        }
+    }
+}
+
+/// Where an input acts.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum InputTerm<T> {
+    Force {
+        bodies: Vec<usize>,
+        direction: [T; 3],
+    },
+    Torque {
+        body: usize,
+        pivot: Pivot<T>,
+        axis: [T; 3],
+    },
+}
+
+/// A torque's pivot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Pivot<T> {
+    Point([T; 3]),
+    Body(usize),
+}
+
+impl InputTerm<f64> {
+    pub(crate) fn compile(
+        spec: &InputSpec,
+        bodies: &Bodies,
+        dim: usize,
+        path: &FieldPath,
+    ) -> Result<Self> {
+        Ok(match spec {
+            InputSpec::Force {
+                bodies: sel,
+                direction,
+                ..
+            } => Self::Force {
+                bodies: bodies.select_all(sel, &path.key("bodies"))?,
+                direction: vector(direction, dim, &path.key("direction"))?,
+            },
+            InputSpec::Torque {
+                body,
+                pivot,
+                pivot_body,
+                axis,
+                ..
+            } => {
+                let b = single(bodies, body, &path.key("body"))?;
+                let pivot = match (pivot, pivot_body) {
+                    (Some(p), None) => Pivot::Point(vector(p, dim, &path.key("pivot"))?),
+                    (None, Some(a)) => Pivot::Body(single(bodies, a, &path.key("pivot_body"))?),
+                    _ => {
+                        return Err(err(
+                            SceneErrorKind::Value,
+                            path.clone(),
+                            "a torque takes `pivot` (a point) or `pivot_body`, exactly one",
+                        ));
+                    }
+                };
+                let axis = match (axis, dim) {
+                    (None, _) => [0.0, 0.0, 1.0],
+                    (Some(_), 2) => {
+                        return Err(err(
+                            SceneErrorKind::Dimension,
+                            path.key("axis"),
+                            "in 2D the axis is the plane's normal: leave `axis` out",
+                        ));
+                    }
+                    (Some(a), _) => {
+                        let a = vector(a, 3, &path.key("axis"))?;
+                        let n = norm(a);
+                        if n == 0.0 {
+                            return Err(err(
+                                SceneErrorKind::Value,
+                                path.key("axis"),
+                                "the axis is zero",
+                            ));
+                        }
+                        a.map(|v| v / n)
+                    }
+                };
+                // The body must start off the axis through the pivot.
+                let from = match pivot {
+                    Pivot::Point(p) => p,
+                    Pivot::Body(a) => bodies.list[a].q,
+                };
+                let r = sub(bodies.list[b].q, from);
+                let along = r[0] * axis[0] + r[1] * axis[1] + r[2] * axis[2];
+                let perp = [
+                    r[0] - along * axis[0],
+                    r[1] - along * axis[1],
+                    r[2] - along * axis[2],
+                ];
+                if norm(perp) == 0.0 {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        path.key("body"),
+                        "the body starts on the torque's axis through the pivot: no lever arm",
+                    ));
+                }
+                Self::Torque {
+                    body: b,
+                    pivot,
+                    axis,
+                }
+            }
+        })
+    }
+}
+
+impl<S: Real> InputTerm<S> {
+    /// The same term in another scalar.
+    pub(crate) fn with_scalar_from<T: Real>(&self) -> InputTerm<T> {
+        let c3 = |v: [S; 3]| v.map(|x| T::lit(x.to_f64_lossy()));
+        match self {
+            Self::Force { bodies, direction } => InputTerm::Force {
+                bodies: bodies.clone(),
+                direction: c3(*direction),
+            },
+            Self::Torque { body, pivot, axis } => InputTerm::Torque {
+                body: *body,
+                pivot: match pivot {
+                    Pivot::Point(p) => Pivot::Point(c3(*p)),
+                    Pivot::Body(a) => Pivot::Body(*a),
+                },
+                axis: c3(*axis),
+            },
+        }
+    }
+}
+
+fn single(bodies: &Bodies, sel: &str, path: &FieldPath) -> Result<usize> {
+    match bodies.select(sel, path)?.as_slice() {
+        [b] => Ok(*b),
+        many => Err(err(
+            SceneErrorKind::Reference,
+            path.clone(),
+            format!("'{sel}' names {} bodies; a torque turns one", many.len()),
+        )),
+    }
+}
+
+impl<T: Real> InputTerm<T> {
+    /// The force per unit input on the body it turns (torque) or on each body (force), from
+    /// positions `q` (`d` per body).
+    #[inline]
+    pub(crate) fn unit_force(&self, q: &[T], d: usize) -> [T; 3] {
+        match self {
+            Self::Force { direction, .. } => *direction,
+            Self::Torque { body, pivot, axis } => {
+                let from = match pivot {
+                    Pivot::Point(p) => *p,
+                    Pivot::Body(a) => position(q, *a, d),
+                };
+                let qb = position(q, *body, d);
+                let r = [qb[0] - from[0], qb[1] - from[1], qb[2] - from[2]];
+                let along = r[0] * axis[0] + r[1] * axis[1] + r[2] * axis[2];
+                let perp = [
+                    r[0] - along * axis[0],
+                    r[1] - along * axis[1],
+                    r[2] - along * axis[2],
+                ];
+                let r2 = perp[0] * perp[0] + perp[1] * perp[1] + perp[2] * perp[2];
+                let f = [
+                    axis[1] * r[2] - axis[2] * r[1],
+                    axis[2] * r[0] - axis[0] * r[2],
+                    axis[0] * r[1] - axis[1] * r[0],
+                ];
+                f.map(|v| v / r2)
+            }
+        }
+    }
+}
+
+fn position<T: Real>(q: &[T], b: usize, d: usize) -> [T; 3] {
+    let mut out = [T::zero(); 3];
+    out[..d].copy_from_slice(&q[b * d..b * d + d]);
+    out
+}

@@ -1,0 +1,225 @@
+//! A scene's ports: `[[inputs]]` (forces and torques driven by signals), `[[outputs]]` (the
+//! quantities `lieflow run` writes and draws) and `[[events]]` (stop or record when a body
+//! crosses a plane or a quantity crosses a value).
+//!
+//! An input `j` with unit force `f_j(q)` (on momenta only, so `B(q) = [0; f(q)]`) enters the
+//! model as `x' = M(∇H + Gᵀλ) + B(q) u(t)`; its exact sub-flow `p ← p + f(q) ∫u dt` joins the
+//! kick of the splitting and carries the time (see [`crate::port`]). The collocated output is
+//! `y_j = f_j(q) · v` (the velocity conjugate to the input), the power it supplies `y_j u_j`.
+
+mod event;
+mod expr;
+mod input;
+mod output;
+mod signal;
+
+pub use event::{EventAction, EventSpec, PlaneSpec};
+pub use input::InputSpec;
+pub use output::{OutputSpec, Quantity};
+pub use signal::SignalSpec;
+
+pub(crate) use event::compile_events;
+pub(crate) use input::InputTerm;
+pub(crate) use output::{At, CompiledOutput, compile_outputs};
+
+use crate::port::{Held, InputMap, Signal};
+use crate::real::Real;
+use crate::scene::bodies::Bodies;
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::validate::{Result, err};
+use crate::vector::Vector;
+use num_traits::{One, Zero};
+use std::sync::Arc;
+
+/// The compiled inputs of a scene: where each acts, its signal and its name.
+#[derive(Debug, Clone)]
+pub struct SceneInputs<T> {
+    pub(crate) map: SceneInputMap<T>,
+    pub(crate) signals: Vec<Signal<T>>,
+    pub(crate) names: Vec<String>,
+}
+
+impl<T: Real> SceneInputs<T> {
+    /// The input names, in file order.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+    /// The index of the input called `name`.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+    /// The handle of a `held` input (to set it between steps); `None` for other signals.
+    pub fn held(&self, j: usize) -> Option<&Held> {
+        match self.signals.get(j) {
+            Some(Signal::Held(h)) => Some(h),
+            _ => None,
+        }
+    }
+    /// `u_j(t)`.
+    pub fn value(&self, j: usize, t: T) -> T {
+        self.signals[j].value(t)
+    }
+    /// The same inputs in another scalar (reference runs): expressions are evaluated in `f64`.
+    pub(crate) fn with_scalar<S: Real>(&self) -> SceneInputs<S> {
+        let signals = self
+            .signals
+            .iter()
+            .map(|s| match s {
+                Signal::Constant(c) => Signal::Constant(lit(*c)),
+                Signal::Step { at, before, after } => Signal::Step {
+                    at: lit(*at),
+                    before: lit(*before),
+                    after: lit(*after),
+                },
+                Signal::Ramp {
+                    start,
+                    end,
+                    from,
+                    to,
+                } => Signal::Ramp {
+                    start: lit(*start),
+                    end: lit(*end),
+                    from: lit(*from),
+                    to: lit(*to),
+                },
+                Signal::Sine {
+                    amplitude,
+                    omega,
+                    phase,
+                    offset,
+                } => Signal::Sine {
+                    amplitude: lit(*amplitude),
+                    omega: lit(*omega),
+                    phase: lit(*phase),
+                    offset: lit(*offset),
+                },
+                Signal::Table(p) => {
+                    Signal::Table(p.iter().map(|&(t, u)| (lit(t), lit(u))).collect())
+                }
+                Signal::Held(h) => Signal::Held(h.clone()),
+                Signal::Function(f) => {
+                    let f = f.clone();
+                    Signal::Function(Arc::new(move |t: S| {
+                        S::lit(f(T::lit(t.to_f64_lossy())).to_f64_lossy())
+                    }))
+                }
+            })
+            .collect();
+        SceneInputs {
+            map: SceneInputMap {
+                dim: self.map.dim,
+                nq: self.map.nq,
+                terms: self
+                    .map
+                    .terms
+                    .iter()
+                    .map(|t| t.with_scalar_from())
+                    .collect(),
+            },
+            signals,
+            names: self.names.clone(),
+        }
+    }
+}
+
+fn lit<T: Real, S: Real>(v: T) -> S {
+    S::lit(v.to_f64_lossy())
+}
+
+/// `B(q)` of a scene's inputs: the unit force of each input on the momenta.
+#[derive(Debug, Clone)]
+pub struct SceneInputMap<T> {
+    dim: usize,
+    nq: usize,
+    terms: Arc<[InputTerm<T>]>,
+}
+
+impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
+    fn inputs(&self) -> usize {
+        self.terms.len()
+    }
+    fn apply(&self, x: &mut V, w: &[V::Real]) {
+        let d = self.dim;
+        let (q, p) = x.as_mut_slice().split_at_mut(self.nq);
+        for (term, &wj) in self.terms.iter().zip(w) {
+            let f = term.unit_force(q, d);
+            let mut push = |b: usize, s: V::Real| {
+                for k in 0..d {
+                    p[b * d + k] = p[b * d + k] + s * wj * f[k];
+                }
+            };
+            match term {
+                InputTerm::Force { bodies, .. } => {
+                    bodies.iter().for_each(|&b| push(b, V::Real::one()))
+                }
+                InputTerm::Torque { body, pivot, .. } => {
+                    push(*body, V::Real::one());
+                    if let input::Pivot::Body(a) = pivot {
+                        push(*a, -V::Real::one());
+                    }
+                }
+            }
+        }
+    }
+    fn transpose_apply(&self, x: &V, e: &V, y: &mut [V::Real]) {
+        let d = self.dim;
+        let q = &x.as_slice()[..self.nq];
+        let v = &e.as_slice()[self.nq..];
+        let dot = |f: &[V::Real; 3], b: usize| {
+            (0..d).fold(V::Real::zero(), |s, k| s + f[k] * v[b * d + k])
+        };
+        for (term, yj) in self.terms.iter().zip(y.iter_mut()) {
+            let f = term.unit_force(q, d);
+            *yj = match term {
+                InputTerm::Force { bodies, .. } => {
+                    bodies.iter().fold(V::Real::zero(), |s, &b| s + dot(&f, b))
+                }
+                InputTerm::Torque { body, pivot, .. } => {
+                    let own = dot(&f, *body);
+                    match pivot {
+                        input::Pivot::Body(a) => own - dot(&f, *a),
+                        input::Pivot::Point(_) => own,
+                    }
+                }
+            };
+        }
+    }
+}
+
+/// Compiles `[[inputs]]`; `None` when there are none.
+pub(crate) fn compile_inputs(
+    specs: &[InputSpec],
+    bodies: &Bodies,
+    dim: usize,
+) -> Result<Option<SceneInputs<f64>>> {
+    if specs.is_empty() {
+        return Ok(None);
+    }
+    let root = FieldPath::root().key("inputs");
+    let mut names: Vec<String> = Vec::new();
+    let mut terms = Vec::new();
+    let mut signals = Vec::new();
+    for (i, spec) in specs.iter().enumerate() {
+        let path = root.index(i);
+        let name = spec.name();
+        if name.is_empty() || names.iter().any(|n| n == name) {
+            return Err(err(
+                SceneErrorKind::Reference,
+                path.key("name"),
+                format!("input name '{name}' is empty or used twice"),
+            ));
+        }
+        names.push(name.to_owned());
+        terms.push(InputTerm::compile(spec, bodies, dim, &path)?);
+        signals.push(spec.signal().compile(&path.key("signal"))?);
+    }
+    Ok(Some(SceneInputs {
+        map: SceneInputMap {
+            dim,
+            nq: dim * bodies.list.len(),
+            terms: terms.into(),
+        },
+        signals,
+        names,
+    }))
+}

@@ -1,0 +1,294 @@
+//! `[[outputs]]`: named quantities of a run, written as CSV columns and drawn.
+
+use super::SceneInputs;
+use crate::scene::bodies::Bodies;
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::model::SceneModel;
+use crate::scene::validate::{Result, err};
+use crate::system::Hamiltonian;
+use faer::Col;
+use serde::Deserialize;
+use std::sync::Arc;
+
+/// What an output (or an event's quantity) reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Quantity {
+    /// A body's position coordinate (`body`, `component`).
+    Position,
+    /// A body's velocity coordinate.
+    Velocity,
+    /// A body's momentum coordinate.
+    Momentum,
+    /// An input's value `u(t)` (`input`).
+    Input,
+    /// An input's collocated output `y = Bᵀ∇H` (the velocity conjugate to it).
+    PortOutput,
+    /// The power an input supplies, `y u`.
+    Power,
+    /// A constraint multiplier (`constraint`: its row), the mean of the step's `λ_k`, `λ_{k+1}`.
+    Multiplier,
+    /// `H`.
+    Energy,
+    /// The kinetic energy.
+    Kinetic,
+    /// Energy supplied through the inputs so far.
+    Supplied,
+    /// Energy dissipated so far.
+    Dissipated,
+}
+
+/// An output of a run.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// The column's name (default: built from the quantity and its selectors).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// What to read.
+    pub quantity: Quantity,
+    /// The body (position, velocity, momentum).
+    #[serde(default)]
+    pub body: Option<String>,
+    /// The coordinate (0 = x, 1 = y, 2 = z).
+    #[serde(default)]
+    pub component: Option<usize>,
+    /// The input (input, port-output, power).
+    #[serde(default)]
+    pub input: Option<String>,
+    /// The constraint row (multiplier).
+    #[serde(default)]
+    pub constraint: Option<usize>,
+}
+
+/// A compiled output: its name and what it reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CompiledOutput {
+    /// The column's name.
+    pub name: String,
+    pub(crate) read: Read,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Read {
+    Position(usize),
+    Velocity(usize, usize),
+    Momentum(usize),
+    Input(usize),
+    PortOutput(usize),
+    Power(usize),
+    Multiplier(usize),
+    Energy,
+    Kinetic,
+    Supplied,
+    Dissipated,
+}
+
+/// What an output is evaluated from.
+pub(crate) struct At<'a> {
+    pub(crate) model: &'a Arc<SceneModel>,
+    pub(crate) t: f64,
+    pub(crate) x: &'a [f64],
+    pub(crate) multipliers: Option<&'a [f64]>,
+    /// `(supplied, dissipated)` so far.
+    pub(crate) energies: (f64, f64),
+}
+
+impl CompiledOutput {
+    /// The value at `at` (NaN for a multiplier before the first step).
+    pub(crate) fn value(&self, at: &At<'_>) -> f64 {
+        let model = at.model;
+        let nq = at.x.len() / 2;
+        let port = |j: usize| {
+            let inputs = model.inputs.as_ref().expect("compiled with inputs");
+            (inputs, j)
+        };
+        match self.read {
+            Read::Position(i) => at.x[i],
+            Read::Momentum(i) => at.x[nq + i],
+            Read::Velocity(b, i) => at.x[nq + i] * model.inv_masses[b],
+            Read::Input(j) => {
+                let (inputs, j) = port(j);
+                inputs.value(j, at.t)
+            }
+            Read::PortOutput(j) | Read::Power(j) => {
+                let (inputs, j) = port(j);
+                let y = port_output(model, inputs, at.x, j);
+                match self.read {
+                    Read::Power(_) => y * inputs.value(j, at.t),
+                    _ => y,
+                }
+            }
+            Read::Multiplier(row) => at.multipliers.map_or(f64::NAN, |l| l[row]),
+            Read::Energy => model.energy(&Col::from_fn(at.x.len(), |i| at.x[i])),
+            Read::Kinetic => model.kinetic_energy(at.x),
+            Read::Supplied => at.energies.0,
+            Read::Dissipated => at.energies.1,
+        }
+    }
+}
+
+/// `y_j = B_jᵀ ∇H` at `x`.
+fn port_output(model: &Arc<SceneModel>, inputs: &SceneInputs<f64>, x: &[f64], j: usize) -> f64 {
+    use crate::port::InputMap;
+    let n = x.len();
+    let xc = Col::from_fn(n, |i| x[i]);
+    let mut grad = Col::<f64>::zeros(n);
+    model.gradient(&xc, &mut grad);
+    let mut y = vec![0.0; inputs.names.len()];
+    <super::SceneInputMap<f64> as InputMap<Col<f64>>>::transpose_apply(
+        &inputs.map,
+        &xc,
+        &grad,
+        &mut y,
+    );
+    y[j]
+}
+
+/// Compiles one selector (outputs and events share it); `events` refuses what an event
+/// cannot see (multipliers, the energy ledger).
+pub(crate) fn compile_read(
+    spec: &OutputSpec,
+    bodies: &Bodies,
+    dim: usize,
+    inputs: Option<&SceneInputs<f64>>,
+    m: usize,
+    path: &FieldPath,
+    events: bool,
+) -> Result<CompiledOutput> {
+    let body = |what: &str| -> Result<(usize, usize)> {
+        let sel = spec.body.as_deref().ok_or_else(|| {
+            err(
+                SceneErrorKind::Value,
+                path.clone(),
+                format!("a {what} output names a `body`"),
+            )
+        })?;
+        let b = match bodies.select(sel, &path.key("body"))?.as_slice() {
+            [b] => *b,
+            many => {
+                return Err(err(
+                    SceneErrorKind::Reference,
+                    path.key("body"),
+                    format!("'{sel}' names {} bodies; an output reads one", many.len()),
+                ));
+            }
+        };
+        let k = spec.component.unwrap_or(0);
+        if k >= dim {
+            return Err(err(
+                SceneErrorKind::Dimension,
+                path.key("component"),
+                format!(
+                    "component {k} of a {dim}-dimensional scene (0 … {})",
+                    dim - 1
+                ),
+            ));
+        }
+        Ok((b, k))
+    };
+    let input = || -> Result<usize> {
+        let name = spec.input.as_deref().ok_or_else(|| {
+            err(
+                SceneErrorKind::Value,
+                path.clone(),
+                "this quantity names an `input`",
+            )
+        })?;
+        inputs.and_then(|i| i.index(name)).ok_or_else(|| {
+            err(
+                SceneErrorKind::Reference,
+                path.key("input"),
+                format!("'{name}' names no input (the scene's [[inputs]] are named)"),
+            )
+        })
+    };
+    let axis = ["x", "y", "z"];
+    let bname = |b: usize| bodies.list[b].name.clone();
+    let (read, default) = match spec.quantity {
+        Quantity::Position => {
+            let (b, k) = body("position")?;
+            (
+                Read::Position(b * dim + k),
+                format!("{}.{}", bname(b), axis[k]),
+            )
+        }
+        Quantity::Velocity => {
+            let (b, k) = body("velocity")?;
+            (
+                Read::Velocity(b, b * dim + k),
+                format!("{}.v{}", bname(b), axis[k]),
+            )
+        }
+        Quantity::Momentum => {
+            let (b, k) = body("momentum")?;
+            (
+                Read::Momentum(b * dim + k),
+                format!("{}.p{}", bname(b), axis[k]),
+            )
+        }
+        Quantity::Input => {
+            let j = input()?;
+            (
+                Read::Input(j),
+                format!("u.{}", spec.input.as_deref().unwrap_or("")),
+            )
+        }
+        Quantity::PortOutput => {
+            let j = input()?;
+            (
+                Read::PortOutput(j),
+                format!("y.{}", spec.input.as_deref().unwrap_or("")),
+            )
+        }
+        Quantity::Power => {
+            let j = input()?;
+            (
+                Read::Power(j),
+                format!("power.{}", spec.input.as_deref().unwrap_or("")),
+            )
+        }
+        Quantity::Multiplier | Quantity::Supplied | Quantity::Dissipated if events => {
+            return Err(err(
+                SceneErrorKind::Unsupported,
+                path.key("quantity"),
+                "an event watches the state and time: positions, velocities, momenta, inputs, port outputs, powers and energies, not multipliers or the energy ledger",
+            ));
+        }
+        Quantity::Multiplier => {
+            let row = spec.constraint.unwrap_or(0);
+            if row >= m {
+                return Err(err(
+                    SceneErrorKind::Reference,
+                    path.key("constraint"),
+                    format!("constraint row {row}, but the scene has {m} rows"),
+                ));
+            }
+            (Read::Multiplier(row), format!("lambda{row}"))
+        }
+        Quantity::Energy => (Read::Energy, "H".to_owned()),
+        Quantity::Kinetic => (Read::Kinetic, "kinetic".to_owned()),
+        Quantity::Supplied => (Read::Supplied, "supplied".to_owned()),
+        Quantity::Dissipated => (Read::Dissipated, "dissipated".to_owned()),
+    };
+    Ok(CompiledOutput {
+        name: spec.name.clone().unwrap_or(default),
+        read,
+    })
+}
+
+/// Compiles `[[outputs]]`.
+pub(crate) fn compile_outputs(
+    specs: &[OutputSpec],
+    bodies: &Bodies,
+    dim: usize,
+    inputs: Option<&SceneInputs<f64>>,
+    m: usize,
+) -> Result<Vec<CompiledOutput>> {
+    let root = FieldPath::root().key("outputs");
+    specs
+        .iter()
+        .enumerate()
+        .map(|(i, s)| compile_read(s, bodies, dim, inputs, m, &root.index(i), false))
+        .collect()
+}

@@ -1,0 +1,68 @@
+//! What a scene run reads and watches beyond its state: the declared outputs, the events, and
+//! the energies its flow books exactly (supplied through inputs, removed by damping).
+
+use crate::scene::model::SceneModel;
+use crate::scene::ports::{At, CompiledOutput};
+use crate::stepper::{EventHit, Events};
+use crate::vector::Vector;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// An event that happened in a run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EventRecord {
+    /// The event's name.
+    pub name: String,
+    /// Its located time.
+    pub t: f64,
+    /// The step it happened in (counted from 1).
+    pub step: usize,
+    /// It stopped the run.
+    pub stop: bool,
+}
+
+/// A run's outputs, events and exact energy accounts.
+pub(crate) struct Watch<V: Vector> {
+    pub(crate) model: Arc<SceneModel>,
+    pub(crate) outputs: Vec<CompiledOutput>,
+    pub(crate) events: Option<Events<V>>,
+    pub(crate) event_names: Vec<String>,
+    pub(crate) log: Vec<EventRecord>,
+    /// The flow books the energy supplied (the scene has inputs and a splitting).
+    pub(crate) supplied: bool,
+    /// The flow books the energy dissipated (damping in a splitting).
+    pub(crate) dissipated: bool,
+}
+
+impl<V: Vector<Real = f64>> Watch<V> {
+    /// Records `hit` (of the step numbered `step`); `true` when it stops the run.
+    pub(crate) fn record(&mut self, hit: EventHit<f64>, step: usize) -> bool {
+        self.log.push(EventRecord {
+            name: self.event_names[hit.index].clone(),
+            t: hit.t,
+            step,
+            stop: hit.terminal,
+        });
+        hit.terminal
+    }
+
+    /// The outputs' values at `(t, x)`, into `out`.
+    pub(crate) fn values(
+        &self,
+        t: f64,
+        x: &[f64],
+        multipliers: Option<&[f64]>,
+        energies: (f64, f64),
+        out: &mut Vec<f64>,
+    ) {
+        out.clear();
+        let at = At {
+            model: &self.model,
+            t,
+            x,
+            multipliers,
+            energies,
+        };
+        out.extend(self.outputs.iter().map(|o| o.value(&at)));
+    }
+}
