@@ -62,7 +62,8 @@ pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
 pub use gram::MassGram;
 pub use model::{EffectKind, SceneModel};
 pub use run::{
-    Advanced, EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation, advance, run,
+    Advanced, EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation,
+    SimulationCheckpoint, advance, run,
 };
 pub use schema::SceneFile;
 pub use watch::EventRecord;

@@ -7,10 +7,12 @@ use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
 use crate::scene::watch::{EventRecord, Watch};
-use crate::stepper::Stepper;
+use crate::stepper::{Checkpoint, Stepper};
+use crate::system::Reprojection;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
 use serde::Serialize;
+use std::any::Any;
 use std::sync::Arc;
 
 /// One assembled term and what it cost in a run.
@@ -78,6 +80,48 @@ pub trait Simulation {
     fn stopped(&self) -> Option<&str> {
         None
     }
+    /// The names of the declared inputs.
+    fn input_names(&self) -> Vec<String> {
+        Vec::new()
+    }
+    /// Sets the `held` input `name` to `value` from now on (zero-order hold).
+    ///
+    /// # Errors
+    /// The input does not exist or is not `held` (its signal is a function of time).
+    fn set_input(&mut self, name: &str, value: f64) -> Result<(), String> {
+        let _ = value;
+        Err(format!(
+            "no input '{name}': this simulation declares no inputs"
+        ))
+    }
+    /// The value of input `name` at the current time.
+    fn input(&self, name: &str) -> Option<f64> {
+        let _ = name;
+        None
+    }
+    /// Steps until the time is `t`: steps of `dt` while they fit, then one shorter step that
+    /// lands on `t` (see [`Stepper::advance_to`]); stops early at a `stop` event. Returns the
+    /// steps taken.
+    ///
+    /// # Errors
+    /// The failing step's error (the state is the last good one).
+    fn advance_to(&mut self, t: f64) -> Result<usize, StepError>;
+    /// A checkpoint of everything the continuation depends on (see [`Stepper::save`]).
+    fn save(&mut self) -> SimulationCheckpoint;
+    /// Restores a checkpoint of this simulation: the continuation equals, bit for bit, the
+    /// run that went on after it was saved.
+    ///
+    /// # Errors
+    /// A checkpoint of another simulation.
+    fn restore(&mut self, checkpoint: &SimulationCheckpoint) -> Result<(), String>;
+    /// Replaces the state (an external change: an impulse, a reset). With `reproject`, the new
+    /// state is projected onto `g = 0`, `φ = 0` (see [`reproject`]) and the report says how
+    /// far it moved; without, a state off the constraints is refused by the next step.
+    ///
+    /// # Errors
+    /// A state of the wrong length or not finite, or a re-projection that did not converge
+    /// (the state is then unchanged).
+    fn set_state(&mut self, x: &[f64], reproject: bool) -> Result<Option<Reprojection>, String>;
     /// The constraint multipliers of the last step, `(λ_k + λ_{k+1})/2` — the multiplier `λ`
     /// of `x' = M (∇H + Gᵀλ)` at the step — when the scheme is a projection.
     fn multipliers(&self) -> Option<Vec<f64>> {
@@ -89,6 +133,21 @@ pub trait Simulation {
     /// singular to working precision.
     fn multiplier_condition(&mut self) -> Option<f64> {
         None
+    }
+}
+
+/// A saved [`Simulation`] (opaque: restored into the simulation it came from, or one compiled
+/// from the same scene).
+pub struct SimulationCheckpoint {
+    state: Box<dyn Any + Send>,
+    /// Events' values at the save, and how many had happened.
+    events: Option<(Vec<f64>, usize)>,
+}
+
+impl std::fmt::Debug for SimulationCheckpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimulationCheckpoint")
+            .finish_non_exhaustive()
     }
 }
 
@@ -161,6 +220,112 @@ where
             }
             _ => self.stepper.step(),
         }
+    }
+    fn input_names(&self) -> Vec<String> {
+        self.model
+            .as_ref()
+            .and_then(|m| m.inputs())
+            .map_or_else(Vec::new, |i| i.names().to_vec())
+    }
+    fn set_input(&mut self, name: &str, value: f64) -> Result<(), String> {
+        let inputs = self.model.as_ref().and_then(|m| m.inputs());
+        let Some(inputs) = inputs else {
+            return Err(format!("no input '{name}': the scene declares no inputs"));
+        };
+        let j = inputs
+            .index(name)
+            .ok_or_else(|| format!("no input '{name}' (inputs: {})", inputs.names().join(", ")))?;
+        if !value.is_finite() {
+            return Err(format!("input '{name}' = {value}: not finite"));
+        }
+        let held = inputs.held(j).ok_or_else(|| {
+            format!("input '{name}' follows its signal; only `held` inputs are set between steps")
+        })?;
+        held.set(value);
+        Ok(())
+    }
+    fn input(&self, name: &str) -> Option<f64> {
+        let inputs = self.model.as_ref()?.inputs()?;
+        Some(inputs.value(inputs.index(name)?, self.stepper.time()))
+    }
+    fn advance_to(&mut self, t: f64) -> Result<usize, StepError> {
+        let start = self.stepper.steps_taken();
+        let h = self.stepper.step_size();
+        let slack = 8.0 * f64::EPSILON * (t.abs() + h.abs());
+        while self.stopped().is_none() {
+            let remaining = t - self.stepper.time();
+            if remaining * h.signum() <= slack {
+                if remaining.abs() <= slack && self.stepper.steps_taken() > start {
+                    self.stepper.land_on(t);
+                }
+                break;
+            }
+            if remaining.abs() >= h.abs() - slack {
+                self.step()?;
+                continue;
+            }
+            match self.watch.as_mut() {
+                Some(Watch {
+                    events: Some(events),
+                    ..
+                }) => {
+                    let hit = self.stepper.step_by_with_events(remaining, events)?;
+                    if let (Some(hit), Some(w)) = (hit, self.watch.as_mut()) {
+                        w.record(hit, self.stepper.steps_taken());
+                    }
+                }
+                _ => self.stepper.step_off_grid(remaining)?,
+            }
+        }
+        Ok(self.stepper.steps_taken() - start)
+    }
+    fn save(&mut self) -> SimulationCheckpoint {
+        let checkpoint = self.stepper.save();
+        let events = self.watch.as_ref().and_then(|w| {
+            w.events
+                .as_ref()
+                .map(|e| (e.values().to_vec(), w.log.len()))
+        });
+        SimulationCheckpoint {
+            state: Box::new(checkpoint),
+            events,
+        }
+    }
+    fn restore(&mut self, checkpoint: &SimulationCheckpoint) -> Result<(), String> {
+        let saved = checkpoint
+            .state
+            .downcast_ref::<Checkpoint<V>>()
+            .ok_or("a checkpoint of another kind of simulation")?;
+        self.stepper.restore(saved).map_err(|e| e.to_string())?;
+        if let (Some(w), Some((values, logged))) = (self.watch.as_mut(), &checkpoint.events) {
+            if let Some(events) = w.events.as_mut() {
+                events.set_values(values);
+            }
+            w.log.truncate(*logged);
+        }
+        Ok(())
+    }
+    fn set_state(&mut self, x: &[f64], reproject: bool) -> Result<Option<Reprojection>, String> {
+        let n = self.stepper.state().len();
+        if x.len() != n {
+            return Err(format!("a state of {} values for a state of {n}", x.len()));
+        }
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            return Err(format!("state component {i} is not finite"));
+        }
+        let mut next = self.stepper.state().clone();
+        next.as_mut_slice().copy_from_slice(x);
+        let report = if reproject && !self.g.is_empty() {
+            let tol = 16.0 * f64::EPSILON * x.iter().fold(1.0f64, |s, v| s.max(v.abs()));
+            Some(
+                crate::system::reproject(&self.system, &mut next, tol, true)
+                    .map_err(|e| e.to_string())?,
+            )
+        } else {
+            None
+        };
+        self.stepper.state_mut().copy_from(&next);
+        Ok(report)
     }
     fn supplied(&self) -> Option<f64> {
         let w = self.watch.as_ref()?;

@@ -116,6 +116,18 @@ impl<V: Vector> Events<V> {
     pub fn is_empty(&self) -> bool {
         self.events.is_empty()
     }
+    /// The events' values at the last step point (what a crossing is detected against), for
+    /// a checkpoint; empty before the first watched step.
+    pub fn values(&self) -> &[V::Real] {
+        if self.started { &self.previous } else { &[] }
+    }
+    /// Restores the values of [`values`](Self::values) (an empty slice: not started).
+    pub fn set_values(&mut self, values: &[V::Real]) {
+        self.started = values.len() == self.previous.len() && !values.is_empty();
+        if self.started {
+            self.previous.copy_from_slice(values);
+        }
+    }
     fn evaluate_all(&mut self, t: V::Real, x: &V) {
         for (e, p) in self.events.iter_mut().zip(self.previous.iter_mut()) {
             *p = (e.function)(t, x);
@@ -144,12 +156,33 @@ where
         &mut self,
         events: &mut Events<V>,
     ) -> Result<Option<EventHit<V::Real>>, StepError> {
+        self.watched_step(events, None)
+    }
+
+    /// As [`step_with_events`](Self::step_with_events), with a step of size `h` off the grid
+    /// (the last, shorter step to a time; the grid restarts from its end).
+    pub fn step_by_with_events(
+        &mut self,
+        h: V::Real,
+        events: &mut Events<V>,
+    ) -> Result<Option<EventHit<V::Real>>, StepError> {
+        self.watched_step(events, Some(h))
+    }
+
+    fn watched_step(
+        &mut self,
+        events: &mut Events<V>,
+        off_grid: Option<V::Real>,
+    ) -> Result<Option<EventHit<V::Real>>, StepError> {
         if !events.started {
             let (t, x) = (self.time(), self.x.borrow());
             events.evaluate_all(t, x);
             events.started = true;
         }
-        self.step()?;
+        match off_grid {
+            Some(h) => self.step_off_grid(h)?,
+            None => self.step()?,
+        }
         let t1 = self.time();
         let t0 = self.previous_time();
         let mut earliest: Option<EventHit<V::Real>> = None;

@@ -116,9 +116,12 @@ where
         Ok(())
     }
 
-    /// One step of size `h` that is not on the grid `t_base + k h` (a last, shorter step):
-    /// the grid restarts from its end.
-    pub(crate) fn step_off_grid(&mut self, h: V::Real) -> Result<(), StepError> {
+    /// One step of size `h` that is not on the grid `t_base + k h` (a last, shorter step to a
+    /// communication point): the grid restarts from its end.
+    ///
+    /// # Errors
+    /// As [`step`](Self::step).
+    pub fn step_off_grid(&mut self, h: V::Real) -> Result<(), StepError> {
         let t = self.time() + h;
         self.step_by(h)?;
         self.k += 1;
@@ -166,8 +169,7 @@ where
             if remaining * h.signum() <= slack {
                 if remaining.abs() <= slack && remaining != V::Real::zero() && self.k > start {
                     // The grid landed on t_end up to rounding: report t_end exactly.
-                    self.t_base = t_end;
-                    self.k_base = self.k;
+                    self.land_on(t_end);
                 }
                 break;
             }
@@ -236,6 +238,12 @@ where
     /// [`system::reproject`](crate::system::reproject)).
     pub fn state_mut(&mut self) -> &mut V {
         self.x.borrow_mut()
+    }
+    /// Reports the time as `t` from now on (the grid restarts there): for a grid that landed on
+    /// `t` up to the rounding of the sum of its steps.
+    pub(crate) fn land_on(&mut self, t: V::Real) {
+        self.t_base = t;
+        self.k_base = self.k;
     }
     /// Changes the step size for the following steps (the grid restarts at the current time).
     pub fn set_step_size(&mut self, h: V::Real) {

@@ -10,7 +10,7 @@
 mod summary;
 
 pub(crate) use crate::scene::simulation::ModelRun;
-pub use crate::scene::simulation::{EffectReport, Simulation};
+pub use crate::scene::simulation::{EffectReport, Simulation, SimulationCheckpoint};
 pub(crate) use summary::step_error_kind;
 pub use summary::{RunFailure, RunPlan, RunSummary, Sample};
 

@@ -1,0 +1,310 @@
+//! Scene ports: inputs enter the splitting at its order with an exact energy budget, held
+//! inputs are set by the embedder, events are located, checkpoints continue bit for bit, and
+//! bad port declarations are located errors.
+
+use lieflow::scene::{Scene, SceneErrorKind, run};
+
+fn parse(text: &str) -> Scene {
+    Scene::from_toml(text, "ports.toml").unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A damped pendulum driven by a torque about its pivot.
+fn driven(dt: f64, t_end: f64, damping: f64, signal: &str) -> String {
+    format!(
+        r#"
+version = 1
+dim = 2
+[[bodies]]
+name = "bob"
+mass = 1.0
+position = [0.6, -0.8]
+[[constraints]]
+type = "rod"
+bodies = ["bob"]
+point = [0.0, 0.0]
+[[effects]]
+type = "gravity"
+g = [0.0, -9.81]
+[[effects]]
+type = "damping"
+coefficient = {damping}
+[[inputs]]
+type = "torque"
+name = "motor"
+body = "bob"
+pivot = [0.0, 0.0]
+signal = {signal}
+[[outputs]]
+quantity = "power"
+input = "motor"
+[[outputs]]
+quantity = "supplied"
+[integrator]
+dt = {dt}
+t_end = {t_end}
+"#
+    )
+}
+
+const SINE: &str = r#"{ type = "sine", amplitude = 2.0, omega = 3.0 }"#;
+
+#[test]
+fn a_driven_damped_pendulum_closes_its_energy_budget_at_order_two() {
+    let mut errs = vec![];
+    for dt in [4e-3, 2e-3, 1e-3, 5e-4] {
+        let mut c = parse(&driven(dt, 5.0, 0.3, SINE)).compile().unwrap();
+        let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+        assert!(s.error.is_none());
+        assert!(s.max_abs_g.unwrap() < 1e-14);
+        assert!(s.supplied.unwrap().abs() > 0.1 && s.dissipated.unwrap() > 0.1);
+        errs.push(s.max_energy_balance_error.unwrap());
+    }
+    for w in errs.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!(
+            (3.5..4.5).contains(&ratio),
+            "halving dt divides the budget error by {ratio}: {errs:?}"
+        );
+    }
+}
+
+#[test]
+fn the_supplied_energy_is_the_integral_of_the_ports_power() {
+    // ∫ y u dt by the trapezoidal rule over the outputs agrees with the flow's exact account
+    // to the quadrature's O(h²).
+    let mut c = parse(&driven(1e-3, 3.0, 0.3, SINE)).compile().unwrap();
+    let mut power = vec![];
+    let mut supplied = 0.0;
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |s| {
+        power.push(s.outputs[0]);
+        supplied = s.outputs[1];
+    });
+    let trapezoid: f64 = power.windows(2).map(|w| 0.5 * (w[0] + w[1]) * 1e-3).sum();
+    assert!(
+        (trapezoid - supplied).abs() < 1e-5,
+        "{trapezoid} vs {supplied}"
+    );
+    assert_eq!(s.supplied, Some(supplied));
+}
+
+#[test]
+fn stiff_damping_is_accounted_by_its_exact_sub_flow_not_by_quadrature() {
+    // c = 1e6 on a step of 1e-3 (c h / m = 1000). The trapezoidal rule of the power gave
+    // hundreds of joules here. The damping sub-flow's own account is what the scheme removes:
+    // the kicks between two damping sub-flows add F h of momentum, which the damping takes out
+    // in full, (F h)²/(2m) per step — never negative, so the dissipated energy never
+    // decreases. (The true creep dissipates F² h/c per step: the budget's error now measures
+    // the splitting's energy error at c h/m = 1000, not a quadrature's.)
+    let text = driven(1e-3, 1.0, 1e6, r#"{ type = "constant", value = 0.0 }"#)
+        .replace("quantity = \"supplied\"", "quantity = \"dissipated\"");
+    let mut c = parse(&text).compile().unwrap();
+    let mut dissipated = vec![];
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |s| {
+        dissipated.push(s.outputs[1])
+    });
+    assert!(
+        dissipated.windows(2).all(|w| w[1] >= w[0]),
+        "dissipation ran backwards"
+    );
+    // Tangential gravity at the start: m g sin θ with sin θ = 0.6 (the bob creeps by 1e-5).
+    let force: f64 = 9.81 * 0.6;
+    let per_step = (force * 1e-3).powi(2) / 2.0;
+    let d = s.dissipated.unwrap();
+    assert!(
+        (d / (1000.0 * per_step) - 1.0).abs() < 2e-3,
+        "{d} vs {}",
+        1000.0 * per_step
+    );
+}
+
+#[test]
+fn held_inputs_checkpoints_and_advance_to_serve_an_embedder() {
+    let text = driven(1e-3, 10.0, 0.1, r#"{ type = "held", value = 0.5 }"#);
+    let mut c = parse(&text).compile().unwrap();
+    let sim = c.simulation.as_mut();
+    assert_eq!(sim.input_names(), ["motor"]);
+    // A controller at 100 Hz: u = −k ω, set between communication points.
+    let controller = |sim: &mut dyn lieflow::scene::Simulation, until: f64| {
+        let mut states = vec![];
+        let mut t = sim.time();
+        while t < until - 1e-12 {
+            let x = sim.state();
+            let omega = x[0] * x[3] - x[1] * x[2]; // (q × p)/m with m = 1, |q| = 1
+            sim.set_input("motor", -2.0 * omega).unwrap();
+            t += 0.01;
+            sim.advance_to(t).unwrap();
+            assert_eq!(sim.time(), t);
+            states.push(sim.state().to_vec());
+        }
+        states
+    };
+    controller(sim, 0.5);
+    let saved_at = sim.time();
+    let checkpoint = sim.save();
+    let first = controller(sim, 1.0);
+    sim.restore(&checkpoint).unwrap();
+    assert_eq!(sim.time(), saved_at);
+    let again = controller(sim, 1.0);
+    assert!(first == again, "the restored run differs");
+    // Into a freshly compiled simulation of the same scene.
+    let mut other = parse(&text).compile().unwrap();
+    other.simulation.restore(&checkpoint).unwrap();
+    assert!(controller(other.simulation.as_mut(), 1.0) == first);
+    // The controller removes energy: the motor's supplied energy is negative.
+    assert!(sim.supplied().unwrap() < 0.0);
+    assert!(
+        sim.set_input("nope", 1.0)
+            .unwrap_err()
+            .contains("no input 'nope'")
+    );
+}
+
+#[test]
+fn a_signal_of_time_is_not_set_by_the_embedder() {
+    let mut c = parse(&driven(1e-3, 1.0, 0.1, SINE)).compile().unwrap();
+    let e = c.simulation.set_input("motor", 1.0).unwrap_err();
+    assert!(e.contains("only `held` inputs"), "{e}");
+    assert_eq!(c.simulation.input("motor"), Some(0.0));
+}
+
+#[test]
+fn an_impulse_is_reprojected_by_the_simulation() {
+    let mut c = parse(&driven(1e-3, 1.0, 0.1, SINE)).compile().unwrap();
+    let sim = c.simulation.as_mut();
+    sim.advance_to(0.1).unwrap();
+    let mut x = sim.state().to_vec();
+    // Push the bob along the rod (and a little across it).
+    x[2] += 0.6;
+    x[3] += -0.8 + 0.1;
+    let report = sim.set_state(&x, true).unwrap().unwrap();
+    assert!(report.phi_before > 0.5 && report.phi_after < 1e-14);
+    sim.step().unwrap();
+    let mut y = sim.state().to_vec();
+    y[0] *= 1.1;
+    assert!(sim.set_state(&y, false).unwrap().is_none());
+    assert!(
+        sim.step().is_err(),
+        "an off-manifold state is refused without reprojection"
+    );
+}
+
+#[test]
+fn a_falling_body_stops_on_the_floor_at_the_closed_form_time() {
+    let text = r#"
+version = 1
+dim = 2
+[[bodies]]
+name = "ball"
+mass = 2.0
+position = [0.0, 2.0]
+velocity = [1.0, 3.0]
+[[effects]]
+type = "gravity"
+g = [0.0, -9.81]
+[[events]]
+name = "floor"
+body = "ball"
+plane = { normal = [0.0, 1.0] }
+direction = "falling"
+action = "stop"
+[[events]]
+name = "apex"
+quantity = "velocity"
+body = "ball"
+component = 1
+direction = "falling"
+[integrator]
+dt = 0.01
+t_end = 10.0
+"#;
+    let mut c = parse(text).compile().unwrap();
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+    let landing = (3.0 + (9.0f64 + 2.0 * 9.81 * 2.0).sqrt()) / 9.81;
+    assert_eq!(s.stopped_by.as_deref(), Some("floor"));
+    assert_eq!(s.events.len(), 2);
+    assert_eq!(s.events[0].name, "apex");
+    assert!((s.events[0].t - 3.0 / 9.81).abs() < 1e-12, "{:?}", s.events);
+    assert!((s.t - landing).abs() < 1e-12, "{} vs {landing}", s.t);
+    assert!(s.x[1].abs() < 1e-12);
+}
+
+#[test]
+fn bad_port_declarations_are_located_errors() {
+    let cases: &[(&str, &str, &str, SceneErrorKind)] = &[
+        (
+            r#"{ type = "expression", expr = "2 * sine(t)" }"#,
+            "inputs[0].signal.expr",
+            "column 5",
+            SceneErrorKind::Value,
+        ),
+        (
+            r#"{ type = "table", points = [[0.0, 1.0], [0.0, 2.0]] }"#,
+            "inputs[0].signal.points",
+            "strictly increasing",
+            SceneErrorKind::Value,
+        ),
+        (
+            r#"{ type = "table", file = "/nonexistent/u.csv" }"#,
+            "inputs[0].signal.file",
+            "cannot read",
+            SceneErrorKind::Io,
+        ),
+        (
+            r#"{ type = "sine", amplitude = 1.0 }"#,
+            "inputs[0].signal",
+            "exactly one",
+            SceneErrorKind::Value,
+        ),
+        (
+            r#"{ type = "ramp", start = 2.0, end = 1.0, to = 1.0 }"#,
+            "inputs[0].signal.end",
+            "not after its start",
+            SceneErrorKind::Value,
+        ),
+    ];
+    for (signal, path, message, kind) in cases {
+        let e = parse(&driven(1e-3, 1.0, 0.1, signal))
+            .compile()
+            .unwrap_err();
+        assert_eq!(e.path.to_string(), *path, "{e}");
+        assert!(e.to_string().contains(message), "{e}");
+        assert_eq!(e.kind, *kind, "{e}");
+    }
+    let base = driven(1e-3, 1.0, 0.1, SINE);
+    let edits: &[(&str, &str, &str, &str)] = &[
+        (
+            "input = \"motor\"\n[[outputs]]",
+            "input = \"pump\"\n[[outputs]]",
+            "outputs[0].input",
+            "names no input",
+        ),
+        (
+            "pivot = [0.0, 0.0]\nsignal",
+            "pivot = [0.0, 0.0]\npivot_body = \"bob\"\nsignal",
+            "inputs[0]",
+            "exactly one",
+        ),
+        (
+            "[integrator]\n",
+            "[integrator]\nscheme = \"discrete-gradient\"\n",
+            "integrator.scheme",
+            "splitting schemes",
+        ),
+        (
+            "quantity = \"supplied\"",
+            "quantity = \"multiplier\"\nconstraint = 3",
+            "outputs[1].constraint",
+            "1 rows",
+        ),
+    ];
+    for (from, to, path, message) in edits {
+        assert!(base.contains(from), "{from}");
+        let e = parse(&base.replacen(from, to, 1)).compile().unwrap_err();
+        assert_eq!(e.path.to_string(), *path, "{e}");
+        assert!(e.to_string().contains(message), "{e}");
+    }
+    // A location in the file, as for every scene error.
+    let text = base.replace("omega = 3.0", "omega = 3.0, phase = \"x\"");
+    let e = Scene::from_toml(&text, "ports.toml").unwrap_err();
+    assert!(e.to_string().contains("ports.toml:"), "{e}");
+}
