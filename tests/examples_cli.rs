@@ -277,3 +277,27 @@ fn long_horizon_prints_the_json_contract_last() {
     let (code, _, err) = run("long_horizon", &["--repeat", "x"]);
     assert_eq!(code, 2, "{err}");
 }
+
+#[test]
+fn control_loop_reaches_its_target_on_the_sphere() {
+    let (code, out, err) = run("control_loop", &["--t-end", "8"]);
+    assert_eq!(code, 0, "{err}");
+    let last = out.lines().last().unwrap();
+    let angle_error: f64 = field(last, "angle_error").parse().unwrap();
+    let max_g: f64 = field(last, "max_abs_g").parse().unwrap();
+    let balance: f64 = field(last, "energy_balance_error").parse().unwrap();
+    assert!(angle_error.abs() < 1e-3, "{last}");
+    assert!(max_g < 1e-14, "{last}");
+    assert_eq!(field(last, "samples"), "400");
+    // The balance H(T) − H(0) = supplied closes at the composition's order 4 with a held
+    // (piecewise-constant) torque: halving the step divides its error by 16.
+    let (_, out, _) = run("control_loop", &["--t-end", "8", "--dt", "0.002"]);
+    let coarse: f64 = field(out.lines().last().unwrap(), "energy_balance_error")
+        .parse()
+        .unwrap();
+    let ratio = coarse / balance;
+    assert!(
+        (14.0..18.0).contains(&ratio),
+        "{coarse} / {balance} = {ratio}"
+    );
+}

@@ -81,6 +81,9 @@ pub struct EventSpec {
     pub action: EventAction,
 }
 
+/// A scene's compiled events and their names.
+pub(crate) type SceneEvents = (Vec<Event<Col<f64>>>, Vec<String>);
+
 /// Compiles `[[events]]` into the stepper's events over the scene's state, with their names.
 pub(crate) fn compile_events(
     specs: &[EventSpec],
@@ -88,7 +91,7 @@ pub(crate) fn compile_events(
     dim: usize,
     inputs: Option<&SceneInputs<f64>>,
     model: &Arc<SceneModel>,
-) -> Result<(Vec<Event<Col<f64>>>, Vec<String>)> {
+) -> Result<SceneEvents> {
     let root = FieldPath::root().key("events");
     let mut events = Vec::new();
     let mut names: Vec<String> = Vec::new();
