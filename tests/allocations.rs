@@ -277,3 +277,41 @@ fn stepper_steps_allocate_nothing() {
     }
     assert_eq!(allocations() - before, 0);
 }
+
+/// A forced, projected, composed pendulum stepped by the Stepper with a held input set before
+/// every step and an event watched: no allocation per step (the input's integrals, the
+/// ledger and the events' values live in the flow, the stepper and the event set).
+#[test]
+fn a_stepper_with_inputs_and_events_allocates_nothing_per_step() {
+    use lieflow::port::{ComponentInputs, Held, InputFlow, Signal};
+    use lieflow::stepper::{Direction, Event, Events};
+    type V6 = SVector<f64, 6>;
+    let model = SphericalPendulum::try_new(1.0, 1.0, 9.81).unwrap();
+    let x0 = V6::from_column_slice(&[0.6, 0.0, -0.8, 0.0, 0.0, 0.0]);
+    let held = Held::new(0.0);
+    let input = InputFlow::try_new(ComponentInputs::new(&[3]), vec![Signal::Held(held.clone())])
+        .unwrap()
+        .supplying(model);
+    let flow = model
+        .kick::<V6>()
+        .strang(input)
+        .strang(model.drift::<V6>())
+        .projected(model.system(), &x0, ProjectionOptions::default())
+        .unwrap()
+        .triple_jump();
+    let mut stepper = lieflow::Stepper::new(flow, x0, 0.0, 0.01).unwrap();
+    let mut events = Events::new(vec![Event::new(|_t, x: &V6| x[0], Direction::Either)]);
+    for _ in 0..10 {
+        stepper.step_with_events(&mut events).unwrap();
+    }
+    let before = allocations();
+    let mut hits = 0;
+    for k in 0..1000 {
+        held.set((k as f64 * 0.01).sin());
+        if stepper.step_with_events(&mut events).unwrap().is_some() {
+            hits += 1;
+        }
+    }
+    assert!(hits > 5, "the pendulum crossed the vertical {hits} times");
+    assert_eq!(allocations() - before, 0);
+}

@@ -92,6 +92,7 @@ pub struct Events<V: Vector> {
     previous: Vec<V::Real>,
     started: bool,
     scratch: Option<V>,
+    located_valid: bool,
     /// The time tolerance of the location (absolute, scaled by `max(1, |t|)`).
     pub tolerance: V::Real,
 }
@@ -105,8 +106,13 @@ impl<V: Vector> Events<V> {
             previous: vec![V::Real::zero(); n],
             started: false,
             scratch: None,
+            located_valid: false,
             tolerance: V::Real::lit(1e-13),
         }
+    }
+    /// The state at the event the last watched step returned (`None` if it returned none).
+    pub fn located(&self) -> Option<&V> {
+        self.scratch.as_ref().filter(|_| self.located_valid)
     }
     /// The number of events.
     pub fn len(&self) -> usize {
@@ -144,11 +150,17 @@ where
     /// One step, watching `events`. When one or more cross zero over the step (in their
     /// direction), the earliest crossing is located on the dense output (Illinois regula
     /// falsi on `θ ↦ e(t_prev + θ h, x(t_prev + θ h))`, each evaluation one step of the
-    /// scheme from the previous point) and the stepper is moved to it — a step to the root,
-    /// so a projected flow's state is on the constraint manifold at round-off there — and the
-    /// event is returned. The grid of later steps starts at the event. An event is not
-    /// reported again at the root it was stepped to. A sign change and back within one step
-    /// is not seen.
+    /// scheme from the previous point, so a projected flow's state there is on the
+    /// constraint manifold at round-off) and returned:
+    ///
+    /// - a terminal event moves the stepper to it (a step to the root); the grid of later
+    ///   steps, if the caller goes on, starts there, and the event is not reported again at
+    ///   the root it was stepped to;
+    /// - a non-terminal event is recorded only: the stepper stays at the end of the step, on
+    ///   its grid, so recording events does not change the trajectory; the state at the event
+    ///   is [`Events::located`].
+    ///
+    /// A sign change and back within one step is not seen.
     ///
     /// # Errors
     /// The step's [`StepError`] (the stepper is then at the start of the step).
@@ -208,7 +220,7 @@ where
             }
         }
         let result = match earliest {
-            Some(hit) => {
+            Some(hit) if hit.terminal => {
                 if hit.t < t1 {
                     self.step_back_to(hit.t, &mut scratch)?;
                 }
@@ -216,11 +228,21 @@ where
                 events.evaluate_all(t, x);
                 // Stepped to its root: the next step starts from zero, not re-reported.
                 events.previous[hit.index] = V::Real::zero();
+                events.located_valid = true;
+                Some(hit)
+            }
+            Some(hit) => {
+                // The state at the event, kept for the caller; the stepper stays put.
+                self.dense(hit.t, &mut scratch)?;
+                let (t, x) = (self.time(), self.x.borrow());
+                events.evaluate_all(t, x);
+                events.located_valid = true;
                 Some(hit)
             }
             None => {
                 let (t, x) = (self.time(), self.x.borrow());
                 events.evaluate_all(t, x);
+                events.located_valid = false;
                 None
             }
         };

@@ -90,6 +90,10 @@ where
         }
         flow.prepare(x);
         let last = x.clone();
+        // The memory's buffer sized once, so that dense output and events allocate nothing.
+        let mut memory = Vec::new();
+        flow.save_memory(&mut memory);
+        memory.clear();
         Ok(Self {
             flow,
             x: x0,
@@ -100,7 +104,7 @@ where
             h,
             k: 0,
             ledger: Ledger::at(t0),
-            memory: Vec::new(),
+            memory,
             state: PhantomData,
         })
     }

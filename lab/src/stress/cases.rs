@@ -3,8 +3,8 @@
 use super::{
     Check, EnergyRule, Expect, Kind, Row, StressCase,
     scenes::{
-        alternating, chain_scene, damped_chain_scene, stiff_spring_among_pins_scene,
-        stiff_spring_scene, taut_chain_scene,
+        alternating, chain_scene, chattering_scene, damped_chain_scene, forced_resonance_scene,
+        stiff_spring_among_pins_scene, stiff_spring_scene, taut_chain_scene,
     },
 };
 use lieflow::scene::Scene;
@@ -197,6 +197,37 @@ pub fn cases() -> Vec<StressCase> {
             Expect::Stable {
                 g_bound: 64.0 * f64::EPSILON * 2.3,
                 energy: EnergyRule::Bounded { rel: 1e-5 },
+            },
+        ),
+        scene_case(
+            "forced-resonance",
+            "undamped pendulum driven at its small-oscillation frequency (torque 0.3 N m), 60 s: the swing grows past 90 degrees",
+            "ports",
+            forced_resonance_scene(0.3, 1e-3, 60.0),
+            // The budget's error is Strang's O(h²) energy error, ~(ω h)²/24 of the energy
+            // exchanged (ω ≈ 3.1, h = 1e-3): 4e-7 relative; bound with a factor 25 for the
+            // large swings' higher frequencies.
+            Expect::Stable {
+                g_bound: 64.0 * f64::EPSILON,
+                energy: EnergyRule::Budget { rel: 1e-5 },
+            },
+        ),
+        scene_case(
+            "chattering-event",
+            "a body in a stiff trap crossing an event plane every 2.5 steps, 1000 steps; a body resting exactly on another event plane",
+            "ports",
+            chattering_scene(5.0, 1e-3, 1.0),
+            // Störmer–Verlet from rest: x_n = cos(n θ), cos θ = 1 − (ω h)²/2 with
+            // ω h = 2π/5, so x changes sign after steps n with n θ past π/2 + kπ.
+            Expect::Events {
+                g_bound: 0.0,
+                count: {
+                    let wh = 2.0 * std::f64::consts::PI / 5.0;
+                    let theta = (1.0 - wh * wh / 2.0).acos();
+                    ((1000.0 * theta - std::f64::consts::FRAC_PI_2) / std::f64::consts::PI).floor()
+                        as usize
+                        + 1
+                },
             },
         ),
         StressCase {

@@ -50,6 +50,13 @@ pub enum Expect {
     Unstable,
     /// Refused when the scene is built, with an error whose text contains this.
     Refused(&'static str),
+    /// Run to the end with `max |g| ≤ g_bound` and exactly `count` events recorded.
+    Events {
+        /// Bound on `max |g|` (absolute; scenes without constraints have none).
+        g_bound: f64,
+        /// The number of events the theory predicts.
+        count: usize,
+    },
 }
 
 /// The energy behaviour a stable case must show.
@@ -62,6 +69,12 @@ pub enum EnergyRule {
     },
     /// `max |H − H₀| ≤ rel · |H₀|` over the run.
     Bounded {
+        /// Relative bound.
+        rel: f64,
+    },
+    /// The energy budget closes: `|H(T) − H₀ + dissipated − supplied| ≤ rel · max(|supplied|,
+    /// dissipated)` at the end of the run.
+    Budget {
         /// Relative bound.
         rel: f64,
     },
@@ -168,6 +181,10 @@ struct Measured {
     x: Vec<f64>,
     multipliers: Option<Vec<f64>>,
     finite: bool,
+    /// `(|H(T) − H₀ + dissipated − supplied|, max(|supplied|, dissipated))` when the flow
+    /// books them.
+    budget: Option<(f64, f64)>,
+    events: usize,
 }
 
 fn simulate(c: &mut Compiled) -> Measured {
@@ -188,7 +205,17 @@ fn simulate(c: &mut Compiled) -> Measured {
         (a, b) => a.or(b),
     };
     let x = sim.state().to_vec();
+    let budget = match (sim.supplied(), sim.dissipated()) {
+        (None, None) => None,
+        (s, d) => {
+            let (s, d) = (s.unwrap_or(0.0), d.unwrap_or(0.0));
+            let change = sim.energy() - drift.initial;
+            Some(((change + d - s).abs(), s.abs().max(d.abs())))
+        }
+    };
     Measured {
+        budget,
+        events: sim.events().len(),
         steps: done.steps,
         max_g: residuals.max_g,
         max_phi: residuals.max_phi,
@@ -241,6 +268,14 @@ fn energy_check(rule: EnergyRule, m: &Measured) -> Check {
             m.max_de,
             rel * m.e0.abs().max(f64::MIN_POSITIVE),
         ),
+        EnergyRule::Budget { rel } => {
+            let (err, scale) = m.budget.unwrap_or((f64::INFINITY, 0.0));
+            Check::new(
+                "|H(T) - H0 + dissipated - supplied|",
+                err,
+                rel * scale.max(f64::MIN_POSITIVE),
+            )
+        }
         EnergyRule::NoDrift => Check::new(
             "max |H - H0| over the last tenth",
             m.last_tenth,
@@ -336,6 +371,17 @@ fn run_scene_case(name: &str, text: &str, expect: Expect) -> Row {
         Expect::Unstable => {
             let blown = m.error.is_some() || m.max_de > m.e0.abs();
             (Vec::new(), blown)
+        }
+        Expect::Events { g_bound, count } => {
+            let mut checks = vec![Check::new(
+                "events recorded minus predicted",
+                (m.events as f64 - count as f64).abs(),
+                0.0,
+            )];
+            if let Some(g) = m.max_g {
+                checks.push(Check::new("max |g|", g, g_bound));
+            }
+            (checks, m.error.is_none())
         }
         Expect::Refused(_) => unreachable!("handled above"),
     };

@@ -121,3 +121,71 @@ pub(super) fn alternating(ratio: f64) -> Vec<f64> {
         .map(|i| if i % 2 == 0 { 1.0 } else { ratio })
         .collect()
 }
+
+/// A pendulum (`L = 1`, `g = 9.81`) driven at its small-oscillation frequency by a torque of
+/// `amplitude` about its pivot, undamped: the swing grows until the nonlinearity detunes it.
+pub fn forced_resonance_scene(amplitude: f64, dt: f64, t_end: f64) -> String {
+    format!(
+        r#"version = 1
+dim = 2
+[[bodies]]
+name = "bob"
+mass = 1.0
+position = [0.0, -1.0]
+[[constraints]]
+type = "rod"
+bodies = ["bob"]
+point = [0.0, 0.0]
+[[effects]]
+type = "gravity"
+g = [0.0, -9.81]
+[[inputs]]
+type = "torque"
+name = "drive"
+body = "bob"
+pivot = [0.0, 0.0]
+signal = {{ type = "sine", amplitude = {amplitude:e}, omega = {:e} }}
+[integrator]
+dt = {dt:e}
+t_end = {t_end:e}
+"#,
+        9.81f64.sqrt()
+    )
+}
+
+/// A body in a stiff trap (`ω h = 2π / steps_per_period`) released at `x = 1`, crossing the
+/// plane `x = 0` every half period: a recorded event in almost every step; and a body at rest
+/// exactly on the plane `y = 0`, whose event function is zero throughout and never crosses.
+pub fn chattering_scene(steps_per_period: f64, dt: f64, t_end: f64) -> String {
+    let omega = 2.0 * std::f64::consts::PI / (steps_per_period * dt);
+    format!(
+        r#"version = 1
+dim = 2
+[[bodies]]
+name = "fast"
+mass = 1.0
+position = [1.0, 1.0]
+[[bodies]]
+name = "still"
+mass = 1.0
+position = [5.0, 0.0]
+[[effects]]
+type = "trap"
+stiffness = {:e}
+center = [0.0, 1.0]
+bodies = ["fast"]
+[[events]]
+name = "cross"
+body = "fast"
+plane = {{ normal = [1.0, 0.0] }}
+[[events]]
+name = "resting"
+body = "still"
+plane = {{ normal = [0.0, 1.0] }}
+[integrator]
+dt = {dt:e}
+t_end = {t_end:e}
+"#,
+        omega * omega
+    )
+}
