@@ -1,4 +1,5 @@
-//! The run's SVG: energy error and constraint residual over time, and the bodies' paths in 2D.
+//! The run's SVG: energy error and constraint residual over time, the bodies' paths in 2D, and
+//! the scene's declared outputs over time (one panel each, at most [`OUTPUT_PANELS`]).
 
 use lieflow::scene::Sample;
 use plotters::prelude::*;
@@ -8,6 +9,8 @@ use std::path::Path;
 const POINTS: usize = 2000;
 /// Bodies whose paths are drawn at most.
 const PATHS: usize = 24;
+/// Declared outputs drawn at most (all are in the CSV).
+pub const OUTPUT_PANELS: usize = 6;
 
 /// Decimated samples of a run.
 pub struct Series {
@@ -20,11 +23,13 @@ pub struct Series {
     paths: Vec<Vec<(f64, f64)>>,
     bodies: Option<(usize, usize)>,
     e0: Option<f64>,
+    /// Per drawn output, its name and `(t, value)`.
+    outputs: Vec<(String, Vec<(f64, f64)>)>,
 }
 
 impl Series {
     /// A series for a run of `steps` steps of `bodies = (dim, count)`.
-    pub fn new(steps: usize, bodies: Option<(usize, usize)>) -> Self {
+    pub fn new(steps: usize, bodies: Option<(usize, usize)>, outputs: &[String]) -> Self {
         let drawn = match bodies {
             Some((2, n)) => n.min(PATHS),
             _ => 0,
@@ -36,6 +41,11 @@ impl Series {
             paths: vec![Vec::new(); drawn],
             bodies,
             e0: None,
+            outputs: outputs
+                .iter()
+                .take(OUTPUT_PANELS)
+                .map(|n| (n.clone(), Vec::new()))
+                .collect(),
         }
     }
 
@@ -58,13 +68,19 @@ impl Series {
                 path.push((s.x[2 * b], s.x[2 * b + 1]));
             }
         }
+        for ((_, curve), &v) in self.outputs.iter_mut().zip(s.outputs) {
+            if v.is_finite() {
+                curve.push((s.t, v));
+            }
+        }
     }
 
     /// Draws the panels that have data into `path`.
     pub fn draw(&self, path: &Path, title: &str) -> Result<(), Box<dyn std::error::Error>> {
         let panels = usize::from(!self.energy.is_empty())
             + usize::from(!self.residual.is_empty())
-            + usize::from(!self.paths.is_empty());
+            + usize::from(!self.paths.is_empty())
+            + self.outputs.len();
         if panels == 0 {
             return Err("nothing to plot: the energy and constraint diagnostics are off and the scene is not 2D".into());
         }
@@ -77,6 +93,7 @@ impl Series {
             .energy
             .last()
             .or(self.residual.last())
+            .or(self.outputs.first().and_then(|o| o.1.last()))
             .map_or(1.0, |p| p.0)
             .max(1e-300);
         if !self.energy.is_empty() {
@@ -132,6 +149,26 @@ impl Series {
                 let color = Palette99::pick(i).mix(0.8);
                 chart.draw_series(LineSeries::new(p.iter().copied(), color.stroke_width(1)))?;
             }
+        }
+        for (i, (name, curve)) in self.outputs.iter().enumerate() {
+            let area = next.next().expect("a panel per series");
+            let (lo, hi) = bounds(curve.iter().map(|p| p.1));
+            let mut chart = ChartBuilder::on(area)
+                .margin(10)
+                .x_label_area_size(35)
+                .y_label_area_size(90)
+                .caption(format!("output {name}"), ("sans-serif", 16))
+                .build_cartesian_2d(0.0..t_max, lo..hi)?;
+            chart
+                .configure_mesh()
+                .x_desc("t")
+                .y_desc(name.as_str())
+                .y_label_formatter(&|v| format!("{v:.3e}"))
+                .draw()?;
+            chart.draw_series(LineSeries::new(
+                curve.iter().copied(),
+                Palette99::pick(i + 3).stroke_width(1),
+            ))?;
         }
         root.present()?;
         Ok(())

@@ -105,7 +105,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         None => None,
     };
     let bodies = compiled.simulation.bodies();
-    let mut series = plot::Series::new(steps, bodies);
+    let mut series = plot::Series::new(steps, bodies, &compiled.simulation.output_names());
     let mut progress = Progress::new(steps);
     // The last state seen: a run that stops early still ends its CSV and plot with it.
     let mut last = (0usize, 0.0f64, None, None, None);

@@ -285,3 +285,39 @@ fn precision_writes_a_table_a_csv_and_figures() {
     let text = stdout(&o);
     assert!(text.contains("DOP853 (index-1 ODE)") && text.contains("fitted order lieflow order 4"));
 }
+
+#[test]
+fn a_scene_with_ports_writes_its_outputs_events_and_budget() {
+    let csv = scratch("ports.csv");
+    let svg = scratch("ports.svg");
+    let o = lieflow(&[
+        "run",
+        &repo("scenes/forced_pendulum.toml"),
+        "--t-end",
+        "4",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = summary(&o);
+    // The motor supplies energy, the damper removes it, and the budget closes to O(h²).
+    assert!(s["supplied"].as_f64().unwrap() > 0.0);
+    assert!(s["dissipated"].as_f64().unwrap() > 0.0);
+    assert!(s["max_energy_balance_error"].as_f64().unwrap() < 1e-3);
+    let events = s["events"].as_array().unwrap();
+    assert!(!events.is_empty() && events.iter().all(|e| e["name"] == "bottom"));
+    assert!(s["stopped_by"].is_null());
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header = text.lines().nth(1).unwrap();
+    assert!(
+        header.ends_with("max_abs_phi,bob.x,y.motor,power.motor,lambda0,supplied,dissipated"),
+        "{header}"
+    );
+    let last: Vec<&str> = text.lines().last().unwrap().split(',').collect();
+    let supplied: f64 = last[last.len() - 2].parse().unwrap();
+    assert_eq!(supplied, s["supplied"].as_f64().unwrap());
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.contains("output power.motor"));
+}
