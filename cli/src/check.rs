@@ -54,6 +54,17 @@ pub(crate) fn print_assembly(a: &Assembly) {
     for d in &a.disabled {
         println!("switched off {d}");
     }
+    for (i, (name, what)) in a.inputs.iter().enumerate() {
+        let head = if i == 0 { "inputs" } else { "" };
+        println!("{head:<12} {name} ({what})");
+    }
+    if !a.outputs.is_empty() {
+        println!("outputs      {}", a.outputs.join(", "));
+    }
+    for (i, (name, action)) in a.events.iter().enumerate() {
+        let head = if i == 0 { "events" } else { "" };
+        println!("{head:<12} {name} ({action})");
+    }
     println!(
         "structure    {}, {}",
         if a.canonical {

@@ -83,7 +83,9 @@ pub type Multipliers<'a, T> = (&'a [T], &'a [T]);
 /// Contract: on `Err`, `x` is left exactly as it was passed in (never partially updated, never
 /// NaN). `h` may be negative (symmetric flows satisfy `Φ_{−h} ∘ Φ_h = id`).
 pub trait Flow<V: Vector> {
-    /// Advances `x` by one step of size `h`.
+    /// Advances `x` by one step of size `h`. A flow with a time-dependent part (an input) steps
+    /// here as from `t = 0`: drive such a flow through [`step_at`](Self::step_at) or a
+    /// [`Stepper`](crate::Stepper), which pass the time.
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError>;
     /// The order of accuracy ([`EXACT`] for an exact flow).
     fn order(&self) -> u32;

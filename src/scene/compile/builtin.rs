@@ -304,5 +304,8 @@ pub(super) fn builtin_assembly(
         steps,
         initial_projection: None,
         dropped_constraints: Vec::new(),
+        inputs: Vec::new(),
+        outputs: Vec::new(),
+        events: Vec::new(),
     }
 }

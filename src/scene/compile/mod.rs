@@ -77,6 +77,12 @@ pub struct Assembly {
     pub initial_projection: Option<(f64, f64)>,
     /// Redundant constraints removed (`redundant = "drop-dependent"`), by label.
     pub dropped_constraints: Vec<String>,
+    /// The declared inputs: `(name, what it drives)`.
+    pub inputs: Vec<(String, String)>,
+    /// The declared outputs' column names.
+    pub outputs: Vec<String>,
+    /// The declared events: `(name, action)`.
+    pub events: Vec<(String, String)>,
 }
 
 /// A compiled scene: the simulation, what was assembled, and the run's plan.
@@ -318,6 +324,9 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             None => constraint_counts.push((kind.to_owned(), t.rows(dim))),
         }
     }
+    let outputs = compile_outputs(&file.outputs, &bodies, dim, model.inputs.as_ref(), m)?;
+    let (events, event_names) =
+        compile_events(&file.events, &bodies, dim, model.inputs.as_ref(), &model)?;
     let assembly = Assembly {
         name: file.name.clone().unwrap_or_else(|| "scene".to_owned()),
         dim: Some(dim),
@@ -337,10 +346,24 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         steps,
         initial_projection,
         dropped_constraints,
+        inputs: file
+            .inputs
+            .iter()
+            .map(|i| (i.name().to_owned(), i.describe()))
+            .collect(),
+        outputs: outputs.iter().map(|o| o.name.clone()).collect(),
+        events: file
+            .events
+            .iter()
+            .map(|e| {
+                let action = match e.action {
+                    super::ports::EventAction::Stop => "stop",
+                    super::ports::EventAction::Record => "record",
+                };
+                (e.name.clone(), action.to_owned())
+            })
+            .collect(),
     };
-    let outputs = compile_outputs(&file.outputs, &bodies, dim, model.inputs.as_ref(), m)?;
-    let (events, event_names) =
-        compile_events(&file.events, &bodies, dim, model.inputs.as_ref(), &model)?;
     let system = System::new(model.clone(), model.clone(), model.clone());
     let mut run =
         ModelRun::new(flow, system, x0, dt, m, Some(shared)).map_err(initial_state_error)?;

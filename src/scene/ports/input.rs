@@ -52,6 +52,27 @@ impl InputSpec {
             Self::Force { name, .. } | Self::Torque { name, .. } => name,
         }
     }
+    /// `"force on bob"`, `"torque on bob about (0, 0)"`: for `lieflow check`.
+    pub(crate) fn describe(&self) -> String {
+        let kind = match self.signal() {
+            SignalSpec::Constant { .. } => "constant",
+            SignalSpec::Step { .. } => "step",
+            SignalSpec::Ramp { .. } => "ramp",
+            SignalSpec::Sine { .. } => "sine",
+            SignalSpec::Table { .. } => "table",
+            SignalSpec::Expression { .. } => "expression",
+            SignalSpec::Held { .. } => "held",
+        };
+        match self {
+            Self::Force { bodies, .. } => format!("force on {}, {kind}", bodies.join(", ")),
+            Self::Torque {
+                body, pivot_body, ..
+            } => match pivot_body {
+                Some(a) => format!("torque on {body} about {a}, {kind}"),
+                None => format!("torque on {body} about a fixed pivot, {kind}"),
+            },
+        }
+    }
     pub(crate) fn signal(&self) -> &SignalSpec {
         match self {
             Self::Force { signal, .. } | Self::Torque { signal, .. } => signal,
