@@ -205,6 +205,7 @@ fn dense_output_has_the_schemes_order_and_stays_on_the_manifold() {
         errs.push((out - reference).amax());
     }
     let p = common::fitted_order(&hs, &errs, 1e-13);
+    eprintln!("dense output: fitted order {p:.3}, errors {errs:?}");
     assert!((p - 4.0).abs() < 0.3, "dense output order {p}: {errs:?}");
 }
 
