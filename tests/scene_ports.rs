@@ -308,3 +308,35 @@ fn bad_port_declarations_are_located_errors() {
     let e = Scene::from_toml(&text, "ports.toml").unwrap_err();
     assert!(e.to_string().contains("ports.toml:"), "{e}");
 }
+
+#[test]
+fn a_parameter_changes_between_steps_and_the_run_goes_on_from_its_state() {
+    use lieflow::scene::set_parameter;
+    let mut scene = parse(&driven(
+        1e-3,
+        4.0,
+        0.5,
+        r#"{ type = "constant", value = 0.0 }"#,
+    ));
+    let mut c = scene.compile().unwrap();
+    c.simulation.advance_to(1.0).unwrap();
+    let (x, t) = (c.simulation.state().to_vec(), c.simulation.time());
+    let dissipated = c.simulation.dissipated().unwrap();
+    assert!(dissipated > 0.1);
+    // The damper switched off (effects[1] is the damping) between two steps.
+    set_parameter(&mut scene, &mut c, "effects[1].coefficient", 0.0).unwrap();
+    assert_eq!(c.simulation.state(), x.as_slice());
+    assert_eq!(c.simulation.time(), t);
+    let h1 = c.simulation.energy();
+    c.simulation.advance_to(3.0).unwrap();
+    // No more dissipation; H conserved to Strang's O(h²) energy error.
+    assert_eq!(c.simulation.dissipated().unwrap(), dissipated);
+    assert!((c.simulation.energy() - h1).abs() < 1e-4);
+    // A path that names nothing, and a change of structure, leave the run as it was.
+    let e = set_parameter(&mut scene, &mut c, "effects[7].coefficient", 1.0).unwrap_err();
+    assert!(e.to_string().contains("element [7]"), "{e}");
+    let e = set_parameter(&mut scene, &mut c, "integrator.order", 4.0).unwrap_err();
+    assert!(e.to_string().contains("order"), "{e}");
+    assert_eq!(c.simulation.time(), 3.0);
+    c.simulation.step().unwrap();
+}

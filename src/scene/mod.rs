@@ -47,6 +47,7 @@ mod gram;
 mod model;
 mod names;
 pub mod observe;
+pub mod path;
 pub mod ports;
 mod run;
 pub mod schema;
@@ -69,6 +70,49 @@ pub use schema::SceneFile;
 pub use watch::EventRecord;
 
 use std::path::Path;
+
+/// Changes the parameter at `path` of a running scene between steps: `scene` is recompiled
+/// with the new value and the run moves into it — state, time, energy ledger, warm starts and
+/// held inputs, through a checkpoint — so the continuation is exactly the new model's from
+/// the current state. The event log starts afresh. A change that alters the model's structure
+/// (bodies, constraints, the scheme) is refused and nothing changes; a change that moves the
+/// constraint manifold (a rod's length) makes the next step refuse the state until it is
+/// re-projected (`Simulation::set_state(x, true)`).
+///
+/// # Errors
+/// The path or value ([`Scene::with_value`]), the new scene's compile errors, or a
+/// structural change ([`SceneErrorKind::Unsupported`]).
+pub fn set_parameter(
+    scene: &mut Scene,
+    compiled: &mut Compiled,
+    path: &str,
+    value: f64,
+) -> Result<(), SceneError> {
+    let changed = scene.with_value(path, value)?;
+    let mut next = changed.compile()?;
+    let same_shape = next.simulation.state().len() == compiled.simulation.state().len()
+        && next.assembly.constraint_rows == compiled.assembly.constraint_rows
+        && next.assembly.scheme == compiled.assembly.scheme;
+    let checkpoint = compiled.simulation.save();
+    let moved = if same_shape {
+        next.simulation.restore(&checkpoint)
+    } else {
+        Err("the state, constraints or scheme differ".to_owned())
+    };
+    if let Err(why) = moved {
+        return Err(SceneError::new(
+            SceneErrorKind::Unsupported,
+            FieldPath::root(),
+            format!(
+                "'{path}' = {value} changes the model's structure ({why}); a running scene takes changes of parameters only"
+            ),
+        ));
+    }
+    next.plan = compiled.plan;
+    *compiled = next;
+    *scene = changed;
+    Ok(())
+}
 
 /// The default scene (`lieflow scene` prints it; `lieflow run` runs it): a damped,
 /// spring-coupled triple pendulum pair under gravity.
@@ -116,6 +160,39 @@ impl Scene {
     /// but no line numbers.
     pub fn from_file(file: SceneFile) -> Self {
         Self { file, source: None }
+    }
+
+    /// The same scene with the field at `path` (`effects[1].coefficient`, `integrator.dt`)
+    /// set to `value`; errors of the new scene are still located in the original text.
+    ///
+    /// # Errors
+    /// A scene without source text (built from a [`SceneFile`]), a path that names no field,
+    /// or a value the field's type refuses.
+    pub fn with_value(&self, path: &str, value: f64) -> Result<Self, SceneError> {
+        let Some((name, text)) = &self.source else {
+            return Err(SceneError::new(
+                SceneErrorKind::Unsupported,
+                FieldPath::root(),
+                "a scene built from a SceneFile has no text to change a parameter in",
+            ));
+        };
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| SceneError::from_toml_error(&e, name, text))?;
+        path::set_path(&mut table, path, value)?;
+        let file: SceneFile =
+            toml::Value::Table(table)
+                .try_into()
+                .map_err(|e: toml::de::Error| {
+                    SceneError::new(
+                        SceneErrorKind::Value,
+                        FieldPath::root(),
+                        format!("'{path}' = {value}: {}", e.message().trim_end()),
+                    )
+                })?;
+        Ok(Self {
+            file,
+            source: self.source.clone(),
+        })
     }
 
     /// Compiles the scene (see the module docs); errors are located in the source text.

@@ -327,13 +327,16 @@ where
         self.stepper.state_mut().copy_from(&next);
         Ok(report)
     }
+    /// Booked by the flow, or carried over from before a parameter change.
     fn supplied(&self) -> Option<f64> {
-        let w = self.watch.as_ref()?;
-        w.supplied.then(|| self.stepper.ledger().supplied)
+        let s = self.stepper.ledger().supplied;
+        let books = self.watch.as_ref().is_some_and(|w| w.supplied);
+        (books || s != 0.0).then_some(s)
     }
     fn dissipated(&self) -> Option<f64> {
-        let w = self.watch.as_ref()?;
-        w.dissipated.then(|| self.stepper.ledger().dissipated)
+        let d = self.stepper.ledger().dissipated;
+        let books = self.watch.as_ref().is_some_and(|w| w.dissipated);
+        (books || d != 0.0).then_some(d)
     }
     fn output_names(&self) -> Vec<String> {
         self.watch.as_ref().map_or_else(Vec::new, |w| {

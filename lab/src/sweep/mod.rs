@@ -32,13 +32,12 @@
 //! the same rows, bit for bit, for any number of threads, since members share nothing.
 
 mod file;
-mod path;
 mod rows;
 mod values;
 
 pub use file::{GridSpec, ParameterSpec, PlotSpec, RandomSpec, SweepFile};
+use lieflow::scene::path::{parse_path, set_path};
 use lieflow::scene::{FieldPath, Scene, SceneError, SceneErrorKind};
-use path::{parse_path, set_path};
 pub use rows::{MemberRow, run_all, run_member, to_jsonl};
 use std::path::Path;
 use values::{SplitMix, grid_values};

@@ -1,16 +1,27 @@
 //! Scene fields addressed by path (`effects[1].coefficient`): parsing, and setting a value in
-//! the scene's TOML table with the type the field had.
+//! the scene's TOML table with the type the field had. Used by sweeps (a member's values) and by
+//! [`set_parameter`](super::set_parameter) (a parameter changed between steps).
 
-use super::bad;
-use lieflow::scene::SceneError;
+use super::{FieldPath, SceneError, SceneErrorKind};
+
+fn bad(what: impl Into<String>) -> SceneError {
+    SceneError::new(SceneErrorKind::Value, FieldPath::root(), what.into())
+}
 
 /// A path segment: a key or an index.
-pub(crate) enum Seg<'a> {
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Seg<'a> {
+    /// A table's key.
     Key(&'a str),
+    /// An array's index.
     Index(usize),
 }
 
-pub(crate) fn parse_path(path: &str) -> Result<Vec<Seg<'_>>, SceneError> {
+/// Parses `a.b[2].c` into its segments.
+///
+/// # Errors
+/// An empty key, a bad or unclosed index.
+pub fn parse_path(path: &str) -> Result<Vec<Seg<'_>>, SceneError> {
     let mut segs = Vec::new();
     for part in path.split('.') {
         let (key, mut rest) = match part.find('[') {
@@ -43,7 +54,7 @@ pub(crate) fn parse_path(path: &str) -> Result<Vec<Seg<'_>>, SceneError> {
 
 /// The TOML value for `value` in a field that holds `old`: an integer where the base scene has
 /// an integer and the value is integral (`links`, `order`), else a float.
-pub(crate) fn value_like(old: Option<&toml::Value>, value: f64) -> toml::Value {
+pub fn value_like(old: Option<&toml::Value>, value: f64) -> toml::Value {
     match old {
         Some(toml::Value::Integer(_)) if value.fract() == 0.0 && value.abs() < 9.0e15 => {
             toml::Value::Integer(value as i64)
@@ -54,7 +65,10 @@ pub(crate) fn value_like(old: Option<&toml::Value>, value: f64) -> toml::Value {
 
 /// Sets `path` in `table` to `value`: every key and index but the last must exist; the last
 /// key may be new (a field the scene leaves at its default).
-pub(crate) fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), SceneError> {
+///
+/// # Errors
+/// A path that does not parse or names no field of the table.
+pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), SceneError> {
     let segs = parse_path(path)?;
     let missing = |what: &str| {
         bad(format!(
