@@ -56,8 +56,8 @@ pub(crate) mod validate;
 mod watch;
 
 pub use compile::{
-    Assembly, Compiled, DENSE_MAX_DIM, MAX_BODIES, MAX_PAIRS, compile, compile_reference,
-    splitting_flow,
+    Assembly, Compiled, DENSE_MAX_DIM, MAX_BODIES, MAX_PAIRS, Splitting, compile,
+    compile_reference, splitting_flow,
 };
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
 pub use gram::MassGram;

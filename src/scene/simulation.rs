@@ -68,8 +68,9 @@ pub trait Simulation {
     fn output_names(&self) -> Vec<String> {
         Vec::new()
     }
-    /// The declared outputs at the current state, into `out`.
-    fn outputs(&self, out: &mut Vec<f64>) {
+    /// The declared outputs at the current state, into `out` (allocates nothing once `out`
+    /// has room).
+    fn outputs(&mut self, out: &mut Vec<f64>) {
         out.clear();
     }
     /// The events that happened so far.
@@ -192,6 +193,30 @@ where
     }
 }
 
+impl<V: Vector<Real = f64>, Sys> ModelRun<V, Sys> {
+    /// A step of `h` (`None`) or of `short` off the grid, watching the events if any.
+    fn watched_step(&mut self, short: Option<f64>) -> Result<(), StepError> {
+        let Some(Watch {
+            events: Some(events),
+            ..
+        }) = self.watch.as_mut()
+        else {
+            return match short {
+                None => self.stepper.step(),
+                Some(h) => self.stepper.step_off_grid(h),
+            };
+        };
+        let hit = match short {
+            None => self.stepper.step_with_events(events)?,
+            Some(h) => self.stepper.step_by_with_events(h, events)?,
+        };
+        if let (Some(hit), Some(w)) = (hit, self.watch.as_mut()) {
+            w.record(hit, self.stepper.steps_taken());
+        }
+        Ok(())
+    }
+}
+
 impl<V, Sys> Simulation for ModelRun<V, Sys>
 where
     V: Vector<Real = f64>,
@@ -207,19 +232,7 @@ where
         self.stepper.step_size()
     }
     fn step(&mut self) -> Result<(), StepError> {
-        match self.watch.as_mut() {
-            Some(Watch {
-                events: Some(events),
-                ..
-            }) => {
-                let hit = self.stepper.step_with_events(events)?;
-                if let (Some(hit), Some(w)) = (hit, self.watch.as_mut()) {
-                    w.record(hit, self.stepper.steps_taken());
-                }
-                Ok(())
-            }
-            _ => self.stepper.step(),
-        }
+        self.watched_step(None)
     }
     fn input_names(&self) -> Vec<String> {
         self.model
@@ -250,31 +263,10 @@ where
     }
     fn advance_to(&mut self, t: f64) -> Result<usize, StepError> {
         let start = self.stepper.steps_taken();
-        let h = self.stepper.step_size();
-        let slack = 8.0 * f64::EPSILON * (t.abs() + h.abs());
         while self.stopped().is_none() {
-            let remaining = t - self.stepper.time();
-            if remaining * h.signum() <= slack {
-                if remaining.abs() <= slack && self.stepper.steps_taken() > start {
-                    self.stepper.land_on(t);
-                }
-                break;
-            }
-            if remaining.abs() >= h.abs() - slack {
-                self.step()?;
-                continue;
-            }
-            match self.watch.as_mut() {
-                Some(Watch {
-                    events: Some(events),
-                    ..
-                }) => {
-                    let hit = self.stepper.step_by_with_events(remaining, events)?;
-                    if let (Some(hit), Some(w)) = (hit, self.watch.as_mut()) {
-                        w.record(hit, self.stepper.steps_taken());
-                    }
-                }
-                _ => self.stepper.step_off_grid(remaining)?,
+            match self.stepper.next_step_to(t, start) {
+                Some(short) => self.watched_step(short)?,
+                None => break,
             }
         }
         Ok(self.stepper.steps_taken() - start)
@@ -343,17 +335,16 @@ where
             w.outputs.iter().map(|o| o.name.clone()).collect()
         })
     }
-    fn outputs(&self, out: &mut Vec<f64>) {
+    fn outputs(&mut self, out: &mut Vec<f64>) {
         out.clear();
-        let Some(w) = self.watch.as_ref() else {
+        let Some(w) = self.watch.as_mut() else {
             return;
         };
-        let multipliers = self.multipliers();
         let l = self.stepper.ledger();
         w.values(
             self.stepper.time(),
-            self.state(),
-            multipliers.as_deref(),
+            self.stepper.state().as_slice(),
+            self.stepper.flow().multipliers(),
             (l.supplied, l.dissipated),
             out,
         );

@@ -2,7 +2,7 @@
 //! the energies its flow books exactly (supplied through inputs, removed by damping).
 
 use crate::scene::model::SceneModel;
-use crate::scene::ports::{At, CompiledOutput};
+use crate::scene::ports::{At, CompiledOutput, Scratch};
 use crate::stepper::{EventHit, Events};
 use crate::vector::Vector;
 use serde::Serialize;
@@ -25,6 +25,8 @@ pub struct EventRecord {
 pub(crate) struct Watch<V: Vector> {
     pub(crate) model: Arc<SceneModel>,
     pub(crate) outputs: Vec<CompiledOutput>,
+    /// Buffers for the outputs that evaluate `H` or `∇H`.
+    pub(crate) scratch: Scratch,
     pub(crate) events: Option<Events<V>>,
     pub(crate) event_names: Vec<String>,
     pub(crate) log: Vec<EventRecord>,
@@ -35,23 +37,22 @@ pub(crate) struct Watch<V: Vector> {
 }
 
 impl<V: Vector<Real = f64>> Watch<V> {
-    /// Records `hit` (of the step numbered `step`); `true` when it stops the run.
-    pub(crate) fn record(&mut self, hit: EventHit<f64>, step: usize) -> bool {
+    /// Records `hit` (of the step numbered `step`).
+    pub(crate) fn record(&mut self, hit: EventHit<f64>, step: usize) {
         self.log.push(EventRecord {
             name: self.event_names[hit.index].clone(),
             t: hit.t,
             step,
             stop: hit.terminal,
         });
-        hit.terminal
     }
 
-    /// The outputs' values at `(t, x)`, into `out`.
+    /// The outputs' values at `(t, x)`, into `out` (`multipliers`: the step's `(λ_k, λ_{k+1})`).
     pub(crate) fn values(
-        &self,
+        &mut self,
         t: f64,
         x: &[f64],
-        multipliers: Option<&[f64]>,
+        multipliers: Option<(&[f64], &[f64])>,
         energies: (f64, f64),
         out: &mut Vec<f64>,
     ) {
@@ -63,6 +64,7 @@ impl<V: Vector<Real = f64>> Watch<V> {
             multipliers,
             energies,
         };
-        out.extend(self.outputs.iter().map(|o| o.value(&at)));
+        let scratch = &mut self.scratch;
+        out.extend(self.outputs.iter().map(|o| o.value(&at, scratch)));
     }
 }

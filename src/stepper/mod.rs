@@ -165,23 +165,10 @@ where
         observer: &mut O,
     ) -> Result<usize, IntegrateError> {
         let start = self.k;
-        let h = self.h;
-        // Rounding of the time itself: a remainder below it is the grid landing on t_end.
-        let slack = V::Real::lit(8.0) * V::Real::epsilon() * (t_end.abs() + h.abs());
-        loop {
-            let remaining = t_end - self.time();
-            if remaining * h.signum() <= slack {
-                if remaining.abs() <= slack && remaining != V::Real::zero() && self.k > start {
-                    // The grid landed on t_end up to rounding: report t_end exactly.
-                    self.land_on(t_end);
-                }
-                break;
-            }
-            let fits = remaining.abs() >= h.abs() - slack;
-            let r = if fits {
-                self.step()
-            } else {
-                self.step_off_grid(remaining)
+        while let Some(short) = self.next_step_to(t_end, start) {
+            let r = match short {
+                None => self.step(),
+                Some(h) => self.step_off_grid(h),
             };
             r.map_err(|source| IntegrateError::Step {
                 step: self.k,
@@ -243,11 +230,22 @@ where
     pub fn state_mut(&mut self) -> &mut V {
         self.x.borrow_mut()
     }
-    /// Reports the time as `t` from now on (the grid restarts there): for a grid that landed on
-    /// `t` up to the rounding of the sum of its steps.
-    pub(crate) fn land_on(&mut self, t: V::Real) {
-        self.t_base = t;
-        self.k_base = self.k;
+    /// The next step on the way to `t_end` (for a run to it that started at step `start`):
+    /// `Some(None)` a step of `h`, `Some(Some(r))` the last, shorter step `r`, `None` arrived —
+    /// and when the grid reached `t_end` up to the rounding of the time itself, the time is
+    /// reported as `t_end` exactly from then on.
+    pub(crate) fn next_step_to(&mut self, t_end: V::Real, start: usize) -> Option<Option<V::Real>> {
+        let h = self.h;
+        let slack = V::Real::lit(8.0) * V::Real::epsilon() * (t_end.abs() + h.abs());
+        let remaining = t_end - self.time();
+        if remaining * h.signum() <= slack {
+            if remaining.abs() <= slack && remaining != V::Real::zero() && self.k > start {
+                self.t_base = t_end;
+                self.k_base = self.k;
+            }
+            return None;
+        }
+        Some((remaining.abs() < h.abs() - slack).then_some(remaining))
     }
     /// Changes the step size for the following steps (the grid restarts at the current time).
     pub fn set_step_size(&mut self, h: V::Real) {

@@ -14,7 +14,7 @@ pub use crate::scene::effects::MAX_PAIRS;
 
 use super::error::{FieldPath, SceneError, SceneErrorKind};
 use super::model::{ConstraintKind, ConstraintTerm, SceneModel};
-use super::ports::{compile_events, compile_inputs, compile_outputs};
+use super::ports::{Scratch, compile_events, compile_inputs, compile_outputs};
 use super::run::{ModelRun, RunPlan, Simulation};
 use super::schema::{Method, Redundant, SCENE_VERSION, SceneFile};
 use super::watch::Watch;
@@ -27,8 +27,8 @@ use constraints::{check_independent, constraint_term, constraint_terms, drop_dep
 use effects::assemble_effects;
 use faer::Col;
 use initial::{off_constraints, project_initial};
-pub use scheme::splitting_flow;
 use scheme::{SchemeFlow, choose_scheme, plan, scheme_flow};
+pub use scheme::{Splitting, splitting_flow};
 use std::sync::Arc;
 
 /// The most steps a run may plan (`t_end / dt`).
@@ -371,6 +371,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     if model.inputs.is_some() || !outputs.is_empty() || !events.is_empty() || books_dissipation {
         run.watch = Some(Watch {
             model: model.clone(),
+            scratch: Scratch::new(n, model.inputs.as_ref().map_or(0, |i| i.names().len())),
             outputs,
             events: (!events.is_empty()).then(|| Events::new(events)),
             event_names,

@@ -316,21 +316,13 @@ pub(super) fn projection_options<T: Real>(
 ///
 /// # Errors
 /// The projection's setup errors at `x0` ([`SetupError`]).
-#[allow(clippy::type_complexity)]
 pub fn splitting_flow<V: Vector + 'static>(
     model: &Arc<SceneModel<V::Real>>,
     x0: &V,
     table: Option<&'static CompositionTable>,
     backward: bool,
     eps: V::Real,
-) -> std::result::Result<
-    (
-        Box<dyn Flow<V>>,
-        &'static str,
-        Option<(Scheme, bool, String)>,
-    ),
-    SetupError,
-> {
+) -> std::result::Result<Splitting<V>, SetupError> {
     let nq = model.state_len() / 2;
     let mut scratch = vec![V::Real::zero(); nq];
     let kick = {
@@ -357,7 +349,6 @@ pub fn splitting_flow<V: Vector + 'static>(
 /// The splitting with the scene's inputs joined to the kick when it declares any (their
 /// sub-flow carries the time and books the energy supplied); the kick and drift alone
 /// otherwise, at no cost.
-#[allow(clippy::type_complexity)]
 fn with_inputs<V, K, D>(
     model: &Arc<SceneModel<V::Real>>,
     x0: &V,
@@ -366,40 +357,24 @@ fn with_inputs<V, K, D>(
     eps: V::Real,
     kick: K,
     drift: D,
-) -> std::result::Result<
-    (
-        Box<dyn Flow<V>>,
-        &'static str,
-        Option<(Scheme, bool, String)>,
-    ),
-    SetupError,
->
+) -> std::result::Result<Splitting<V>, SetupError>
 where
     V: Vector + 'static,
     K: Flow<V> + 'static,
     D: Flow<V> + 'static,
 {
     match model.inputs.as_ref() {
-        None => assemble(model, x0, table, backward, eps, kick, drift, false),
+        None => assemble(model, x0, table, backward, eps, kick, drift),
         Some(inputs) => {
             let input = InputFlow::try_new(inputs.map.clone(), inputs.signals.clone())?
                 .supplying(model.clone());
-            assemble(
-                model,
-                x0,
-                table,
-                backward,
-                eps,
-                kick.strang(input),
-                drift,
-                true,
-            )
+            assemble(model, x0, table, backward, eps, kick.strang(input), drift)
         }
     }
 }
 
-/// The splitting of a kick (with or without inputs) and a drift, projected when constrained.
-#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+/// The splitting of a kick (with the inputs, when the model has any) and a drift, projected
+/// when constrained.
 fn assemble<V, K, D>(
     model: &Arc<SceneModel<V::Real>>,
     x0: &V,
@@ -408,20 +383,13 @@ fn assemble<V, K, D>(
     eps: V::Real,
     kick: K,
     drift: D,
-    forced: bool,
-) -> std::result::Result<
-    (
-        Box<dyn Flow<V>>,
-        &'static str,
-        Option<(Scheme, bool, String)>,
-    ),
-    SetupError,
->
+) -> std::result::Result<Splitting<V>, SetupError>
 where
     V: Vector + 'static,
     K: Flow<V> + 'static,
     D: Flow<V> + 'static,
 {
+    let forced = model.inputs.is_some();
     let has_potential = !model.potentials.is_empty() || forced;
     if model.m == 0 {
         return Ok(if has_potential {
@@ -463,21 +431,24 @@ where
     }
 }
 
+/// A scene's splitting: the flow, its description and, when projected, the projection variant,
+/// whether it takes the small path, and its linear solver.
+pub type Splitting<V> = (
+    Box<dyn Flow<V>>,
+    &'static str,
+    Option<(Scheme, bool, String)>,
+);
+
 /// A scene model as a [`System`] (the three parts share one model).
 type SceneSystem<T> = System<Arc<SceneModel<T>>, Arc<SceneModel<T>>, Arc<SceneModel<T>>>;
 
 /// A scene's projected flow, composed and boxed, with its description and what it assembled.
-#[allow(clippy::type_complexity)]
 pub(super) fn boxed_projection<V, F>(
     p: Projected<V, F, SceneSystem<V::Real>>,
     table: Option<&'static CompositionTable>,
     backward: bool,
     name: &'static str,
-) -> (
-    Box<dyn Flow<V>>,
-    &'static str,
-    Option<(Scheme, bool, String)>,
-)
+) -> Splitting<V>
 where
     V: Vector + 'static,
     F: Flow<V> + 'static,

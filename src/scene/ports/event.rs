@@ -1,7 +1,7 @@
 //! `[[events]]`: stop or record when a body crosses a plane or a quantity crosses a value.
 
 use super::SceneInputs;
-use super::output::{At, CompiledOutput, OutputSpec, Quantity, compile_read};
+use super::output::{At, CompiledOutput, OutputSpec, Quantity, Scratch, compile_read};
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::SceneModel;
@@ -165,15 +165,18 @@ pub(crate) fn compile_events(
                     true,
                 )?;
                 let model = model.clone();
+                let mut scratch =
+                    Scratch::new(model.state_len(), inputs.map_or(0, |i| i.names.len()));
                 Event::new(
                     move |t, x: &Col<f64>| {
-                        out.value(&At {
+                        let at = At {
                             model: &model,
                             t,
                             x: x.as_slice(),
                             multipliers: None,
                             energies: (0.0, 0.0),
-                        }) - level
+                        };
+                        out.value(&at, &mut scratch) - level
                     },
                     direction,
                 )

@@ -20,7 +20,7 @@ pub use signal::SignalSpec;
 
 pub(crate) use event::compile_events;
 pub(crate) use input::InputTerm;
-pub(crate) use output::{At, CompiledOutput, compile_outputs};
+pub(crate) use output::{At, CompiledOutput, Scratch, compile_outputs};
 
 use crate::port::{Held, InputMap, Signal};
 use crate::real::Real;

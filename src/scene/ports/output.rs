@@ -6,6 +6,7 @@ use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::SceneModel;
 use crate::scene::validate::{Result, err};
 use crate::system::Hamiltonian;
+use crate::vector::Vector;
 use faer::Col;
 use serde::Deserialize;
 use std::sync::Arc;
@@ -89,14 +90,40 @@ pub(crate) struct At<'a> {
     pub(crate) model: &'a Arc<SceneModel>,
     pub(crate) t: f64,
     pub(crate) x: &'a [f64],
-    pub(crate) multipliers: Option<&'a [f64]>,
+    /// The step's `(λ_k, λ_{k+1})`.
+    pub(crate) multipliers: Option<(&'a [f64], &'a [f64])>,
     /// `(supplied, dissipated)` so far.
     pub(crate) energies: (f64, f64),
 }
 
+/// Buffers for the outputs that evaluate `H` or `∇H` (allocated once, per watcher).
+#[derive(Debug, Clone)]
+pub(crate) struct Scratch {
+    x: Col<f64>,
+    grad: Col<f64>,
+    y: Vec<f64>,
+}
+
+impl Scratch {
+    /// For states of length `n` and `inputs` inputs.
+    pub(crate) fn new(n: usize, inputs: usize) -> Self {
+        Self {
+            x: Col::zeros(n),
+            grad: Col::zeros(n),
+            y: vec![0.0; inputs],
+        }
+    }
+
+    /// `x` as the model's state type.
+    fn state(&mut self, x: &[f64]) -> &Col<f64> {
+        self.x.as_mut_slice().copy_from_slice(x);
+        &self.x
+    }
+}
+
 impl CompiledOutput {
-    /// The value at `at` (NaN for a multiplier before the first step).
-    pub(crate) fn value(&self, at: &At<'_>) -> f64 {
+    /// The value at `at` (NaN for a multiplier before the first step); allocates nothing.
+    pub(crate) fn value(&self, at: &At<'_>, scratch: &mut Scratch) -> f64 {
         let model = at.model;
         let nq = at.x.len() / 2;
         let port = |j: usize| {
@@ -113,14 +140,16 @@ impl CompiledOutput {
             }
             Read::PortOutput(j) | Read::Power(j) => {
                 let (inputs, j) = port(j);
-                let y = port_output(model, inputs, at.x, j);
+                let y = port_output(model, inputs, at.x, j, scratch);
                 match self.read {
                     Read::Power(_) => y * inputs.value(j, at.t),
                     _ => y,
                 }
             }
-            Read::Multiplier(row) => at.multipliers.map_or(f64::NAN, |l| l[row]),
-            Read::Energy => model.energy(&Col::from_fn(at.x.len(), |i| at.x[i])),
+            Read::Multiplier(row) => at
+                .multipliers
+                .map_or(f64::NAN, |(a, b)| 0.5 * (a[row] + b[row])),
+            Read::Energy => model.energy(scratch.state(at.x)),
             Read::Kinetic => model.kinetic_energy(at.x),
             Read::Supplied => at.energies.0,
             Read::Dissipated => at.energies.1,
@@ -129,20 +158,23 @@ impl CompiledOutput {
 }
 
 /// `y_j = B_jᵀ ∇H` at `x`.
-fn port_output(model: &Arc<SceneModel>, inputs: &SceneInputs<f64>, x: &[f64], j: usize) -> f64 {
+fn port_output(
+    model: &Arc<SceneModel>,
+    inputs: &SceneInputs<f64>,
+    x: &[f64],
+    j: usize,
+    scratch: &mut Scratch,
+) -> f64 {
     use crate::port::InputMap;
-    let n = x.len();
-    let xc = Col::from_fn(n, |i| x[i]);
-    let mut grad = Col::<f64>::zeros(n);
-    model.gradient(&xc, &mut grad);
-    let mut y = vec![0.0; inputs.names.len()];
+    scratch.state(x);
+    model.gradient(&scratch.x, &mut scratch.grad);
     <super::SceneInputMap<f64> as InputMap<Col<f64>>>::transpose_apply(
         &inputs.map,
-        &xc,
-        &grad,
-        &mut y,
+        &scratch.x,
+        &scratch.grad,
+        &mut scratch.y,
     );
-    y[j]
+    scratch.y[j]
 }
 
 /// Compiles one selector (outputs and events share it); `events` refuses what an event
