@@ -334,6 +334,13 @@ pub enum SetupError {
         /// What did not match.
         what: String,
     },
+    /// An adapter cannot be built on the flow it wraps (an extrapolation of a step that is not
+    /// symmetric, an order its step sequence cannot reach).
+    #[error("cannot build the scheme: {what}")]
+    Scheme {
+        /// What the adapter needs and the flow lacks.
+        what: String,
+    },
 }
 
 /// The fixed-step driver stopped at a failing step.

@@ -12,6 +12,7 @@ pub mod coefficients;
 mod compose;
 mod constrained_dg;
 mod exact;
+mod extrapolated;
 mod implicit;
 mod ledger;
 mod linear;
@@ -21,12 +22,15 @@ pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};
 pub use constrained_dg::{ConstrainedDiscreteGradient, EnergyBalance};
 pub use exact::{FnFlow, FnLedgerFlow, from_fn, from_fn_at, from_fn_with_order};
+pub use extrapolated::{Extrapolated, MAX_ROWS};
 pub use implicit::{
     DiscreteGradient, GonzalezRule, GradientRule, ImplicitMidpoint, IncrementFlow, MidpointRule,
 };
 pub use ledger::Ledger;
 pub use linear::{LINEAR_FLOW_CACHE, LinearFlow};
-pub use projection::{Coupling, Projected, ProjectedMidpoint, ProjectionOptions, Scheme};
+pub use projection::{
+    Coupling, Projected, ProjectedMidpoint, ProjectionOptions, Reprojected, Scheme,
+};
 
 use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
@@ -292,6 +296,30 @@ pub trait FlowExt<V: Vector>: Flow<V> + Sized {
     /// Yoshida's triple jump (order 4, 3 stages).
     fn triple_jump(self) -> Composition<V, Self> {
         Composition::new(self, &coefficients::TRIPLE_JUMP)
+    }
+
+    /// Aitken–Neville extrapolation of this symmetric step to `order` (4, 6, 8, …) on the
+    /// harmonic step sequence, every sub-step forward in time (see [`Extrapolated`]).
+    ///
+    /// # Errors
+    /// [`SetupError::Scheme`] when `self` is not symmetric or `order` is out of reach.
+    fn extrapolated(self, order: u32) -> Result<Extrapolated<V, Self>, SetupError> {
+        Extrapolated::try_new(self, order)
+    }
+
+    /// `self`, then a projection back onto `g = 0` (and `φ = 0` in the degenerate case) after
+    /// every step (see [`Reprojected`]); for schemes that leave the manifold by their local
+    /// error, such as an [`extrapolated`](Self::extrapolated) projected step.
+    ///
+    /// # Errors
+    /// The initial-state checks of a projection ([`SetupError`]).
+    fn reprojected<Sys: Model<V>>(
+        self,
+        system: Sys,
+        x0: &V,
+        options: ProjectionOptions<V::Real>,
+    ) -> Result<Reprojected<V, Self, Sys>, SetupError> {
+        Reprojected::try_new(self, system, x0, options)
     }
 
     /// The projection half-steps of Zhang & Deng (2004, §3) around `self`, for `system`,

@@ -28,6 +28,7 @@ mod fused;
 mod hidden;
 mod midpoint;
 mod options;
+mod reprojected;
 mod small;
 mod stage;
 mod warm;
@@ -49,6 +50,7 @@ use warm::WarmStart;
 
 pub use midpoint::ProjectedMidpoint;
 pub use options::{Coupling, ProjectionOptions, Scheme};
+pub use reprojected::Reprojected;
 
 /// Workspace: states of length `n`, multipliers in vectors of at least `2m` entries.
 #[derive(Debug, Clone)]
