@@ -486,18 +486,24 @@ fn with_damping_the_energy_never_increases_and_its_budget_closes() {
 
 #[test]
 fn refused_combinations_name_the_field() {
-    let e = parse(&set(DEFAULT_SCENE, "order", "8"))
-        .compile()
-        .unwrap_err();
+    // A named composition of order 8 on a damped scene steps the damping backwards.
+    let text = set(&set(DEFAULT_SCENE, "order", "8"), "scheme", "\"kahan-li8\"");
+    let e = parse(&text).compile().unwrap_err();
     assert_eq!(e.kind, SceneErrorKind::Unsupported);
-    assert_eq!(e.path.to_string(), "integrator.order");
+    assert_eq!(e.path.to_string(), "integrator.scheme");
     let loc = e.location.unwrap();
-    let line = DEFAULT_SCENE.lines().nth(loc.line - 1).unwrap();
-    assert!(line.starts_with("order"), "{line}");
-    assert!(e.message.contains("order = 2"), "{}", e.message);
-    // Without damping the same order is fine.
-    let ok = set(DEFAULT_SCENE, "order", "8").replace("[flags]", "[flags]\ndamping = false");
+    let line = text.lines().nth(loc.line - 1).unwrap();
+    assert!(line.starts_with("scheme"), "{line}");
+    assert!(e.message.contains("extrapolation"), "{}", e.message);
+    // Without damping the same composition is fine; with damping `order = 8` extrapolates.
+    let ok = text.replace("[flags]", "[flags]\ndamping = false");
     assert!(parse(&ok).compile().is_ok());
+    let c = parse(&set(DEFAULT_SCENE, "order", "8")).compile().unwrap();
+    assert!(
+        c.assembly.scheme.contains("extrapolated to order 8"),
+        "{}",
+        c.assembly.scheme
+    );
 }
 
 #[test]

@@ -56,7 +56,7 @@ pub(crate) mod validate;
 mod watch;
 
 pub use compile::{
-    Assembly, Compiled, DENSE_MAX_DIM, MAX_BODIES, MAX_PAIRS, Splitting, compile,
+    Assembly, Compiled, DENSE_MAX_DIM, MAX_BODIES, MAX_PAIRS, Raise, Splitting, compile,
     compile_reference, splitting_flow,
 };
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};

@@ -69,6 +69,8 @@ named_enum! {
         SuzukiUmeno8 = "suzuki-umeno8",
         /// Kahan and Li's order-8 composition.
         KahanLi8 = "kahan-li8",
+        /// Extrapolation of the splitting to `order` (default 4), every sub-step forward.
+        Extrapolation = "extrapolation",
         /// Gonzalez's discrete gradient (order 2, implicit).
         DiscreteGradient = "discrete-gradient",
         /// The implicit midpoint rule, projected (order 2).
@@ -99,6 +101,7 @@ impl Method {
             | Method::KahanLi8 => table_by_name(self.name()),
             Method::Auto
             | Method::Strang
+            | Method::Extrapolation
             | Method::DiscreteGradient
             | Method::Midpoint
             | Method::Modified => None,

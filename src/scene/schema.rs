@@ -235,7 +235,8 @@ pub struct IntegratorSpec {
     /// model only).
     #[serde(default)]
     pub scheme: Method,
-    /// The order for `auto`: 2, 4, 6 or 8 (default 2). With damping only 2.
+    /// The order for `auto` (2, 4, 6 or 8, default 2: compositions, or with damping the
+    /// extrapolated splitting) and for `extrapolation` (4, 6 or 8, default 4).
     #[serde(default)]
     pub order: Option<u32>,
     /// Step size, positive.

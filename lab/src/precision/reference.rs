@@ -124,9 +124,10 @@ pub(crate) fn double_double_run(
     let mut x = V::from_iterator(x0.len(), x0.iter().map(|&v| TwoFloat::lit(v)));
     // twofloat's `epsilon()` is f64::MIN_POSITIVE; its unit round-off is ~2^-106.
     let eps = TwoFloat::lit(1e-31);
-    let table = lieflow::flow::coefficients::table_by_name("kahan-li8");
+    let table = lieflow::flow::coefficients::table_by_name("kahan-li8").expect("a table");
+    let raise = lieflow::scene::Raise::Compose(table);
     let (mut flow, _, _) =
-        lieflow::scene::splitting_flow(&dd, &x, table, true, eps).map_err(|e| e.to_string())?;
+        lieflow::scene::splitting_flow(&dd, &x, raise, true, eps).map_err(|e| e.to_string())?;
     let steps = (t / h).round().max(1.0);
     let step = TwoFloat::lit(t) / TwoFloat::lit(steps);
     lieflow::integrate(

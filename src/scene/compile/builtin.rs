@@ -61,9 +61,11 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
             path.key("links"),
         );
     }
-    let (table, order) = choose_scheme(&file.integrator, false)?;
+    let (raise, order) = choose_scheme(&file.integrator, false)?;
+    let table = raise.table();
     let scheme = file.integrator.scheme;
     if scheme == Method::DiscreteGradient
+        || scheme == Method::Extrapolation
         || (b.model != "paper" && matches!(scheme, Method::Midpoint | Method::Modified))
     {
         return Err(err(

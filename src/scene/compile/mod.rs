@@ -6,6 +6,7 @@ mod builtin;
 mod constraints;
 mod effects;
 mod initial;
+mod raise;
 mod scheme;
 
 pub(crate) use super::validate::{self, Result, err};
@@ -27,6 +28,7 @@ use constraints::{check_independent, constraint_term, constraint_terms, drop_dep
 use effects::assemble_effects;
 use faer::Col;
 use initial::{off_constraints, project_initial};
+pub use raise::Raise;
 use scheme::{SchemeFlow, choose_scheme, plan, scheme_flow};
 pub use scheme::{Splitting, splitting_flow};
 use std::sync::Arc;
@@ -264,7 +266,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             x0[nq + b * dim + k] = body.mass * body.v[k];
         }
     }
-    let (table, order) = choose_scheme(&file.integrator, model.is_dissipative() && !backward)?;
+    let (raise, order) = choose_scheme(&file.integrator, model.is_dissipative() && !backward)?;
     let m = model.m;
     let mut initial_projection = None;
     if m > 0 {
@@ -303,14 +305,8 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         case,
         projection,
         solver,
-    } = scheme_flow(file, &model, &x0, table, backward)?;
-    let scheme = match table {
-        None => scheme_name.to_owned(),
-        Some(t) => format!(
-            "{} composed by {} ({} stages)",
-            scheme_name, t.name, t.stages
-        ),
-    };
+    } = scheme_flow(file, &model, &x0, raise, backward)?;
+    let scheme = raise.describe(scheme_name);
     let mut constraint_counts: Vec<(String, usize)> = Vec::new();
     for t in &model.constraints {
         let kind = match t.kind {

@@ -1,6 +1,7 @@
-//! The scheme of a scene: the composition table and order, the run plan, and the flow —
+//! The scheme of a scene: how its step is raised and to which order, the run plan, and the flow —
 //! the splitting of the exact sub-flows, projected when constrained, or an implicit scheme.
 
+use super::raise::{Raise, raised};
 use super::{DENSE_MAX_DIM, MAX_STEPS, Result, constraints::setup_error, err, validate::positive};
 use crate::error::SetupError;
 use crate::flow::{
@@ -21,33 +22,47 @@ use faer::Col;
 use num_traits::Zero as _;
 use std::sync::Arc;
 
-/// The scheme a scene asks for: the composition table (`None`: Strang) and its order.
-pub(super) fn choose_scheme(
-    integ: &IntegratorSpec,
-    dissipative: bool,
-) -> Result<(Option<&'static CompositionTable>, u32)> {
+/// The scheme a scene asks for: how its order-2 step is raised, and the order.
+///
+/// `auto` with `order = 4 | 6 | 8` composes the step (Suzuki, Kahan–Li) — or, when the scene
+/// `dissipative`, extrapolates it, since a composition above order 2 runs the damping
+/// backwards. `extrapolation` extrapolates whatever the scene. A named composition on a
+/// dissipative scene is refused.
+pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result<(Raise, u32)> {
     let path = FieldPath::root().key("integrator");
-    let (table, order) = match integ.scheme {
+    let out_of_range = |o: u32, what: &str| {
+        err(
+            SceneErrorKind::Value,
+            path.key("order"),
+            format!("order {o}: {what}"),
+        )
+    };
+    let (raise, order) = match integ.scheme {
         Method::Auto => {
             let order = integ.order.unwrap_or(2);
-            let table = match order {
-                2 => None,
-                4 => Method::Suzuki4.composition(),
-                6 => Method::KahanLi6.composition(),
-                8 => Method::KahanLi8.composition(),
-                o => {
-                    return Err(err(
-                        SceneErrorKind::Value,
-                        path.key("order"),
-                        format!("order {o}: the compositions have orders 2, 4, 6 and 8"),
-                    ));
-                }
+            let raise = match order {
+                2 => Raise::Base,
+                4 | 6 | 8 if dissipative => Raise::Extrapolate(order),
+                4 => Raise::Compose(Method::Suzuki4.composition().expect("a table")),
+                6 => Raise::Compose(Method::KahanLi6.composition().expect("a table")),
+                8 => Raise::Compose(Method::KahanLi8.composition().expect("a table")),
+                o => return Err(out_of_range(o, "the schemes have orders 2, 4, 6 and 8")),
             };
-            (table, order)
+            (raise, order)
+        }
+        Method::Extrapolation => {
+            let order = integ.order.unwrap_or(4);
+            if !matches!(order, 4 | 6 | 8) {
+                return Err(out_of_range(
+                    order,
+                    "extrapolation of the splitting offers orders 4, 6 and 8",
+                ));
+            }
+            (Raise::Extrapolate(order), order)
         }
         method => match method.composition() {
-            Some(t) => (Some(t), t.order),
-            None => (None, 2),
+            Some(t) => (Raise::Compose(t), t.order),
+            None => (Raise::Base, 2),
         },
     };
     if let Some(o) = integ.order
@@ -59,21 +74,17 @@ pub(super) fn choose_scheme(
             format!("order {o}, but scheme '{}' has order {order}", integ.scheme),
         ));
     }
-    if dissipative && order > 2 {
-        let field = if integ.order.is_some() {
-            "order"
-        } else {
-            "scheme"
-        };
+    if dissipative && let Raise::Compose(t) = raise {
         return Err(err(
             SceneErrorKind::Unsupported,
-            path.key(field),
+            path.key("scheme"),
             format!(
-                "an order-{order} composition takes negative sub-steps, which run the damping backwards (energy grows, unstable when stiff); with damping use order = 2 (Strang with the exact damping flow), or switch the damping off with [flags] damping = false"
+                "'{}' (order {order}) takes negative sub-steps, which run the damping backwards (energy grows, unstable when stiff); with damping use `order = {order}` or scheme = \"extrapolation\" (every sub-step forward), or switch the damping off with [flags] damping = false",
+                t.name
             ),
         ));
     }
-    Ok((table, order))
+    Ok((raise, order))
 }
 
 pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(usize, bool, bool, bool)> {
@@ -126,12 +137,12 @@ pub(super) struct SchemeFlow {
 
 /// Builds the flow of `file`'s scheme for `model` from `x0`: the discrete gradient, the
 /// implicit midpoint rule (projected, or as one Newton system with `λ_k`), or the splitting of
-/// the exact sub-flows ([`splitting_flow`]); composed by `table`.
+/// the exact sub-flows ([`splitting_flow`]); raised by `raise`.
 pub(super) fn scheme_flow(
     file: &SceneFile,
     model: &Arc<SceneModel>,
     x0: &Col<f64>,
-    table: Option<&'static CompositionTable>,
+    raise: Raise,
     backward: bool,
 ) -> Result<SchemeFlow> {
     let root = FieldPath::root();
@@ -181,7 +192,7 @@ pub(super) fn scheme_flow(
         };
         if m == 0 {
             scheme_name = "implicit midpoint rule";
-            with_table_backward(midpoint()?, table, backward)
+            raised::<_, _, SceneSystem<f64>>(midpoint()?, raise, backward, None).map_err(setup)?
         } else {
             scheme_name = "projection around the implicit midpoint rule";
             let system = || System::new(model.clone(), model.clone(), model.clone());
@@ -205,16 +216,19 @@ pub(super) fn scheme_flow(
             } else {
                 None
             };
+            let onto = Some((system(), x0, options));
             match joint {
-                Some(joint) => with_table_backward(joint, table, backward),
-                None => with_table_backward(
+                Some(joint) => raised(joint, raise, backward, onto),
+                None => raised(
                     midpoint()?
                         .projected(system(), x0, options)
                         .map_err(setup)?,
-                    table,
+                    raise,
                     backward,
+                    onto,
                 ),
             }
+            .map_err(setup)?
         }
     } else if file.integrator.scheme == Method::Modified {
         return Err(err(
@@ -223,7 +237,7 @@ pub(super) fn scheme_flow(
             "the §2 scheme (`modified`) is offered for the built-in paper model only",
         ));
     } else {
-        let (flow, name, desc) = splitting_flow(model, x0, table, backward, f64::EPSILON)
+        let (flow, name, desc) = splitting_flow(model, x0, raise, backward, f64::EPSILON)
             .map_err(|e| setup_error(model, e))?;
         scheme_name = name;
         if let Some((scheme, small, kind)) = desc {
@@ -308,7 +322,7 @@ pub(super) fn projection_options<T: Real>(
 
 /// The splitting of a scene's terms (see the module docs of `scene`): the free flight alone, or
 /// `free flight(h/2) ∘ kick(h) ∘ free flight(h/2)` without constraints; with constraints the
-/// projection around `kick(h/2) ∘ free flight(h) ∘ kick(h/2)`; composed by `table`. For any
+/// projection around `kick(h/2) ∘ free flight(h) ∘ kick(h/2)`; raised by `raise`. For any
 /// storage and scalar (`eps` its unit round-off): `Col<f64>` for runs, `DVector` of a
 /// double-double scalar for references. Returns the flow, its description and, when projected,
 /// the projection variant, whether it takes the small path, and its linear solver. `backward`
@@ -319,7 +333,7 @@ pub(super) fn projection_options<T: Real>(
 pub fn splitting_flow<V: Vector + 'static>(
     model: &Arc<SceneModel<V::Real>>,
     x0: &V,
-    table: Option<&'static CompositionTable>,
+    raise: Raise,
     backward: bool,
     eps: V::Real,
 ) -> std::result::Result<Splitting<V>, SetupError> {
@@ -336,13 +350,13 @@ pub fn splitting_flow<V: Vector + 'static>(
             l.dissipated = l.dissipated + m2.free_flight(t, x.as_mut_slice());
         })
         .dissipative();
-        with_inputs(model, x0, table, backward, eps, kick, drift)
+        with_inputs(model, x0, raise, backward, eps, kick, drift)
     } else {
         let m2 = model.clone();
         let drift = from_fn(move |t: V::Real, x: &mut V| {
             m2.free_flight(t, x.as_mut_slice());
         });
-        with_inputs(model, x0, table, backward, eps, kick, drift)
+        with_inputs(model, x0, raise, backward, eps, kick, drift)
     }
 }
 
@@ -352,7 +366,7 @@ pub fn splitting_flow<V: Vector + 'static>(
 fn with_inputs<V, K, D>(
     model: &Arc<SceneModel<V::Real>>,
     x0: &V,
-    table: Option<&'static CompositionTable>,
+    raise: Raise,
     backward: bool,
     eps: V::Real,
     kick: K,
@@ -364,11 +378,11 @@ where
     D: Flow<V> + 'static,
 {
     match model.inputs.as_ref() {
-        None => assemble(model, x0, table, backward, eps, kick, drift),
+        None => assemble(model, x0, raise, backward, eps, kick, drift),
         Some(inputs) => {
             let input = InputFlow::try_new(inputs.map.clone(), inputs.signals.clone())?
                 .supplying(model.clone());
-            assemble(model, x0, table, backward, eps, kick.strang(input), drift)
+            assemble(model, x0, raise, backward, eps, kick.strang(input), drift)
         }
     }
 }
@@ -378,7 +392,7 @@ where
 fn assemble<V, K, D>(
     model: &Arc<SceneModel<V::Real>>,
     x0: &V,
-    table: Option<&'static CompositionTable>,
+    raise: Raise,
     backward: bool,
     eps: V::Real,
     kick: K,
@@ -394,7 +408,7 @@ where
     if model.m == 0 {
         return Ok(if has_potential {
             (
-                with_table_backward(drift.strang(kick), table, backward),
+                raised::<_, _, SceneSystem<V::Real>>(drift.strang(kick), raise, backward, None)?,
                 if forced {
                     "free flight ∘ kick and inputs ∘ free flight (Strang)"
                 } else {
@@ -409,25 +423,27 @@ where
     let system = System::new(model.clone(), model.clone(), model.clone());
     let options = projection_options(model, x0.as_slice(), eps);
     if has_potential {
-        let p = kick.strang(drift).projected(system, x0, options)?;
-        Ok(boxed_projection(
+        let p = kick.strang(drift).projected(system.clone(), x0, options)?;
+        boxed_projection(
             p,
-            table,
+            raise,
             backward,
+            (system, x0, options),
             if forced {
                 "projection around kick and inputs ∘ free flight ∘ kick and inputs (Strang, RATTLE)"
             } else {
                 "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)"
             },
-        ))
+        )
     } else {
-        let p = drift.projected(system, x0, options)?;
-        Ok(boxed_projection(
+        let p = drift.projected(system.clone(), x0, options)?;
+        boxed_projection(
             p,
-            table,
+            raise,
             backward,
+            (system, x0, options),
             "projection around free flight (exact)",
-        ))
+        )
     }
 }
 
@@ -440,15 +456,17 @@ pub type Splitting<V> = (
 );
 
 /// A scene model as a [`System`] (the three parts share one model).
-type SceneSystem<T> = System<Arc<SceneModel<T>>, Arc<SceneModel<T>>, Arc<SceneModel<T>>>;
+pub(super) type SceneSystem<T> = System<Arc<SceneModel<T>>, Arc<SceneModel<T>>, Arc<SceneModel<T>>>;
 
-/// A scene's projected flow, composed and boxed, with its description and what it assembled.
+/// A scene's projected flow, raised and boxed (re-projected onto `onto` when extrapolated),
+/// with its description and what it assembled.
 pub(super) fn boxed_projection<V, F>(
     p: Projected<V, F, SceneSystem<V::Real>>,
-    table: Option<&'static CompositionTable>,
+    raise: Raise,
     backward: bool,
+    onto: (SceneSystem<V::Real>, &V, ProjectionOptions<V::Real>),
     name: &'static str,
-) -> Splitting<V>
+) -> std::result::Result<Splitting<V>, SetupError>
 where
     V: Vector + 'static,
     F: Flow<V> + 'static,
@@ -458,27 +476,16 @@ where
         p.uses_small_path(),
         format!("{:?}", p.newton().linear_solver().kind()),
     );
-    (with_table_backward(p, table, backward), name, Some(desc))
+    Ok((raised(p, raise, backward, Some(onto))?, name, Some(desc)))
 }
 
-/// `flow`, or its composition by `table`, boxed.
+/// `flow`, or its composition by `table`, boxed (the built-in models).
 pub(super) fn with_table<V: Vector + 'static, F: Flow<V> + 'static>(
     flow: F,
     table: Option<&'static CompositionTable>,
 ) -> Box<dyn Flow<V>> {
-    with_table_backward(flow, table, false)
-}
-
-/// As [`with_table`], the composition allowed to run dissipation backwards when `backward`
-/// (reference runs only: [`compile_reference`]).
-pub(super) fn with_table_backward<V: Vector + 'static, F: Flow<V> + 'static>(
-    flow: F,
-    table: Option<&'static CompositionTable>,
-    backward: bool,
-) -> Box<dyn Flow<V>> {
-    match (table, backward) {
-        (None, _) => Box::new(flow),
-        (Some(t), false) => Box::new(flow.composed(t)),
-        (Some(t), true) => Box::new(flow.composed(t).allow_backward_dissipation()),
+    match table {
+        None => Box::new(flow),
+        Some(t) => Box::new(flow.composed(t)),
     }
 }

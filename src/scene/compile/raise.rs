@@ -1,0 +1,82 @@
+//! How a scene's order-2 step is raised to the order it asks for: a symmetric composition
+//! (negative sub-steps) or an extrapolation (every sub-step forward, for damped scenes).
+
+use crate::error::SetupError;
+use crate::flow::{CompositionTable, Flow, FlowExt, ProjectionOptions};
+use crate::system::Model;
+use crate::vector::Vector;
+
+/// The raise of a scene's symmetric order-2 step (see `choose_scheme`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Raise {
+    /// The step itself: order 2.
+    Base,
+    /// A symmetric composition with the table's coefficients (negative sub-steps above
+    /// order 2, so refused on dissipative flows).
+    Compose(&'static CompositionTable),
+    /// Aitken–Neville extrapolation to this order on the harmonic sequence, every sub-step
+    /// forward ([`Extrapolated`](crate::flow::Extrapolated)), re-projected onto the manifold
+    /// when constrained ([`Reprojected`](crate::flow::Reprojected)).
+    Extrapolate(u32),
+}
+
+impl Raise {
+    /// The composition table, when composed.
+    pub fn table(self) -> Option<&'static CompositionTable> {
+        match self {
+            Raise::Compose(t) => Some(t),
+            _ => None,
+        }
+    }
+
+    /// The scheme's description with the raise: `"{base} composed by …"`, `"{base},
+    /// extrapolated …"`.
+    pub fn describe(self, base: &str) -> String {
+        match self {
+            Raise::Base => base.to_owned(),
+            Raise::Compose(t) => format!("{base} composed by {} ({} stages)", t.name, t.stages),
+            Raise::Extrapolate(order) => {
+                let rows = order / 2;
+                format!(
+                    "{base}, extrapolated to order {order} (Aitken–Neville on 1..{rows} sub-steps, {} per step, all forward), re-projected",
+                    rows * (rows + 1) / 2
+                )
+            }
+        }
+    }
+}
+
+/// Where a constrained step is re-projected after an extrapolation: the system, the initial
+/// state and the projection options.
+pub(crate) type Onto<'a, Sys, V> = Option<(Sys, &'a V, ProjectionOptions<<V as Vector>::Real>)>;
+
+/// `flow` raised by `raise`, boxed. `backward` lets a composition run a dissipative sub-flow
+/// backwards (reference runs only); `onto` re-projects an extrapolated constrained step.
+///
+/// # Errors
+/// [`SetupError::Scheme`] when the flow cannot be extrapolated (not symmetric), and the
+/// projection's setup errors.
+pub(crate) fn raised<V, F, Sys>(
+    flow: F,
+    raise: Raise,
+    backward: bool,
+    onto: Onto<'_, Sys, V>,
+) -> Result<Box<dyn Flow<V>>, SetupError>
+where
+    V: Vector + 'static,
+    F: Flow<V> + 'static,
+    Sys: Model<V> + 'static,
+{
+    Ok(match (raise, backward) {
+        (Raise::Base, _) => Box::new(flow),
+        (Raise::Compose(t), false) => Box::new(flow.composed(t)),
+        (Raise::Compose(t), true) => Box::new(flow.composed(t).allow_backward_dissipation()),
+        (Raise::Extrapolate(order), _) => {
+            let e = flow.extrapolated(order)?;
+            match onto {
+                Some((system, x0, options)) => Box::new(e.reprojected(system, x0, options)?),
+                None => Box::new(e),
+            }
+        }
+    })
+}

@@ -1,0 +1,131 @@
+//! Damped scenes at high order: `order = 4 | 6 | 8` extrapolates the projected Strang step
+//! (every sub-step forward). Fitted orders against a double-double reference on the damped
+//! pendulum and on ten damped particles on a sphere, with the constraints at round-off.
+
+use lieflow::Real as _;
+use lieflow::flow::coefficients::table_by_name;
+use lieflow::scene::{Raise, RunSummary, Scene, run, splitting_flow};
+use nalgebra::DVector;
+use twofloat::TwoFloat;
+
+const DAMPED_PENDULUM: &str = include_str!("../scenes/damped_pendulum.toml");
+const SHELL_DAMPED: &str = include_str!("../scenes/shell_damped.toml");
+
+fn with(text: &str, order: u32, t_end: f64) -> Scene {
+    let text = text.replace("[integrator]", &format!("[integrator]\norder = {order}"));
+    let mut s = Scene::from_toml(&text, "test.toml").unwrap_or_else(|e| panic!("{e}"));
+    s.file.integrator.t_end = t_end;
+    s
+}
+
+fn run_at(scene: &Scene, dt: f64) -> RunSummary {
+    let mut s = scene.clone();
+    s.file.integrator.dt = dt;
+    let mut c = s.compile().unwrap_or_else(|e| panic!("{e}"));
+    run(c.simulation.as_mut(), &c.plan, &mut |_| {})
+}
+
+/// Kahan–Li 8 around the scene's splitting in double-double (its backward sub-steps of the mild
+/// damping are harmless for a reference), at `steps` and `2 steps`: the final state and the
+/// gap of the two.
+fn reference(scene: &Scene, t_end: f64, steps: usize) -> (Vec<f64>, f64) {
+    type V = DVector<TwoFloat>;
+    let c = scene.compile().unwrap();
+    let model = std::sync::Arc::new(c.model.unwrap().with_scalar::<TwoFloat>());
+    let x0 = c.simulation.state().to_vec();
+    let table = table_by_name("kahan-li8").unwrap();
+    let at = |n: usize| {
+        let mut x = V::from_iterator(x0.len(), x0.iter().map(|&v| TwoFloat::lit(v)));
+        let (mut flow, _, _) = splitting_flow(
+            &model,
+            &x,
+            Raise::Compose(table),
+            true,
+            TwoFloat::lit(1e-31),
+        )
+        .unwrap();
+        let h = TwoFloat::lit(t_end) / TwoFloat::lit(n as f64);
+        for _ in 0..n {
+            flow.step(h, &mut x).unwrap();
+        }
+        x
+    };
+    let (a, b) = (at(steps), at(2 * steps));
+    let gap = a
+        .iter()
+        .zip(b.iter())
+        .fold(0.0f64, |m, (u, v)| m.max((*u - *v).abs().to_f64_lossy()));
+    (b.iter().map(|v| v.to_f64_lossy()).collect(), gap)
+}
+
+fn fitted(hs: &[f64], errs: &[f64]) -> f64 {
+    let n = hs.len() as f64;
+    let xs: Vec<f64> = hs.iter().map(|h| h.ln()).collect();
+    let ys: Vec<f64> = errs.iter().map(|e| e.ln()).collect();
+    let (mx, my) = (xs.iter().sum::<f64>() / n, ys.iter().sum::<f64>() / n);
+    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
+    sxy / sxx
+}
+
+/// Fits the order of `order` on `text` over the step counts `counts` (each dividing `t_end`).
+fn check(name: &str, text: &str, t_end: f64, reference_steps: usize, cases: &[(u32, &[usize])]) {
+    let (r, gap) = reference(&with(text, 2, t_end), t_end, reference_steps);
+    assert!(gap < 1e-16, "{name}: reference gap {gap:e}");
+    for &(order, counts) in cases {
+        let scene = with(text, order, t_end);
+        let hs: Vec<f64> = counts.iter().map(|&n| t_end / n as f64).collect();
+        let mut errs = Vec::new();
+        for &h in &hs {
+            let s = run_at(&scene, h);
+            assert_eq!(s.error, None);
+            // g = (|u|² − ℓ²)/2 rounds at ~ε ℓ |u|; the manifold stays there.
+            assert!(
+                s.max_abs_g.unwrap() <= 1e-14,
+                "{name}: |g| {:?}",
+                s.max_abs_g
+            );
+            errs.push(
+                s.x.iter()
+                    .zip(&r)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs())),
+            );
+        }
+        let p = fitted(&hs, &errs);
+        eprintln!("{name}, order {order}: errors {errs:?}, fitted order {p:.3}");
+        assert!(
+            (p - f64::from(order)).abs() <= 0.3,
+            "{name}, order {order}: fitted {p:.3}, errors {errs:?}"
+        );
+    }
+}
+
+#[test]
+fn the_damped_pendulum_scene_reaches_orders_4_6_8() {
+    check(
+        "damped pendulum",
+        DAMPED_PENDULUM,
+        2.0,
+        400,
+        &[
+            (4, &[20, 25, 32, 40, 50]),
+            (6, &[10, 16, 20, 25, 32]),
+            (8, &[8, 10, 16, 20]),
+        ],
+    );
+}
+
+#[test]
+fn ten_damped_particles_on_a_sphere_reach_orders_4_6_8() {
+    check(
+        "damped particles on a sphere",
+        SHELL_DAMPED,
+        1.0,
+        200,
+        &[
+            (4, &[10, 16, 20, 25, 32]),
+            (6, &[5, 8, 10, 16, 20]),
+            (8, &[4, 5, 8, 10]),
+        ],
+    );
+}
