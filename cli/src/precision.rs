@@ -16,7 +16,7 @@ pub(crate) struct PrecisionArgs {
     /// row.
     #[arg(long, value_name = "H,H,…", value_delimiter = ',')]
     dt: Vec<f64>,
-    /// Composition orders (default 2,4,6,8; only 2 with damping).
+    /// Orders of the splitting (default 2,4,6,8): compositions, or with damping extrapolations.
     #[arg(long, value_name = "P,P,…", value_delimiter = ',')]
     orders: Vec<u32>,
     /// Peer tolerances (default 1e-4,1e-6,…,1e-14).

@@ -10,9 +10,9 @@ use serde::Serialize;
 pub struct PrecisionPlan {
     /// Step sizes for every lieflow scheme.
     pub dts: Vec<f64>,
-    /// Composition orders of the projected splitting (2 = Strang; 4, 6, 8 = Suzuki 4,
-    /// Kahan–Li 6, Kahan–Li 8). Orders above 2 are skipped (with a row saying so) for scenes
-    /// with damping.
+    /// Orders of the projected splitting (2 = Strang; 4, 6, 8 = Suzuki 4, Kahan–Li 6,
+    /// Kahan–Li 8, or for scenes with damping the splitting extrapolated to that order, every
+    /// sub-step forward).
     pub orders: Vec<u32>,
     /// Also run the discrete gradient (scenes of bodies).
     pub discrete_gradient: bool,
