@@ -4,7 +4,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 /// Evaluation counter of one term (and its time when profiling). Atomic so that a model can be
-/// shared between the flows that use it; each run is single-threaded.
+/// shared between the flows that use it; each run is single-threaded, so a count is a plain
+/// load and store (no locked read-modify-write on the hot path: a `fetch_add` costs ~20 cycles,
+/// more than a small term's evaluation).
 #[derive(Debug, Default)]
 pub(crate) struct Counter {
     evaluations: AtomicU64,
@@ -14,11 +16,13 @@ pub(crate) struct Counter {
 impl Counter {
     #[inline]
     pub(crate) fn hit(&self) {
-        self.evaluations.fetch_add(1, Ordering::Relaxed);
+        let n = self.evaluations.load(Ordering::Relaxed);
+        self.evaluations.store(n + 1, Ordering::Relaxed);
     }
     pub(crate) fn add_time(&self, since: Instant) {
         let ns = since.elapsed().as_nanos() as u64;
-        self.nanos.fetch_add(ns, Ordering::Relaxed);
+        let total = self.nanos.load(Ordering::Relaxed);
+        self.nanos.store(total + ns, Ordering::Relaxed);
     }
     pub(crate) fn evaluations(&self) -> u64 {
         self.evaluations.load(Ordering::Relaxed)

@@ -8,6 +8,22 @@ use crate::vector::Vector;
 use std::sync::Arc;
 
 impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
+    /// `out = M v`, written directly (no zero fill and add).
+    fn apply(&self, _x: &V, v: &V, out: &mut V) {
+        let v = v.as_slice();
+        let out = out.as_mut_slice();
+        let nq = v.len() / 2;
+        let (oq, op) = out.split_at_mut(nq);
+        let (vq, vp) = v.split_at(nq);
+        for (o, x) in oq.iter_mut().zip(vp) {
+            *o = *x;
+        }
+        for (o, x) in op.iter_mut().zip(vq) {
+            *o = -*x;
+        }
+        self.apply_dissipative_and_magnetic(vp, T::one(), op);
+    }
+
     fn apply_add(&self, _x: &V, v: &V, alpha: T, out: &mut V) {
         let v = v.as_slice();
         let out = out.as_mut_slice();
@@ -20,6 +36,22 @@ impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
         for (o, x) in op.iter_mut().zip(vq) {
             *o = *o - (alpha * *x);
         }
+        self.apply_dissipative_and_magnetic(vp, alpha, op);
+    }
+
+    fn is_constant(&self) -> bool {
+        true
+    }
+
+    fn is_dissipative(&self) -> bool {
+        self.damping.is_some()
+    }
+}
+
+impl<T: Real> SceneModel<T> {
+    /// `op += α (−R_pp + J_B) vp`: the damping and magnetic blocks of `M` on the momenta.
+    #[inline]
+    fn apply_dissipative_and_magnetic(&self, vp: &[T], alpha: T, op: &mut [T]) {
         let d = self.dim;
         if let Some(damping) = &self.damping {
             damping.counter.hit();
@@ -46,13 +78,5 @@ impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
                 }
             }
         }
-    }
-
-    fn is_constant(&self) -> bool {
-        true
-    }
-
-    fn is_dissipative(&self) -> bool {
-        self.damping.is_some()
     }
 }
