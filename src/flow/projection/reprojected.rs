@@ -223,8 +223,7 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Onto<'_, V, Sys> {
 
     /// `G(x(μ)) G(base)ᵀ e_j`.
     fn jacobian_column(&mut self, mu: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
-        let mut cols = [j];
-        self.jacobian_group(mu, &mut cols[..], out)
+        self.jacobian_group(mu, &[j], out)
     }
 
     /// `G(x(μ)) G(base)ᵀ Σ_{j ∈ cols} e_j`.
