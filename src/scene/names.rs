@@ -175,6 +175,7 @@ mod tests {
             match m {
                 Method::Auto
                 | Method::Strang
+                | Method::Extrapolation
                 | Method::DiscreteGradient
                 | Method::Midpoint
                 | Method::Modified => assert!(table.is_none(), "{m}"),
