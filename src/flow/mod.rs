@@ -16,6 +16,7 @@ mod extrapolated;
 mod implicit;
 mod ledger;
 mod linear;
+mod petrov_galerkin;
 mod projection;
 
 pub use coefficients::CompositionTable;
@@ -28,6 +29,7 @@ pub use implicit::{
 };
 pub use ledger::Ledger;
 pub use linear::{LINEAR_FLOW_CACHE, LinearFlow};
+pub use petrov_galerkin::{DiscreteDissipation, MAX_STAGES, PetrovGalerkin};
 pub use projection::{
     Coupling, Projected, ProjectedMidpoint, ProjectionOptions, Reprojected, Scheme,
 };

@@ -1,0 +1,448 @@
+//! The energy-consistent Petrov–Galerkin step in time (order `2k`, an exact discrete energy
+//! balance) for `x' = (J − R)(∇H + Gᵀλ)`, `g(x) = 0`.
+
+mod basis;
+mod problem;
+
+use super::projection::HiddenSolver;
+use super::{Flow, FlowStats, Ledger, ProjectionOptions};
+use crate::error::{SetupError, StepError};
+use crate::nonlinear::{Newton, NonlinearSolver, SMALL_MAX};
+use crate::real::Real;
+use crate::system::{
+    Case, Hamiltonian, HolonomicConstraint, Model, StructureMatrix, check_initial_state,
+    half_step_keeps_jacobian,
+};
+use crate::vector::{Vector, ops};
+use basis::Basis;
+use num_traits::Zero;
+use problem::{Problem, Scratch};
+
+/// The basis tables in the scalar of the run.
+#[derive(Debug, Clone)]
+pub(crate) struct Tables<T> {
+    k: usize,
+    s: usize,
+    beta: Vec<T>,
+    b: Vec<T>,
+    ell: Vec<T>,
+    a: Vec<T>,
+}
+
+impl<T: Real> Tables<T> {
+    fn new(k: usize, s: usize) -> Self {
+        let basis = Basis::new(k, s);
+        let cast = |v: &[f64]| v.iter().map(|&x| T::lit(x)).collect::<Vec<T>>();
+        Self {
+            k: basis.k,
+            s: basis.s,
+            beta: cast(&basis.beta),
+            b: cast(&basis.b),
+            ell: cast(&basis.ell),
+            a: cast(&basis.a),
+        }
+    }
+}
+
+/// The energy of one step: `H(x_{n+1}) − H(x_n) = −D_n` to the Newton tolerance (and the
+/// quadrature of a non-polynomial `H`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiscreteDissipation<T> {
+    /// `H(x_n)`.
+    pub before: T,
+    /// `H(x_{n+1})`.
+    pub after: T,
+    /// `h ∫₀¹ zᵀ R z dτ ≥ 0`, by the quadrature: what the damping removed.
+    pub damping: T,
+    /// The kinetic energy the hidden-constraint projection removed, `≥ 0`.
+    pub projection: T,
+}
+
+impl<T: Real> DiscreteDissipation<T> {
+    /// `D_n = damping + projection`.
+    pub fn total(&self) -> T {
+        self.damping + self.projection
+    }
+}
+
+/// The energy-consistent Petrov–Galerkin method in time (Egger, Habrich & Shashkov, CMAM 21,
+/// 2021; Giesselmann, Karsai & Tscherpel, arXiv 2404.12480; with algebraic constraints
+/// Altmann, Karsai & Schulze, arXiv 2507.21552). On `[t_n, t_n + h]` find `x ∈ P_k`
+/// (`x(t_n) = x_n`) and `z, λ ∈ P_{k−1}` with, for all test functions `v, w ∈ P_{k−1}ⁿ`,
+/// `μ ∈ P_{k−1}ᵐ`,
+///
+/// ```text
+/// (a)  ∫ ⟨x' − M (z + G(x)ᵀλ), v⟩ = 0      (b)  ∫ ⟨z − ∇H(x), w⟩ = 0      (c)  ∫ ⟨G(x) x', μ⟩ = 0
+/// ```
+///
+/// **Energy.** `H(x_{n+1}) − H(x_n) = ∫⟨∇H(x), x'⟩ = ∫⟨z, x'⟩` (by (b), `x' ∈ P_{k−1}`)
+/// `= −∫ zᵀRz + ∫ zᵀ M Gᵀλ` (by (a) with `v = z`). For mechanical structure — constraints on
+/// positions, `M` constant with `J` canonical in the `qp` blocks, `R` and magnetic terms in the
+/// `pp` block — `M Gᵀλ` acts on momenta only, the `q`-rows of (a) give `q' = z_p` pointwise,
+/// and the work `∫ zᵀ M Gᵀλ = −∫ λᵀ G q'` vanishes by (c) with `μ = λ`. So the step dissipates
+/// exactly `D = h ∫ zᵀRz ≥ 0`. (c) with `μ` constant gives `g(x_{n+1}) = g(x_n)`; the scheme
+/// solves it with `g(x_n)` moved to the right-hand side, `g(x_{n+1}) = 0`, so that rounding
+/// does not accumulate (the work this adds is `h g(x_n)·Σβ_jλ_j`, at rounding level).
+///
+/// **Order.** `2k` at the step points (superconvergence, as for Gauss collocation), once the
+/// hidden constraint `φ = G M ∇H = 0` is restored after each step: without it the index-3
+/// order reduction leaves order 2. The projection `x ← x + M Gᵀν` with `φ = 0` is, for
+/// mechanical models, orthogonal in the kinetic metric: it removes kinetic energy `≥ 0`, which
+/// is counted in `D_n` ([`DiscreteDissipation::projection`]). `k = 1` is the average-vector-field
+/// discrete gradient with `g(q_{n+1}) = g(q_n)`.
+///
+/// **Discretization.** `x'`, `z`, `λ` in the Lagrange basis at the `k` Gauss points; the
+/// integrals by an `s`-point Gauss rule (default `s = k + 2`): exact for the constraint rows
+/// when `g` is quadratic and for the energy when `H` is a polynomial of degree `≤ 2(s)/k`;
+/// otherwise the balance holds to the quadrature error of `∫⟨∇H, x'⟩`, `O(h^{2s+1})`. Newton on
+/// the `k (n + m)` unknowns `(h x'(c_j), h λ(c_j))` with a dense, difference Jacobian kept
+/// between steps: for small and mid-sized states.
+pub struct PetrovGalerkin<
+    V: Vector,
+    Sys,
+    W: Vector<Real = V::Real> = faer::Col<<V as Vector>::Real>,
+> {
+    system: Sys,
+    tables: Tables<V::Real>,
+    newton: Newton<W>,
+    hidden: Option<HiddenSolver<V>>,
+    u: W,
+    /// `u` with the multipliers zeroed (the `z`-part of the stages, for `D`).
+    uz: W,
+    w: Scratch<V>,
+    start: V,
+    xe: V,
+    tmp: V,
+    t2: V,
+    nu: Vec<V::Real>,
+    g0: Vec<V::Real>,
+    last: Option<DiscreteDissipation<V::Real>>,
+    stats: FlowStats,
+}
+
+impl<V: Vector, Sys, W: Vector<Real = V::Real>> core::fmt::Debug for PetrovGalerkin<V, Sys, W> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("PetrovGalerkin")
+            .field("k", &self.tables.k)
+            .field("s", &self.tables.s)
+            .field("n", &self.start.len())
+            .field("m", &self.nu.len())
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The largest `k` offered (order 8); beyond it the dense Newton matrix grows as `k²`.
+pub const MAX_STAGES: usize = 4;
+
+impl<V, Sys, W> PetrovGalerkin<V, Sys, W>
+where
+    V: Vector,
+    Sys: Model<V>,
+    W: Vector<Real = V::Real>,
+{
+    /// The scheme of order `order = 2k` (`k = 1 … MAX_STAGES`) for `system` from `x0`, which must
+    /// satisfy `g(x0) = 0` to `options.manifold_tol`; `options.newton` drives both solves.
+    ///
+    /// # Errors
+    /// [`SetupError::Scheme`] for an odd or out-of-range order, a state-dependent `M`, or
+    /// constraints whose forces `M Gᵀλ` move what `G` depends on (the energy identity needs
+    /// constraints on positions with forces on momenta); the initial-state checks of a
+    /// projection.
+    pub fn try_new(
+        system: Sys,
+        x0: &V,
+        order: u32,
+        options: ProjectionOptions<V::Real>,
+    ) -> Result<Self, SetupError> {
+        let k = (order / 2) as usize;
+        if !order.is_multiple_of(2) || k == 0 || k > MAX_STAGES {
+            return Err(SetupError::Scheme {
+                what: format!(
+                    "the Petrov–Galerkin scheme has the even orders 2 to {}, not {order}",
+                    2 * MAX_STAGES
+                ),
+            });
+        }
+        if !system.structure().is_constant() {
+            return Err(SetupError::Scheme {
+                what: "the Petrov–Galerkin scheme takes a constant structure matrix M (its energy identity is proven for M = J − R constant)".into(),
+            });
+        }
+        let (case, _) = check_initial_state::<V, Sys, W::Solver>(
+            &system,
+            x0,
+            &options.initial_checks(),
+            false,
+        )?;
+        let (n, m) = (x0.len(), system.constraint().dim());
+        if m > 0 && (case != Case::Degenerate || !half_step_keeps_jacobian(&system, x0)) {
+            return Err(SetupError::Scheme {
+                what: "the Petrov–Galerkin scheme's energy identity needs constraints whose forces M Gᵀλ move only what G does not depend on (positions constrained, forces on momenta)".into(),
+            });
+        }
+        let hidden = if m > 0 {
+            Some(HiddenSolver::new(&system, x0, options.newton)?)
+        } else {
+            None
+        };
+        Ok(Self {
+            tables: Tables::new(k, k + 2),
+            newton: Newton::new(k * (n + m), options.newton)?,
+            hidden,
+            u: W::zeros(k * (n + m)),
+            uz: W::zeros(k * (n + m)),
+            w: Scratch::new(x0, k, m),
+            start: x0.zeros_like(),
+            xe: x0.zeros_like(),
+            tmp: x0.zeros_like(),
+            t2: x0.zeros_like(),
+            nu: vec![V::Real::zero(); m],
+            g0: vec![V::Real::zero(); m],
+            last: None,
+            stats: FlowStats::default(),
+            system,
+        })
+    }
+
+    /// The same scheme with an `s`-point Gauss rule for its integrals (`s ≥ k`).
+    ///
+    /// # Errors
+    /// [`SetupError::Scheme`] when `s < k` (the constraint rows would not be integrated exactly
+    /// for quadratic constraints) or `s > 16`.
+    pub fn with_quadrature(mut self, s: usize) -> Result<Self, SetupError> {
+        let k = self.tables.k;
+        if s < k || s > 16 {
+            return Err(SetupError::Scheme {
+                what: format!("{s} quadrature points for k = {k}: between k and 16"),
+            });
+        }
+        self.tables = Tables::new(k, s);
+        Ok(self)
+    }
+
+    /// The energy account of the last step.
+    pub fn last_dissipation(&self) -> Option<DiscreteDissipation<V::Real>> {
+        self.last
+    }
+
+    /// The initial guess: the explicit Euler increments `h M ∇H(x)` at every Gauss point, the
+    /// previous step's multipliers (scaled to this step).
+    fn guess(&mut self, h: V::Real, x: &V) {
+        let (k, n) = (self.tables.k, x.len());
+        let m = self.nu.len();
+        let u = self.u.as_mut_slice();
+        let have = u[..k * n].iter().any(|v| *v != V::Real::zero());
+        if have {
+            return; // the last step's solution: the same increments to first order.
+        }
+        self.system.hamiltonian().gradient(x, &mut self.tmp);
+        self.system.structure().apply(x, &self.tmp, &mut self.t2);
+        for j in 0..k {
+            for (o, &f) in u[j * n..(j + 1) * n].iter_mut().zip(self.t2.as_slice()) {
+                *o = h * f;
+            }
+        }
+        u[k * n..k * (n + m)]
+            .iter_mut()
+            .for_each(|v| *v = V::Real::zero());
+    }
+}
+
+impl<V, Sys, W> Flow<V> for PetrovGalerkin<V, Sys, W>
+where
+    V: Vector,
+    Sys: Model<V>,
+    W: Vector<Real = V::Real>,
+{
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.step_at(&mut Ledger::default(), h, x)
+    }
+
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        if !super::check_step(h, x)? {
+            return Ok(());
+        }
+        if x.len() != self.start.len() {
+            return Err(StepError::StateLength {
+                flow: "Petrov–Galerkin",
+                expected: self.start.len(),
+                got: x.len(),
+            });
+        }
+        self.start.copy_from(x);
+        self.guess(h, x);
+        self.system.constraint().residual(x, &mut self.g0);
+        let (k, n) = (self.tables.k, x.len());
+        let mut problem = Problem {
+            h,
+            x: &self.start,
+            tables: &self.tables,
+            w: &mut self.w,
+            system: &self.system,
+            g0: &self.g0,
+            noise: V::Real::zero(),
+        };
+        let report = match self.newton.solve(&mut problem, self.u.as_mut_slice()) {
+            Ok(r) => r,
+            Err(e) => {
+                ops::fill_zero(self.u.as_mut_slice());
+                self.newton.invalidate_jacobian();
+                return Err(StepError::from_newton("Petrov–Galerkin stages", e));
+            }
+        };
+        self.stats.record(&report);
+        // h z(c_i) is the ∇H part of acc_i: recompute acc without the multipliers.
+        let u = self.u.as_slice();
+        let t = &self.tables;
+        // x_{n+1} = x_n + Σ β_j Y_j.
+        self.xe.copy_from(&self.start);
+        for j in 0..k {
+            ops::axpy(self.xe.as_mut_slice(), t.beta[j], &u[j * n..(j + 1) * n]);
+        }
+        // D = −h Σ_r b_r z_rᵀ M z_r with z_r = Σ_j ℓ_j(e_r) z(c_j), z(c_j) = acc_j(L = 0)/h.
+        let mut damping = V::Real::zero();
+        if self.system.structure().is_dissipative() {
+            self.uz.copy_from(&self.u);
+            self.uz.as_mut_slice()[k * n..]
+                .iter_mut()
+                .for_each(|v| *v = V::Real::zero());
+            let mut p = Problem {
+                h,
+                x: &self.start,
+                tables: &self.tables,
+                w: &mut self.w,
+                system: &self.system,
+                g0: &self.g0,
+                noise: V::Real::zero(),
+            };
+            p.accumulate(self.uz.as_slice(), None);
+            let t = &self.tables;
+            for r in 0..t.s {
+                ops::fill_zero(self.tmp.as_mut_slice());
+                for j in 0..k {
+                    ops::axpy(
+                        self.tmp.as_mut_slice(),
+                        t.ell[r * k + j],
+                        self.w.acc[j].as_slice(),
+                    );
+                }
+                self.system
+                    .structure()
+                    .apply(&self.start, &self.tmp, &mut self.t2);
+                let zmz = ops::dot(self.tmp.as_slice(), self.t2.as_slice());
+                damping = damping - t.b[r] * zmz / h;
+            }
+        }
+        let before = self.system.hamiltonian().energy(&self.start);
+        let after_step = self.system.hamiltonian().energy(&self.xe);
+        let mut projection = V::Real::zero();
+        if self.hidden.is_some() {
+            // φ(x_{n+1} + M Gᵀν) = 0: the base is xe, the result goes to x.
+            ops::fill_zero(&mut self.nu);
+            let Some(hidden) = self.hidden.as_mut() else {
+                unreachable!()
+            };
+            let solved = match self.nu.len() {
+                1 => hidden.project::<1, _>(
+                    &self.system,
+                    &self.xe,
+                    x,
+                    &mut self.tmp,
+                    &mut self.t2,
+                    &mut self.nu,
+                ),
+                2 => hidden.project::<2, _>(
+                    &self.system,
+                    &self.xe,
+                    x,
+                    &mut self.tmp,
+                    &mut self.t2,
+                    &mut self.nu,
+                ),
+                3 => hidden.project::<3, _>(
+                    &self.system,
+                    &self.xe,
+                    x,
+                    &mut self.tmp,
+                    &mut self.t2,
+                    &mut self.nu,
+                ),
+                4 => hidden.project::<SMALL_MAX, _>(
+                    &self.system,
+                    &self.xe,
+                    x,
+                    &mut self.tmp,
+                    &mut self.t2,
+                    &mut self.nu,
+                ),
+                _ => hidden.project::<0, _>(
+                    &self.system,
+                    &self.xe,
+                    x,
+                    &mut self.tmp,
+                    &mut self.t2,
+                    &mut self.nu,
+                ),
+            };
+            if let Err(e) = solved {
+                x.copy_from(&self.start);
+                if let Some(HiddenSolver::General(n)) = self.hidden.as_mut() {
+                    n.invalidate_jacobian();
+                }
+                return Err(StepError::from_newton("hidden-constraint projection", e));
+            }
+            projection = after_step - self.system.hamiltonian().energy(x);
+        } else {
+            x.copy_from(&self.xe);
+        }
+        if let Some(component) = ops::first_non_finite(x.as_slice()) {
+            x.copy_from(&self.start);
+            ops::fill_zero(self.u.as_mut_slice());
+            return Err(StepError::NonFinite { component });
+        }
+        let after = self.system.hamiltonian().energy(x);
+        let account = DiscreteDissipation {
+            before,
+            after,
+            damping,
+            projection,
+        };
+        ledger.dissipated = ledger.dissipated + account.total();
+        self.last = Some(account);
+        self.stats.projected_steps += 1;
+        Ok(())
+    }
+
+    fn order(&self) -> u32 {
+        2 * self.tables.k as u32
+    }
+
+    fn is_symmetric(&self) -> bool {
+        self.hidden.is_none()
+    }
+
+    fn stats(&self) -> FlowStats {
+        self.stats
+    }
+
+    fn dissipates(&self) -> bool {
+        self.system.structure().is_dissipative()
+    }
+
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.newton.invalidate_jacobian();
+        out.extend_from_slice(self.u.as_slice());
+    }
+
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.newton.invalidate_jacobian();
+        let saved = super::take_memory(from, self.u.len());
+        self.u.as_mut_slice()[..saved.len()].copy_from_slice(saved);
+    }
+}
