@@ -73,6 +73,9 @@ named_enum! {
         Extrapolation = "extrapolation",
         /// Gonzalez's discrete gradient (order 2, implicit).
         DiscreteGradient = "discrete-gradient",
+        /// The energy-consistent Petrov–Galerkin scheme (`order` 2, 4, 6, 8; default 4;
+        /// implicit, exact discrete energy balance).
+        PetrovGalerkin = "petrov-galerkin",
         /// The implicit midpoint rule, projected (order 2).
         Midpoint = "midpoint",
         /// The paper's §2 scheme (built-in paper model only).
@@ -103,6 +106,7 @@ impl Method {
             | Method::Strang
             | Method::Extrapolation
             | Method::DiscreteGradient
+            | Method::PetrovGalerkin
             | Method::Midpoint
             | Method::Modified => None,
         }
@@ -177,6 +181,7 @@ mod tests {
                 | Method::Strang
                 | Method::Extrapolation
                 | Method::DiscreteGradient
+                | Method::PetrovGalerkin
                 | Method::Midpoint
                 | Method::Modified => assert!(table.is_none(), "{m}"),
                 _ => assert_eq!(table.map(|t| t.name), Some(m.name()), "{m}"),

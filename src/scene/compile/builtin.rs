@@ -66,6 +66,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
     let scheme = file.integrator.scheme;
     if scheme == Method::DiscreteGradient
         || scheme == Method::Extrapolation
+        || scheme == Method::PetrovGalerkin
         || (b.model != "paper" && matches!(scheme, Method::Midpoint | Method::Modified))
     {
         return Err(err(

@@ -6,8 +6,8 @@ use super::{DENSE_MAX_DIM, MAX_STEPS, Result, constraints::setup_error, err, val
 use crate::error::SetupError;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
-    ImplicitMidpoint, Ledger, Projected, ProjectedMidpoint, ProjectionOptions, Scheme, from_fn,
-    from_fn_at,
+    ImplicitMidpoint, Ledger, PetrovGalerkin, Projected, ProjectedMidpoint, ProjectionOptions,
+    Scheme, from_fn, from_fn_at,
 };
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NewtonOptions, SMALL_MAX};
@@ -49,6 +49,16 @@ pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result
                 o => return Err(out_of_range(o, "the schemes have orders 2, 4, 6 and 8")),
             };
             (raise, order)
+        }
+        Method::PetrovGalerkin => {
+            let order = integ.order.unwrap_or(4);
+            if !matches!(order, 2 | 4 | 6 | 8) {
+                return Err(out_of_range(
+                    order,
+                    "the Petrov–Galerkin scheme offers orders 2, 4, 6 and 8",
+                ));
+            }
+            (Raise::Base, order)
         }
         Method::Extrapolation => {
             let order = integ.order.unwrap_or(4);
@@ -152,7 +162,29 @@ pub(super) fn scheme_flow(
     let mut solver = None;
     let scheme_name;
     let discrete_gradient = file.integrator.scheme == Method::DiscreteGradient;
-    let flow: Box<dyn Flow<Col<f64>>> = if discrete_gradient {
+    let flow: Box<dyn Flow<Col<f64>>> = if file.integrator.scheme == Method::PetrovGalerkin {
+        let order = file.integrator.order.unwrap_or(4);
+        let unknowns = (order as usize / 2) * (x0.nrows() + m);
+        if unknowns > DENSE_MAX_DIM {
+            return Err(err(
+                SceneErrorKind::Unsupported,
+                root.key("integrator").key("scheme"),
+                format!(
+                    "the Petrov–Galerkin scheme of order {order} solves {unknowns} unknowns a step by dense Newton; at most {DENSE_MAX_DIM}"
+                ),
+            ));
+        }
+        let system = System::new(model.clone(), model.clone(), model.clone());
+        let options = projection_options(model, x0.as_slice(), f64::EPSILON);
+        scheme_name = "energy-consistent Petrov–Galerkin with hidden-constraint projection";
+        if m > 0 {
+            case = Some("degenerate".to_owned());
+        }
+        Box::new(
+            PetrovGalerkin::<Col<f64>, _>::try_new(system, x0, order, options)
+                .map_err(|e| setup_error(model, e))?,
+        )
+    } else if discrete_gradient {
         let setup = |e: SetupError| setup_error(model, e);
         let newton = NewtonOptions::default();
         if m == 0 {

@@ -73,7 +73,7 @@ pub struct RunSummary {
     pub max_abs_energy_error: Option<f64>,
     /// `max (H_{k+1} − H_k)` over the steps. With damping, ≤ 0 when the dissipation per step
     /// dominates the splitting's `O(h³)` energy error, and ≤ 0 by construction with the
-    /// discrete gradient.
+    /// discrete gradient and the Petrov–Galerkin scheme.
     pub max_energy_increase: Option<f64>,
     /// Energy dissipated, `∫ ∇Hᵀ R ∇H dt` (with damping): the damping sub-flow's exact
     /// account in a splitting, the trapezoidal rule over the steps otherwise (see
