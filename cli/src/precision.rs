@@ -31,7 +31,7 @@ pub(crate) struct PrecisionArgs {
     /// Leave out the peers.
     #[arg(long)]
     no_peers: bool,
-    /// Leave out the implicit schemes (discrete gradient, implicit midpoint, §2).
+    /// Leave out the implicit schemes (discrete gradient, implicit midpoint, §2, Petrov–Galerkin).
     #[arg(long)]
     no_implicit: bool,
     /// Compute the reference in double precision even for small scenes (the double-double
@@ -87,6 +87,7 @@ pub(crate) fn precision(args: &PrecisionArgs) -> ExitCode {
         plan.discrete_gradient = false;
         plan.midpoint = false;
         plan.modified = false;
+        plan.petrov_galerkin.clear();
     }
     let name = match scene.compile() {
         Ok(c) => c.assembly.name,

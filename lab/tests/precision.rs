@@ -21,6 +21,7 @@ fn plan(dts: &[f64], orders: &[u32]) -> PrecisionPlan {
     p.discrete_gradient = false;
     p.midpoint = false;
     p.modified = false;
+    p.petrov_galerkin.clear();
     p.peers = false;
     p.repeats = 1;
     p
@@ -200,4 +201,26 @@ fn the_double_double_reference_is_below_double_precision() {
             .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     // Kahan–Li 8 at h/16 in f64 over 800 steps: a few hundred ulps of |x| ≤ 1.
     assert!(diff < 1e-13, "{diff:e}");
+}
+
+/// Radau5's error falls with its tolerance (vector tolerances, Hairer's Newton tolerance): a
+/// scalar tolerance used to be transformed once per component and left the error flat at
+/// 1e-5 … 1e-3 whatever was asked. Radau IIA is of order 5 (stage order 3), so six decades of
+/// tolerance buy at least three decades of error.
+#[test]
+fn radau5_error_falls_with_its_tolerance() {
+    let scene = paper(100.0);
+    let mut p = plan(&[0.1], &[2]);
+    p.peers = true;
+    p.tolerances = vec![1e-6, 1e-12];
+    let r = reference(&scene, &p).unwrap();
+    let rows = work_precision(&scene, &p, &r, &mut |_| {});
+    let radau: Vec<&PrecisionRow> = rows
+        .iter()
+        .filter(|r| r.method.starts_with("Radau5"))
+        .collect();
+    assert!(radau.iter().all(|r| r.status == "ok"), "{radau:?}");
+    let (loose, tight) = (radau[0].error.unwrap(), radau[1].error.unwrap());
+    eprintln!("Radau5 on the paper's example: {loose:e} at 1e-6, {tight:e} at 1e-12");
+    assert!(tight < 1e-3 * loose, "{loose:e} → {tight:e}");
 }

@@ -1,10 +1,11 @@
 //! The mass-weighted Gram matrix of the constraints, `A = G(q) W⁻¹ G(q)ᵀ`, assembled on a
-//! pattern recorded once and factored by [`AutoLu`]: the matrix of the initial projection
-//! (`project_initial`) and of the peers' index-1 multipliers.
+//! pattern recorded once and factored by [`AutoLu`] — or, when no two constraints share a body
+//! (particles each on its own sphere), inverted as the diagonal it is: the matrix of the initial
+//! projection (`project_initial`) and of the peers' index-1 multipliers.
 
 use super::model::SceneModel;
 use crate::error::LinearSolveError;
-use crate::linalg::{AutoLu, LinearSolver, Sink, SolverChoice, Structure};
+use crate::linalg::{AutoLu, LinearSolver, Sink, SolverChoice, Structure, check_pivots};
 use std::collections::HashMap;
 
 /// `A = G W⁻¹ Gᵀ`, `W` the masses: two rows couple where their gradients touch the same body.
@@ -18,6 +19,8 @@ pub struct MassGram {
     coefs: Vec<[f64; 3]>,
     vals: Vec<f64>,
     lu: AutoLu<f64>,
+    /// `A`'s diagonal by row, when `A` is diagonal (then `lu` is not used).
+    diagonal: Option<Vec<f64>>,
 }
 
 impl MassGram {
@@ -46,7 +49,10 @@ impl MassGram {
             }
         }
         let lu = AutoLu::with_structure(model.m, Structure::of_pattern(&keys), SolverChoice::Auto)?;
+        let diagonal = (model.m > 0 && keys.len() == model.m && keys.iter().all(|&(i, j)| i == j))
+            .then(|| vec![0.0; model.m]);
         Ok(Self {
+            diagonal,
             coefs: vec![[0.0; 3]; walk.len()],
             vals: vec![0.0; keys.len()],
             walk,
@@ -70,6 +76,15 @@ impl MassGram {
             let (c1, c2) = (self.coefs[e1], self.coefs[e2]);
             let dot = (0..d).fold(0.0, |s, i| s + c1[i] * c2[i]);
             self.vals[k] += dot * model.inv_masses[self.walk[e1].1];
+        }
+        if let Some(diag) = &mut self.diagonal {
+            for (&(i, _), &v) in self.keys.iter().zip(&self.vals) {
+                if !v.is_finite() {
+                    return Err(LinearSolveError::NonFinite { row: i, col: i });
+                }
+                diag[i] = v;
+            }
+            return check_pivots(diag.len(), |i| diag[i]);
         }
         self.lu.clear();
         for (k, &(i, j)) in self.keys.iter().enumerate() {
@@ -125,10 +140,16 @@ impl MassGram {
             }
             true
         });
-        let lu = &mut self.lu;
+        let (lu, diagonal) = (&mut self.lu, &self.diagonal);
         let inv_min = power(&mut |v, w| {
             w.copy_from_slice(v);
-            lu.solve_in_place(w).is_ok()
+            match diagonal {
+                Some(diag) => {
+                    w.iter_mut().zip(diag).for_each(|(r, d)| *r /= d);
+                    true
+                }
+                None => lu.solve_in_place(w).is_ok(),
+            }
         });
         match (max, inv_min) {
             (Some(max), Some(inv)) => max * inv,
@@ -138,6 +159,10 @@ impl MassGram {
 
     /// `rhs ← A⁻¹ rhs` with the last factorization.
     pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
+        if let Some(diag) = &self.diagonal {
+            rhs.iter_mut().zip(diag).for_each(|(r, d)| *r /= d);
+            return Ok(());
+        }
         self.lu.solve_in_place(rhs)
     }
 }

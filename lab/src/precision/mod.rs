@@ -65,7 +65,18 @@ pub fn work_precision(
     if plan.modified && is_paper {
         implicit.push(("lieflow §2 scheme".into(), Method::Modified));
     }
-    for (name, scheme) in implicit {
+    let mut implicit: Vec<(String, Method, Option<u32>)> =
+        implicit.into_iter().map(|(n, m)| (n, m, None)).collect();
+    if !is_builtin {
+        for &o in &plan.petrov_galerkin {
+            implicit.push((
+                format!("lieflow Petrov–Galerkin order {o}"),
+                Method::PetrovGalerkin,
+                Some(o),
+            ));
+        }
+    }
+    for (name, scheme, order) in implicit {
         if n > DENSE_MAX_DIM {
             push(
                 PrecisionRow::failed(
@@ -78,7 +89,7 @@ pub fn work_precision(
                 &mut rows,
             );
         } else {
-            methods.push((name, scheme, None));
+            methods.push((name, scheme, order));
         }
     }
     for (name, scheme, order) in &methods {

@@ -21,6 +21,9 @@ pub struct PrecisionPlan {
     pub midpoint: bool,
     /// Also run the paper's §2 scheme (the built-in paper model only).
     pub modified: bool,
+    /// Orders of the energy-consistent Petrov–Galerkin scheme to run (scenes of bodies; a
+    /// scene above its dense limit gets a `Setup` row).
+    pub petrov_galerkin: Vec<u32>,
     /// Tolerances (`rtol = atol`) for the peers.
     pub tolerances: Vec<f64>,
     /// Run the peers (needs the `peers` feature; otherwise no peer rows).
@@ -34,7 +37,7 @@ pub struct PrecisionPlan {
 
 impl PrecisionPlan {
     /// Four step sizes `dt · 2^k`, the largest `k ≤ 3` whose steps divide `t_end`; orders 2,
-    /// 4, 6, 8; the implicit schemes; peer tolerances `1e-4 … 1e-14` (every second decade);
+    /// 4, 6, 8; the implicit schemes (Petrov–Galerkin of orders 4 and 6); peer tolerances `1e-4 … 1e-14` (every second decade);
     /// three timed runs.
     pub fn around(dt: f64, t_end: f64) -> Self {
         let divides = |h: f64| {
@@ -56,6 +59,7 @@ impl PrecisionPlan {
             discrete_gradient: true,
             midpoint: true,
             modified: true,
+            petrov_galerkin: vec![4, 6],
             tolerances: vec![1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-14],
             peers: true,
             repeats: 3,
