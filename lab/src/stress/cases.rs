@@ -136,6 +136,20 @@ pub fn cases() -> Vec<StressCase> {
             },
         ),
         scene_case(
+            "damping-1e4-chain-10",
+            "ten links of mass 0.1 under damping 1e4 (c h / m = 1e3), Strang: the multiplier Newton with more than four constraints differences the damped flow instead of assuming an undamped tangent",
+            "stiff damping and springs",
+            include_str!("../../../scenes/stiff_chain.toml").to_owned(),
+            // Overdamped: each step ends with a half kick of gravity on bodies at rest, at most
+            // m (g h / 2)² / 2 per body, 10 bodies of 0.1.
+            Expect::Stable {
+                g_bound: 1e-12,
+                energy: EnergyRule::NonIncreasing {
+                    slack: 10.0 * 0.1 * (9.81f64 * 0.01 / 2.0).powi(2) / 2.0,
+                },
+            },
+        ),
+        scene_case(
             "damping-suzuki4",
             "damping with a named 4th-order composition (backward sub-steps): refused",
             "stiff damping and springs",

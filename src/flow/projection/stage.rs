@@ -185,6 +185,11 @@ where
         // The points the Jacobian is taken at: y for λ_k (cached per λ_k), x' for λ_{k+1}
         // (recomputed, one pass).
         match mode {
+            // With dissipation the inner flow's tangent is not `I + h M ∇²H`: the exact damping
+            // flow moves positions by `(1 − e^{−ch/m}) p / c`, not `h p / m`, so the closed form
+            // is off by a factor up to `c h / m` and Newton would crawl. Differences of the
+            // flow itself (one residual per colour group) are exact to `fd_step` instead.
+            Mode::LambdaK if self.system.structure().is_dissipative() => return false,
             Mode::LambdaK => {
                 if self.compute_y(z).is_err() {
                     return false;
