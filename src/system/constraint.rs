@@ -35,6 +35,21 @@ pub trait HolonomicConstraint<V: Vector> {
         let _ = (x, sink);
         false
     }
+    /// Writes the hidden constraint `φ(x) = G(x) M(x) ∇H(x)` into `out` and returns `true`, for
+    /// a model that knows it without `∇H`; the default returns `false` and `φ` is computed from
+    /// `∇H`, `M` and `G`.
+    ///
+    /// The case it is for: constraints on positions `q` under a structure matrix whose position
+    /// rows are `q' = ∂H/∂p` (`J` canonical in its `qp` blocks; dissipation and gyroscopic terms
+    /// act on momenta). Then `φ = G_q ∂H/∂p`, and for `H = ½ pᵀW⁻¹p + V(q)` that is the
+    /// constraint velocity `G_q W⁻¹ p` — no evaluation of `∇V`, which for pair potentials is the
+    /// expensive part and which the multiplier solves of a projection would otherwise evaluate at
+    /// every Newton iteration of `λ_{k+1}`. Only a type that implements the constraint, the
+    /// structure and the Hamiltonian of one model (as a compiled scene does) can know this.
+    fn hidden_constraint_direct(&self, x: &V, out: &mut [V::Real]) -> bool {
+        let _ = (x, out);
+        false
+    }
 }
 
 /// No constraints (`m = 0`): a [`System`](super::System) of an unconstrained model, e.g. to

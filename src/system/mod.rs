@@ -80,6 +80,9 @@ impl<Ms, H, C> System<Ms, H, C> {
         H: Hamiltonian<V>,
         C: HolonomicConstraint<V>,
     {
+        if self.constraint.hidden_constraint_direct(x, out) {
+            return;
+        }
         self.hamiltonian.gradient(x, t1);
         self.structure.apply(x, t1, t2);
         self.constraint.jacobian_apply(x, t2, out);

@@ -35,6 +35,9 @@ pub trait Model<V: Vector> {
     /// `t1`, `t2` are workspace of the state's length.
     #[inline]
     fn hidden_constraint(&self, x: &V, t1: &mut V, t2: &mut V, out: &mut [V::Real]) {
+        if self.constraint().hidden_constraint_direct(x, out) {
+            return;
+        }
         self.hamiltonian().gradient(x, t1);
         self.structure().apply(x, t1, t2);
         self.constraint().jacobian_apply(x, t2, out);

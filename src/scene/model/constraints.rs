@@ -107,6 +107,23 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         });
     }
 
+    /// `φ = G_q W⁻¹ p`: a scene's `M = [[0, I], [−I, K − R]]` has `q' = ∂H/∂p = W⁻¹ p`, and its
+    /// constraints act on positions (see the trait method).
+    fn hidden_constraint_direct(&self, x: &V, out: &mut [T]) -> bool {
+        let x = x.as_slice();
+        let (d, nq) = (self.dim, x.len() / 2);
+        let w = &self.inv_masses;
+        self.timed(&self.constraint_counter, || {
+            out.fill(T::lit(0.0));
+            self.for_each_gradient(x, |row, body, coef| {
+                for k in 0..d {
+                    out[row] = out[row] + coef[k] * (w[body] * x[nq + body * d + k]);
+                }
+            });
+        });
+        true
+    }
+
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
         let out = out.as_mut_slice();
         let d = self.dim;
