@@ -42,12 +42,6 @@ pub enum Dop853Error {
         /// Where it stopped.
         t: f64,
     },
-    /// The error estimate was not finite.
-    #[error("DOP853's error estimate is not finite at t = {t}")]
-    NonFinite {
-        /// Where it stopped.
-        t: f64,
-    },
 }
 
 /// DOP853 for autonomous systems (the nodes `c` are not needed), with scalar tolerances `rtol`, `atol`, workspace for states of `n` entries.
@@ -139,9 +133,12 @@ impl Dop853 {
     /// Integrates `y' = f(y)` from `t = 0` to `t_end > 0` in place, calling `accepted(t, y)`
     /// after every accepted step.
     ///
+    /// A step whose error estimate is not finite is rejected with the largest decrease (`h/3`),
+    /// as Hairer's code does.
+    ///
     /// # Errors
-    /// [`Dop853Error`] when the steps run out, shrink below the rounding of `t`, or the error
-    /// estimate stops being finite; `y` then holds the last accepted state.
+    /// [`Dop853Error`] when the steps run out or shrink below the rounding of `t`; `y` then
+    /// holds the last accepted state.
     pub fn solve<F, O>(
         &mut self,
         mut f: F,
@@ -191,7 +188,7 @@ impl Dop853 {
             }
             stats.evaluations += (STAGES - 1) as u64;
             let (mut err, mut err2) = (0.0, 0.0);
-            for i in 0..n {
+            for (i, &yi) in y.iter().enumerate() {
                 let (mut seg, mut e, mut bh) = (0.0, 0.0, 0.0);
                 for j in 0..STAGES {
                     let kj = self.k[j][i];
@@ -199,8 +196,8 @@ impl Dop853 {
                     e += self.er[j] * kj;
                     bh += self.bh[j] * kj;
                 }
-                self.y_new[i] = y[i] + h * seg;
-                let sk = self.weight(y[i], self.y_new[i]);
+                self.y_new[i] = yi + h * seg;
+                let sk = self.weight(yi, self.y_new[i]);
                 err2 += ((seg - bh) / sk).powi(2);
                 err += (e / sk).powi(2);
             }
@@ -208,9 +205,11 @@ impl Dop853 {
             if deno <= 0.0 {
                 deno = 1.0;
             }
-            let err = h.abs() * err * (1.0 / (n as f64 * deno)).sqrt();
-            if !err.is_finite() {
-                return Err(Dop853Error::NonFinite { t });
+            let mut err = h.abs() * err * (1.0 / (n as f64 * deno)).sqrt();
+            if err.is_nan() {
+                // Hairer's code compares with `ERR.LE.1`, false for NaN: a rejection with the
+                // largest decrease, as for an infinite error.
+                err = f64::INFINITY;
             }
             let fac11 = err.powf(EXPO1);
             let fac = FACC2.max(FACC1.min(fac11 / SAFE));

@@ -20,10 +20,10 @@ use differential_equations::prelude::{
 };
 use std::cell::RefCell;
 
-/// The `n + m` Radau5 runs on: the damped pendulum and the paper's example (5), ten particles
-/// on a sphere (70), the Fekete problem's twenty (140). The crate's first step builds its stage
+/// The `n + m` Radau5 runs on: the damped pendulum and the paper's example (5), the stiff
+/// ten-link chain (50), ten particles on a sphere (70), the Fekete problem's twenty (140). The crate's first step builds its stage
 /// vectors with `State::zeros()`, empty for `Vec`, so each size is a fixed array.
-pub const RADAU_DIMS: [usize; 3] = [5, 70, 140];
+pub const RADAU_DIMS: [usize; 4] = [5, 50, 70, 140];
 
 /// The most steps a run may take (a run whose steps keep shrinking stops there, as a row).
 const MAX_STEPS: usize = 10_000_000;
@@ -83,6 +83,7 @@ pub(super) fn solve<P: PeerProblem + ?Sized>(
 ) -> Result<PeerRun, String> {
     match problem.n() + problem.m() {
         5 => solve_sized::<P, 5>(problem, x0, t_end, tol, observe),
+        50 => solve_sized::<P, 50>(problem, x0, t_end, tol, observe),
         70 => solve_sized::<P, 70>(problem, x0, t_end, tol, observe),
         140 => solve_sized::<P, 140>(problem, x0, t_end, tol, observe),
         d => Err(format!(

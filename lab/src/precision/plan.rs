@@ -33,6 +33,9 @@ pub struct PrecisionPlan {
     /// Compute the reference in double-double for scenes of at most [`DD_MAX_DIM`] (else in
     /// double precision).
     pub double_double: bool,
+    /// Compute the reference with the Petrov–Galerkin scheme of order 6 in double precision at
+    /// `h_min/8` and `h_min/16` (stiff damping: the splitting's expansion in `h²` breaks down).
+    pub implicit_reference: bool,
 }
 
 impl PrecisionPlan {
@@ -64,6 +67,7 @@ impl PrecisionPlan {
             peers: true,
             repeats: 3,
             double_double: true,
+            implicit_reference: false,
         }
     }
 }

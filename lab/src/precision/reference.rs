@@ -31,8 +31,8 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
         });
     }
     let h_min = plan.dts.iter().copied().fold(f64::INFINITY, f64::min);
-    let at = |scheme: Method, h: f64| -> Result<Vec<f64>, SceneError> {
-        let mut c = lieflow::scene::compile_reference(&with_scheme(scene, scheme, None, h).file)?;
+    let at_order = |scheme: Method, order: Option<u32>, h: f64| -> Result<Vec<f64>, SceneError> {
+        let mut c = lieflow::scene::compile_reference(&with_scheme(scene, scheme, order, h).file)?;
         let quiet = RunPlan {
             steps: c.plan.steps,
             energy: false,
@@ -51,15 +51,33 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
             )),
         }
     };
-    // A scene of bodies small enough: Kahan–Li 8 in double-double at h_min/4 and h_min/8 (with
-    // damping its backward sub-steps are allowed here: the reference needs accuracy only, and
-    // mild damping is harmless backwards).
+    let at = |scheme: Method, h: f64| at_order(scheme, None, h);
+    if plan.implicit_reference && scene.file.builtin.is_none() {
+        // Order 6 at h and h/2: the gap over 2⁶ − 1, plus the round-off of the finer run.
+        let h = dividing(t, h_min / 8.0);
+        let coarse = at_order(Method::PetrovGalerkin, Some(6), h)?;
+        let fine = at_order(Method::PetrovGalerkin, Some(6), h / 2.0)?;
+        let roundoff = f64::EPSILON * (2.0 * t / h) * state_scale(&fine);
+        return Ok(Reference {
+            error_estimate: Some(distance(&coarse, &fine) / 63.0 + roundoff),
+            x: fine,
+            t,
+            source: format!(
+                "Petrov–Galerkin order 6 at h = {:.3e} (checked against 2h)",
+                h / 2.0
+            ),
+        });
+    }
+    // A scene of bodies small enough: an order-8 scheme in double-double at h_min/4 and h_min/8
+    // — Kahan–Li 8, or with damping Strang extrapolated to order 8 (every sub-step forward, so
+    // stiff damping is as safe for the reference as for the runs it judges).
     if scene.file.builtin.is_none() {
         let compiled = scene.compile()?;
         if plan.double_double && compiled.assembly.state_len <= DD_MAX_DIM {
             let model = compiled.model.expect("a scene of bodies has a model");
             let x0 = compiled.simulation.state().to_vec();
-            let dd = |h: f64| double_double_run(&model, &x0, t, h);
+            let damped = compiled.assembly.dissipative;
+            let dd = |h: f64| double_double_run(&model, &x0, t, h, damped);
             let h = dividing(t, h_min / 4.0);
             match (dd(h), dd(h / 2.0)) {
                 (Ok(coarse), Ok(fine)) => {
@@ -79,7 +97,12 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
                         x: fine.iter().map(|v| v.to_f64_lossy()).collect(),
                         t,
                         source: format!(
-                            "kahan-li8 in double-double (twofloat) at h = {:.3e} (checked against 2h)",
+                            "{} in double-double (twofloat) at h = {:.3e} (checked against 2h)",
+                            if damped {
+                                "Strang extrapolated to order 8"
+                            } else {
+                                "kahan-li8"
+                            },
                             h / 2.0
                         ),
                     });
@@ -109,13 +132,15 @@ pub(crate) fn state_scale(x: &[f64]) -> f64 {
 /// The largest scene state given a double-double reference (its arithmetic costs ~20× f64).
 pub const DD_MAX_DIM: usize = 400;
 
-/// Kahan–Li 8 around the scene's splitting in double-double from `x0` to `t` in steps of about
-/// `h` (exactly `t / round(t/h)` in double-double); the final state.
+/// Kahan–Li 8 around the scene's splitting — with damping (`damped`) the splitting extrapolated
+/// to order 8 instead, every sub-step forward — in double-double from `x0` to `t` in steps of
+/// about `h` (exactly `t / round(t/h)` in double-double); the final state.
 pub(crate) fn double_double_run(
     model: &std::sync::Arc<lieflow::scene::SceneModel>,
     x0: &[f64],
     t: f64,
     h: f64,
+    damped: bool,
 ) -> Result<Vec<twofloat::TwoFloat>, String> {
     use lieflow::Real;
     use twofloat::TwoFloat;
@@ -124,10 +149,14 @@ pub(crate) fn double_double_run(
     let mut x = V::from_iterator(x0.len(), x0.iter().map(|&v| TwoFloat::lit(v)));
     // twofloat's `epsilon()` is f64::MIN_POSITIVE; its unit round-off is ~2^-106.
     let eps = TwoFloat::lit(1e-31);
-    let table = lieflow::flow::coefficients::table_by_name("kahan-li8").expect("a table");
-    let raise = lieflow::scene::Raise::Compose(table);
+    let raise = if damped {
+        lieflow::scene::Raise::Extrapolate(8)
+    } else {
+        let table = lieflow::flow::coefficients::table_by_name("kahan-li8").expect("a table");
+        lieflow::scene::Raise::Compose(table)
+    };
     let (mut flow, _, _) =
-        lieflow::scene::splitting_flow(&dd, &x, raise, true, eps).map_err(|e| e.to_string())?;
+        lieflow::scene::splitting_flow(&dd, &x, raise, !damped, eps).map_err(|e| e.to_string())?;
     let steps = (t / h).round().max(1.0);
     let step = TwoFloat::lit(t) / TwoFloat::lit(steps);
     lieflow::integrate(
