@@ -85,6 +85,7 @@ pub(crate) fn print_assembly(a: &Assembly) {
         println!("projection   {p}");
     }
     println!("scheme       {}, order {}", a.scheme, a.order);
+    println!("why          {}", a.reason);
     if let Some(s) = &a.solver {
         println!("solver       {s}");
     }

@@ -321,3 +321,44 @@ fn a_scene_with_ports_writes_its_outputs_events_and_budget() {
     let plot = std::fs::read_to_string(&svg).unwrap();
     assert!(plot.contains("output power.motor"));
 }
+
+/// `lieflow check` says which scheme and order a damped scene gets, and why: extrapolation when
+/// damping is declared and a higher order asked, the named energy-consistent scheme when named.
+#[test]
+fn check_says_which_scheme_a_damped_scene_gets_and_why() {
+    let base = include_str!("../../scenes/damped_pendulum.toml");
+    for (extra, scheme, why) in [
+        (
+            "order = 8",
+            "extrapolated to order 8",
+            "damping is declared and an order above 2 asked",
+        ),
+        (
+            "order = 6\nscheme = \"petrov-galerkin\"",
+            "energy-consistent Petrov–Galerkin",
+            "an exact discrete energy balance",
+        ),
+        ("", "Strang", "the exact damping flow"),
+    ] {
+        let path = scratch("why.toml");
+        std::fs::write(
+            &path,
+            base.replace("[integrator]", &format!("[integrator]\n{extra}")),
+        )
+        .unwrap();
+        let c = lieflow(&["check", path.to_str().unwrap()]);
+        assert!(c.status.success(), "{}", stderr(&c));
+        let text = stdout(&c);
+        let line = |key: &str| {
+            text.lines()
+                .find(|l| l.starts_with(key))
+                .unwrap_or_else(|| panic!("no `{key}` line in:\n{text}"))
+                .to_owned()
+        };
+        assert!(line("scheme").contains(scheme), "{text}");
+        assert!(line("why").contains(why), "{text}");
+        let j = lieflow(&["check", "--json", path.to_str().unwrap()]);
+        let j: serde_json::Value = serde_json::from_str(stdout(&j).trim()).unwrap();
+        assert!(j["reason"].as_str().unwrap().contains(why));
+    }
+}

@@ -303,6 +303,7 @@ pub(super) fn builtin_assembly(
         projection: None,
         scheme,
         order,
+        reason: "the built-in model's scheme as named in `integrator.scheme`".to_owned(),
         solver: None,
         steps,
         initial_projection: None,

@@ -71,6 +71,8 @@ pub struct Assembly {
     pub scheme: String,
     /// Its order.
     pub order: u32,
+    /// Why this scheme (`lieflow check` prints it).
+    pub reason: String,
     /// The multiplier solver backend.
     pub solver: Option<String>,
     /// Steps planned.
@@ -307,6 +309,9 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         solver,
     } = scheme_flow(file, &model, &x0, raise, backward)?;
     let scheme = raise.describe(scheme_name);
+    let reason = raise
+        .reason(file.integrator.scheme, dissipative, order)
+        .to_owned();
     let mut constraint_counts: Vec<(String, usize)> = Vec::new();
     for t in &model.constraints {
         let kind = match t.kind {
@@ -338,6 +343,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         projection,
         scheme,
         order,
+        reason,
         solver,
         steps,
         initial_projection,

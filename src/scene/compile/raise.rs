@@ -3,6 +3,7 @@
 
 use crate::error::SetupError;
 use crate::flow::{CompositionTable, Flow, FlowExt, ProjectionOptions};
+use crate::scene::schema::Method;
 use crate::system::Model;
 use crate::vector::Vector;
 
@@ -26,6 +27,33 @@ impl Raise {
         match self {
             Raise::Compose(t) => Some(t),
             _ => None,
+        }
+    }
+
+    /// Why a scene with `scheme` (damped or not) at `order` gets this raise — what `lieflow
+    /// check` tells a user.
+    pub fn reason(self, scheme: Method, dissipative: bool, order: u32) -> &'static str {
+        match (scheme, self) {
+            (Method::Auto, Raise::Extrapolate(_)) => {
+                "damping is declared and an order above 2 asked: extrapolation, every sub-step forward (a composition's negative sub-steps would run the damping backwards)"
+            }
+            (Method::Auto, Raise::Compose(_)) => {
+                "no damping and an order above 2 asked: a symmetric composition (its negative sub-steps are harmless without dissipation)"
+            }
+            (Method::Auto, Raise::Base) if dissipative && order == 2 => {
+                "order 2: the symmetric splitting with the exact damping flow"
+            }
+            (Method::Auto, Raise::Base) => "order 2: the symmetric splitting itself",
+            (Method::Extrapolation, _) => {
+                "`scheme = \"extrapolation\"`: Strang extrapolated, every sub-step forward"
+            }
+            (Method::PetrovGalerkin, _) => {
+                "`scheme = \"petrov-galerkin\"`: an exact discrete energy balance at the order asked"
+            }
+            (Method::DiscreteGradient, _) => {
+                "`scheme = \"discrete-gradient\"`: energy conserved or decreasing by construction, order 2"
+            }
+            _ => "named by `integrator.scheme`",
         }
     }
 
