@@ -120,3 +120,44 @@ fn a_problem_without_root_fails_with_numbers() {
         other => panic!("unexpected {other:?}"),
     }
 }
+
+/// `F(z) = (s (z₁ + z₂ − 2), z₁ + 2 z₂ − 3)`, root `(1, 1)`: with `s = 1e18` the rows differ by
+/// eighteen orders, so the Newton matrix's second pivot is `1e-18` of the first — below the
+/// singularity threshold `k ε` — unless its rows are equilibrated.
+struct Lopsided;
+
+impl NonlinearProblem<f64> for Lopsided {
+    type Error = StepError;
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+        f[0] = 1e18 * (z[0] + z[1] - 2.0);
+        f[1] = z[0] + 2.0 * z[1] - 3.0;
+        Ok(())
+    }
+    fn jacobian_column(&mut self, _z: &[f64], j: usize, col: &mut [f64]) -> bool {
+        col[0] = 1e18;
+        col[1] = if j == 0 { 1.0 } else { 2.0 };
+        true
+    }
+}
+
+#[test]
+fn equilibrated_rows_keep_a_lopsided_system_regular() {
+    // Row 1's residual rounds at 1e18 ε ≈ 2e2: converge on the update instead.
+    let mut options = NewtonOptions::default();
+    options.rtol = 1e-12;
+    let mut plain: Newton<V> = Newton::new(2, options).unwrap();
+    let mut z = [0.0, 0.0];
+    let e = plain.solve(&mut Lopsided, &mut z).unwrap_err();
+    assert!(format!("{e}").contains("singular"), "{e}");
+    options.equilibrate = true;
+    let mut scaled: Newton<V> = Newton::new(2, options).unwrap();
+    let mut z = [0.0, 0.0];
+    scaled.solve(&mut Lopsided, &mut z).unwrap();
+    assert!(
+        (z[0] - 1.0).abs() < 1e-12 && (z[1] - 1.0).abs() < 1e-12,
+        "{z:?}"
+    );
+}

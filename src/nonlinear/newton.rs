@@ -41,6 +41,8 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     groups: Option<ColumnGroups>,
     /// Per row, the last group whose pattern covers it (scratch for the pattern check).
     mark: Vec<usize>,
+    /// The row scales of the kept, equilibrated Jacobian (empty when not equilibrated).
+    row_scale: Vec<V::Real>,
 }
 
 impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
@@ -96,6 +98,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             jacobian_scale: V::Real::one(),
             j11: V::Real::zero(),
             analytic: false,
+            row_scale: Vec::with_capacity(if options.equilibrate { k } else { 0 }),
         })
     }
 
@@ -134,7 +137,49 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             rhs[0] = rhs[0] / self.j11;
             return rhs[0].is_finite();
         }
+        self.scale_rows(&mut rhs[..k]);
         self.lin.solve_in_place(&mut rhs[..k]).is_ok()
+    }
+
+    /// `rhs ← D rhs` with the kept Jacobian's row scales `D` (nothing when not equilibrated).
+    fn scale_rows(&self, rhs: &mut [V::Real]) {
+        for (r, &s) in rhs.iter_mut().zip(&self.row_scale) {
+            *r = *r * s;
+        }
+    }
+
+    /// Scales the rows of the dense Jacobian in `lin` to a largest entry in `[½, 1)` or so, by
+    /// powers of two, and records the scales (see [`NewtonOptions::equilibrate`]).
+    fn equilibrate(&mut self) {
+        self.row_scale.clear();
+        let k = self.k;
+        if !self.options.equilibrate || k < 2 || self.lin.column_mut(0).is_none() {
+            return;
+        }
+        self.row_scale.resize(k, V::Real::zero());
+        for j in 0..k {
+            if let Some(col) = self.lin.column_mut(j) {
+                for (m, a) in self.row_scale.iter_mut().zip(col.iter()) {
+                    *m = (*m).max(a.abs());
+                }
+            }
+        }
+        let two = V::Real::lit(2.0);
+        for s in &mut self.row_scale {
+            *s = if *s > V::Real::zero() && s.is_finite() {
+                // 2^(−round(log₂ max)): exact, and within a factor √2 of 1/max.
+                two.powi(-(s.to_f64_lossy().log2().round() as i32))
+            } else {
+                V::Real::one()
+            };
+        }
+        for j in 0..k {
+            if let Some(col) = self.lin.column_mut(j) {
+                for (a, &s) in col.iter_mut().zip(&self.row_scale) {
+                    *a = *a * s;
+                }
+            }
+        }
     }
 
     /// Forgets a kept Jacobian (the next solve builds a new one).
@@ -168,8 +213,9 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             let Some(col) = self.lin.column_mut(j) else {
                 return Ok(());
             };
-            for (a, &fi) in col.iter_mut().zip(f) {
-                *a = *a + fi * c;
+            for (i, (a, &fi)) in col.iter_mut().zip(f).enumerate() {
+                let s = self.row_scale.get(i).copied().unwrap_or_else(V::Real::one);
+                *a = *a + s * fi * c;
             }
         }
         if self.lin.factor().is_err() {
@@ -207,6 +253,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         report: &mut SolveReport<V::Real>,
     ) -> Result<(), NewtonError<P::Error>> {
         let k = self.k;
+        self.row_scale.clear();
         let one = V::Real::one();
         let inv = one / scale.abs();
         let floor = if inv.is_finite() { inv } else { one };
@@ -332,6 +379,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             }
             return Ok(());
         }
+        self.equilibrate();
         self.lin.factor()?;
         Ok(())
     }
@@ -414,6 +462,9 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                 // One unknown: the linear solver's machinery costs more than the division.
                 dz[0] = dz[0] / self.j11;
             } else {
+                for (d, &s) in dz.iter_mut().zip(&self.row_scale) {
+                    *d = *d * s;
+                }
                 self.lin.solve_in_place(dz)?;
             }
             if ratio != one {

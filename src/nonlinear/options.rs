@@ -73,6 +73,13 @@ pub struct NewtonOptions<T> {
     /// The backend of the linear solver when it has several ([`crate::linalg::AutoLu`]).
     /// Default [`SolverChoice::Auto`].
     pub solver: SolverChoice,
+    /// Scale every row of a dense Newton matrix by the power of two nearest the inverse of its
+    /// largest entry before factoring (and the right-hand sides with it): the solution is the
+    /// same, but rows of very different size — a stage system whose stiffly damped rows carry
+    /// `c h/m` — no longer make the smaller pivots look singular against the largest
+    /// (Golub & Van Loan, *Matrix Computations*, §3.5.2). Powers of two scale exactly. Default
+    /// `false`.
+    pub equilibrate: bool,
 }
 
 impl<T: Real> Default for NewtonOptions<T> {
@@ -90,6 +97,7 @@ impl<T: Real> Default for NewtonOptions<T> {
             max_halvings: 8,
             central_differences: false,
             solver: SolverChoice::Auto,
+            equilibrate: false,
         }
     }
 }

@@ -188,7 +188,13 @@ where
         };
         Ok(Self {
             tables: Tables::new(k, k + 2),
-            newton: Newton::new(k * (n + m), options.newton)?,
+            // Stiffly damped momentum rows carry `c h/m`: equilibrated, their size does not make
+            // the multipliers' pivots look singular.
+            newton: Newton::new(k * (n + m), {
+                let mut newton = options.newton;
+                newton.equilibrate = true;
+                newton
+            })?,
             hidden,
             u: W::zeros(k * (n + m)),
             uz: W::zeros(k * (n + m)),
