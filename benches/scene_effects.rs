@@ -1,7 +1,9 @@
 //! What each effect costs: ns/step of `scenes/all_effects.toml` (19 bodies, 11 constraint rows)
 //! as its effects are switched on one by one, from the bare constrained bodies (kinetic term and
 //! constraints only) to the full scene; and the same chain as a scene and as the built-in
-//! `PendulumChain` (the generic scene model against the hand-specialized one, same process).
+//! `PendulumChain` (the generic scene model against the hand-specialized one, same process);
+//! and `scenes/damped_pendulum.toml` against the same pendulum written as a Rust model
+//! (`models::DampedPendulum`, its exact damped flow projected), nothing observed on either side.
 //! A switched-off effect has no term and no sub-flow, so each row adds only its own work.
 //!
 //! ```text
@@ -12,8 +14,11 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use faer::Col;
 use lieflow::Flow;
 use lieflow::flow::FlowExt;
+use lieflow::models::DampedPendulum;
 use lieflow::models::pendulum_chain::PendulumChain;
+use lieflow::prelude::ProjectionOptions;
 use lieflow::scene::Scene;
+use nalgebra::SVector;
 use std::time::{Duration, Instant};
 
 const ALL_EFFECTS: &str = include_str!("../scenes/all_effects.toml");
@@ -93,6 +98,40 @@ fn bench(c: &mut Criterion) {
                 let start = Instant::now();
                 for _ in 0..n {
                     flow.step(1e-3, &mut x).expect("a step");
+                }
+                total += start.elapsed();
+                done += n;
+            }
+            total
+        })
+    });
+    group.finish();
+
+    // The damped pendulum, h = 0.01: the scene (Strang with the exact damping flow, projected)
+    // against the model written in Rust (its exact damped flow, projected).
+    let text = include_str!("../scenes/damped_pendulum.toml")
+        .replace("[integrator]", "[integrator]\ndiagnostics = []");
+    let scene = Scene::from_toml(&text, "damped_pendulum.toml").expect("parses");
+    let mut group = c.benchmark_group("damped_pendulum_step");
+    group.bench_function("scene", |b| {
+        b.iter_custom(|iters| time_steps(&scene, iters, 1000))
+    });
+    let model = DampedPendulum::try_new(0.5).expect("a model");
+    group.bench_function("rust_model", |b| {
+        b.iter_custom(|iters| {
+            let mut total = Duration::ZERO;
+            let mut done = 0;
+            while done < iters {
+                let mut x: SVector<f64, 4> = model.state(std::f64::consts::FRAC_PI_3, 0.0);
+                let mut flow = model
+                    .free_flow()
+                    .expect("a flow")
+                    .projected(model.system(), &x, ProjectionOptions::default())
+                    .expect("a projection");
+                let n = 1000.min(iters - done);
+                let start = Instant::now();
+                for _ in 0..n {
+                    flow.step(0.01, &mut x).expect("a step");
                 }
                 total += start.elapsed();
                 done += n;
