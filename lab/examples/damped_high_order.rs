@@ -5,13 +5,14 @@
 //! in closed form, in one process.
 //!
 //! ```text
-//! cargo run --release --example damped_high_order
-//! cargo run --release --example damped_high_order -- --repeat 5 --t-end 20
+//! cargo run --release -p lieflow-lab --example damped_high_order
+//! cargo run --release -p lieflow-lab --example damped_high_order -- --repeat 5 --t-end 20
 //! ```
 //!
-//! The peer is `differential-equations`' DOP853 (Hairer's 8(5,3) pair with step-size control)
-//! on `q' = p`, `p' = −q μ − c p − e_y`, `μ = (|p|² − y)/|q|²` (from `d/dt (q·p) = 0`), on
-//! `[f64; 4]`: a right-hand side of a dozen flops, the peer at its best on this problem. lieflow
+//! The peer is the lab's DOP853 (`lieflow_lab::peers::dop853`: Hairer's 8(5,3) pair as his
+//! `dop853.f` runs it, 12 right-hand sides a step, no allocation) on `q' = p`,
+//! `p' = −q μ − c p − e_y`, `μ = (|p|² − y)/|q|²` (from `d/dt (q·p) = 0`): a right-hand side of a
+//! dozen flops, the peer at its best on this problem. lieflow
 //! runs the model's own exact damped flow (`LinearFlow`) inside the projection. The error of
 //! every run is measured at `T` against a reference that neither side produced alone: the
 //! peer at tolerance 1e-15 and lieflow's order 8 at `h = 1/400`, which must agree (their gap is
@@ -20,53 +21,48 @@
 //! The last line of stdout is a JSON summary: for each target error 1e-6, 1e-8, 1e-10, the
 //! fastest lieflow run that reaches it, the fastest peer run that reaches it, and their ratio.
 
-#[path = "common/mod.rs"]
-mod common;
-
-use common::{Args, Json, fatal};
-use differential_equations::prelude::*;
 use lieflow::models::DampedPendulum;
 use lieflow::prelude::*;
+use lieflow_lab::peers::dop853::Dop853;
 use nalgebra::SVector;
-use std::cell::Cell;
 use std::time::Instant;
 
 type V = SVector<f64, 4>;
 
 const C: f64 = 0.5;
 
-/// The index-1 ODE of the damped pendulum.
-struct Index1;
-
-impl ODE<f64, [f64; 4]> for Index1 {
-    fn diff(&self, _t: f64, x: &[f64; 4], dx: &mut [f64; 4]) {
-        let mu = (x[2] * x[2] + x[3] * x[3] - x[1]) / (x[0] * x[0] + x[1] * x[1]);
-        *dx = [
-            x[2],
-            x[3],
-            -x[0] * mu - C * x[2],
-            -1.0 - x[1] * mu - C * x[3],
-        ];
-    }
+/// Prints the message and exits with status 1.
+fn fatal(message: &dyn std::fmt::Display) -> ! {
+    eprintln!("error: {message}");
+    std::process::exit(1)
 }
 
-struct Last<'a>(&'a Cell<[f64; 4]>);
+/// The index-1 right-hand side of the damped pendulum.
+fn index1(x: &[f64], dx: &mut [f64]) {
+    let mu = (x[2] * x[2] + x[3] * x[3] - x[1]) / (x[0] * x[0] + x[1] * x[1]);
+    dx[0] = x[2];
+    dx[1] = x[3];
+    dx[2] = -x[0] * mu - C * x[2];
+    dx[3] = -1.0 - x[1] * mu - C * x[3];
+}
 
-impl Solout<f64, [f64; 4]> for Last<'_> {
-    fn solout<I>(
-        &mut self,
-        _t: f64,
-        _t_prev: f64,
-        y: &[f64; 4],
-        _y_prev: &[f64; 4],
-        _interpolator: &mut I,
-        _solution: &mut Solution<f64, [f64; 4]>,
-    ) -> ControlFlag<f64, [f64; 4]>
-    where
-        I: Interpolation<f64, [f64; 4]> + ?Sized,
-    {
-        self.0.set(*y);
-        ControlFlag::Continue
+/// `--name value` from the command line, parsed, or `default`.
+fn flag<T: std::str::FromStr>(name: &str, default: T) -> T {
+    let args: Vec<String> = std::env::args().collect();
+    if args.iter().any(|a| a == "--help" || a == "-h") {
+        println!(
+            "Damped pendulum work-precision: lieflow's extrapolated projections (orders 4, 6, 8, \
+             positive sub-steps) against DOP853 with a closed-form right-hand side.\n\n\
+             Options:\n  --t-end T    final time (default 10)\n  --repeat N   timed runs per configuration, best kept (default 3)"
+        );
+        std::process::exit(0);
+    }
+    match args.iter().position(|a| a == &format!("--{name}")) {
+        None => default,
+        Some(i) => args
+            .get(i + 1)
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| fatal(&format!("--{name} needs a valid value"))),
     }
 }
 
@@ -92,23 +88,12 @@ fn x0() -> V {
 fn peer(tol: f64, t_end: f64, repeat: usize) -> Row {
     let start: [f64; 4] = x0().into();
     let run = || {
-        let last = Cell::new(start);
+        let mut x = start;
         let clock = Instant::now();
-        let solution = IVP::ode(&Index1, 0.0, t_end, start)
-            .solout(Last(&last))
-            .method(
-                ExplicitRungeKutta::dop853()
-                    .rtol(tol)
-                    .atol(tol)
-                    .max_steps(usize::MAX),
-            )
-            .solve()
-            .unwrap_or_else(|e| fatal(&format!("DOP853 at tol {tol:e}: {e:?}")));
-        (
-            last.get(),
-            clock.elapsed().as_secs_f64(),
-            solution.evals.function as u64,
-        )
+        let stats = Dop853::new(4, tol, tol)
+            .solve(index1, &mut x, t_end, |_, _| {})
+            .unwrap_or_else(|e| fatal(&format!("DOP853 at tol {tol:e}: {e}")));
+        (x, clock.elapsed().as_secs_f64(), stats.evaluations)
     };
     let (x, _, evaluations) = run();
     let best = (0..repeat).map(|_| run().1).fold(f64::INFINITY, f64::min);
@@ -177,20 +162,11 @@ fn lieflow_run(order: u32, dt: f64, t_end: f64, repeat: usize) -> Row {
 }
 
 fn main() {
-    let args = Args::parse(
-        "Damped pendulum work-precision: lieflow's extrapolated projections (orders 4, 6, 8, \
-         positive sub-steps) against DOP853 with a closed-form right-hand side.",
-        &[
-            ("t-end", "T", "final time (default 10)"),
-            (
-                "repeat",
-                "N",
-                "timed runs per configuration, best kept (default 3)",
-            ),
-        ],
-    );
-    let t_end = args.positive("t-end", 10.0);
-    let repeat = args.get("repeat", 3usize).max(1);
+    let t_end: f64 = flag("t-end", 10.0);
+    if !(t_end.is_finite() && t_end > 0.0) {
+        fatal(&"--t-end must be positive and finite");
+    }
+    let repeat = flag("repeat", 3usize).max(1);
     // The reference: the two sides at their finest must agree.
     let a = peer(1e-15, t_end, 1).x;
     let b = lieflow_run(8, 1.0 / 400.0, t_end, 1).x;
@@ -231,10 +207,7 @@ fn main() {
             r.evaluations
         );
     }
-    let mut json = Json::default()
-        .num("t", t_end)
-        .num("damping", C)
-        .num("reference_gap", gap);
+    let mut json = format!("{{\"t\":{t_end},\"damping\":{C},\"reference_gap\":{gap:e}");
     for (target, key) in [(1e-6, "1e-6"), (1e-8, "1e-8"), (1e-10, "1e-10")] {
         let fastest = |peer: bool| {
             rows.iter()
@@ -247,10 +220,19 @@ fn main() {
             "target {key}: lieflow {ours:.4} ms, DOP853 {theirs:.4} ms, ratio {:.2}",
             ours / theirs
         );
-        json = json
-            .num(&format!("lieflow_ms_{key}"), ours)
-            .num(&format!("dop853_ms_{key}"), theirs)
-            .num(&format!("ratio_{key}"), ours / theirs);
+        let num = |v: f64| {
+            if v.is_finite() {
+                format!("{v}")
+            } else {
+                "null".to_owned()
+            }
+        };
+        json.push_str(&format!(
+            ",\"lieflow_ms_{key}\":{},\"dop853_ms_{key}\":{},\"ratio_{key}\":{}",
+            num(ours),
+            num(theirs),
+            num(ours / theirs)
+        ));
     }
-    json.print();
+    println!("{json}}}");
 }
