@@ -157,6 +157,12 @@ impl MassGram {
         }
     }
 
+    /// `A` is diagonal (no two constraints share a body): factoring is a check and solving a
+    /// division.
+    pub fn is_diagonal(&self) -> bool {
+        self.diagonal.is_some()
+    }
+
     /// `rhs ← A⁻¹ rhs` with the last factorization.
     pub fn solve(&mut self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
         if let Some(diag) = &self.diagonal {

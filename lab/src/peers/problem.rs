@@ -29,7 +29,7 @@ pub(super) trait PeerProblem {
         self.mu(x, mu);
         self.field(x, mu, out);
     }
-    /// LU factorizations per right-hand side of the index-1 ODE (a sparse solve for `μ`).
+    /// LU factorizations per right-hand side of the index-1 ODE (the solve for `μ`).
     fn factorizations_per_rhs(&self) -> u64 {
         0
     }
@@ -193,7 +193,8 @@ impl PeerProblem for ScenePeer {
         out.copy_from_slice(w.t2.as_slice());
     }
     fn factorizations_per_rhs(&self) -> u64 {
-        1
+        // A diagonal G W⁻¹ Gᵀ is divided, not factored.
+        u64::from(!self.work.borrow().gram.is_diagonal())
     }
     fn g(&self, x: &[f64], out: &mut [f64]) {
         let mut w = self.work.borrow_mut();

@@ -55,18 +55,20 @@ pub fn work_precision(
         .as_ref()
         .is_some_and(|b| b.model == "paper");
     let n = scene.compile().map(|c| c.assembly.state_len).unwrap_or(0);
-    let mut implicit: Vec<(String, Method)> = Vec::new();
+    let mut implicit: Vec<(String, Method, Option<u32>)> = Vec::new();
     if plan.discrete_gradient && !is_builtin {
-        implicit.push(("lieflow discrete gradient".into(), Method::DiscreteGradient));
+        implicit.push((
+            "lieflow discrete gradient".into(),
+            Method::DiscreteGradient,
+            None,
+        ));
     }
     if plan.midpoint && (!is_builtin || is_paper) {
-        implicit.push(("lieflow implicit midpoint".into(), Method::Midpoint));
+        implicit.push(("lieflow implicit midpoint".into(), Method::Midpoint, None));
     }
     if plan.modified && is_paper {
-        implicit.push(("lieflow §2 scheme".into(), Method::Modified));
+        implicit.push(("lieflow §2 scheme".into(), Method::Modified, None));
     }
-    let mut implicit: Vec<(String, Method, Option<u32>)> =
-        implicit.into_iter().map(|(n, m)| (n, m, None)).collect();
     if !is_builtin {
         for &o in &plan.petrov_galerkin {
             implicit.push((
