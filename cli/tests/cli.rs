@@ -338,7 +338,11 @@ fn check_says_which_scheme_a_damped_scene_gets_and_why() {
             "energy-consistent Petrov–Galerkin",
             "an exact discrete energy balance",
         ),
-        ("", "Strang", "the exact damping flow"),
+        (
+            "",
+            "free flight under gravity (exact)",
+            "the exact damping flow",
+        ),
     ] {
         let path = scratch("why.toml");
         std::fs::write(

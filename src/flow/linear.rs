@@ -41,6 +41,8 @@ pub struct LinearFlow<T> {
     work: [Vec<T>; 3],
     tmp: Vec<T>,
     dissipative: bool,
+    /// The cache slot of the last step (its tangent map).
+    last: Option<usize>,
 }
 
 #[derive(Debug, Clone)]
@@ -92,6 +94,7 @@ impl<T: Real> LinearFlow<T> {
             ],
             tmp: vec![T::zero(); n],
             dissipative: trace < T::zero(),
+            last: None,
         })
     }
 
@@ -247,6 +250,7 @@ impl<V: Vector> Flow<V> for LinearFlow<V::Real> {
             return Ok(());
         }
         let slot = self.slot(h)?;
+        self.last = Some(slot);
         let n1 = self.n + 1;
         let e = &self.cache[slot].exp;
         let xs = x.as_slice();
@@ -271,5 +275,25 @@ impl<V: Vector> Flow<V> for LinearFlow<V::Real> {
     }
     fn dissipates(&self) -> bool {
         self.dissipative
+    }
+    /// `DΦ_h v = e^{hA} v`: the last step's exponential without its affine column.
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        let Some(slot) = self.last else {
+            return false;
+        };
+        let cached = &self.cache[slot];
+        if !cached.valid || v.len() != self.n || out.len() != self.n {
+            return false;
+        }
+        let n1 = self.n + 1;
+        let vs = v.as_slice();
+        for (i, o) in out.as_mut_slice().iter_mut().enumerate() {
+            let row = &cached.exp[i * n1..i * n1 + self.n];
+            *o = row
+                .iter()
+                .zip(vs)
+                .fold(V::Real::lit(0.0), |s, (&a, &b)| s + a * b);
+        }
+        true
     }
 }

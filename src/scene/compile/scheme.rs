@@ -6,15 +6,15 @@ use super::{DENSE_MAX_DIM, MAX_STEPS, Result, constraints::setup_error, err, val
 use crate::error::SetupError;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
-    ImplicitMidpoint, Ledger, PetrovGalerkin, Projected, ProjectedMidpoint, ProjectionOptions,
-    Scheme, from_fn, from_fn_at,
+    ImplicitMidpoint, PetrovGalerkin, Projected, ProjectedMidpoint, ProjectionOptions, Scheme,
+    from_fn,
 };
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NewtonOptions, SMALL_MAX};
 use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::model::{ConstraintKind, SceneModel};
+use crate::scene::model::{ConstraintKind, FreeFlight, SceneModel};
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
 use crate::system::{Case, System};
 use crate::vector::Vector;
@@ -375,21 +375,9 @@ pub fn splitting_flow<V: Vector + 'static>(
         let model = model.clone();
         from_fn(move |t: V::Real, x: &mut V| model.kick(t, x.as_mut_slice(), &mut scratch))
     };
-    if model.is_dissipative() {
-        // The damped free flight books the energy it removes (exactly, per sub-step).
-        let m2 = model.clone();
-        let drift = from_fn_at(move |l: &mut Ledger<V::Real>, t: V::Real, x: &mut V| {
-            l.dissipated = l.dissipated + m2.free_flight(t, x.as_mut_slice());
-        })
-        .dissipative();
-        with_inputs(model, x0, raise, backward, eps, kick, drift)
-    } else {
-        let m2 = model.clone();
-        let drift = from_fn(move |t: V::Real, x: &mut V| {
-            m2.free_flight(t, x.as_mut_slice());
-        });
-        with_inputs(model, x0, raise, backward, eps, kick, drift)
-    }
+    // The exact free flight (booking the energy a damping removes, exactly, per sub-step).
+    let drift = FreeFlight::new(model.clone());
+    with_inputs(model, x0, raise, backward, eps, kick, drift)
 }
 
 /// The splitting with the scene's inputs joined to the kick when it declares any (their
@@ -436,7 +424,7 @@ where
     D: Flow<V> + 'static,
 {
     let forced = model.inputs.is_some();
-    let has_potential = !model.potentials.is_empty() || forced;
+    let has_potential = model.has_kick() || forced;
     if model.m == 0 {
         return Ok(if has_potential {
             (
@@ -448,6 +436,8 @@ where
                 },
                 None,
             )
+        } else if model.gravity_in_flight() {
+            (Box::new(drift), "free flight under gravity (exact)", None)
         } else {
             (Box::new(drift), "free flight (exact)", None)
         });
@@ -474,7 +464,11 @@ where
             raise,
             backward,
             (system, x0, options),
-            "projection around free flight (exact)",
+            if model.gravity_in_flight() {
+                "projection around free flight under gravity (exact)"
+            } else {
+                "projection around free flight (exact)"
+            },
         )
     }
 }

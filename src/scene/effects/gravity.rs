@@ -76,6 +76,17 @@ impl<T: Real> PotentialOps<T> for Gravity<T> {
     }
 }
 
+impl<T: Real> Gravity<T> {
+    /// Adds each body's force `m_b g` to `out[b]`.
+    pub(crate) fn add_forces(&self, out: &mut [[T; 3]]) {
+        for (b, f) in &self.forces {
+            for k in 0..3 {
+                out[*b][k] = out[*b][k] + f[k];
+            }
+        }
+    }
+}
+
 impl Gravity<f64> {
     pub(crate) fn with_scalar<U: Real>(&self) -> Gravity<U> {
         Gravity {

@@ -234,3 +234,10 @@ pub(crate) struct PotentialTerm<T = f64> {
     pub(crate) potential: Potential<T>,
     pub(crate) counter: Counter,
 }
+
+impl<T> PotentialTerm<T> {
+    /// `true` for uniform gravity (a constant force per body).
+    pub(crate) fn is_gravity(&self) -> bool {
+        matches!(self.potential, Potential::Gravity(_))
+    }
+}

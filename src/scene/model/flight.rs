@@ -1,55 +1,229 @@
-//! The exact flow of the kinetic term under `M`: each body's free flight, a drift, or rotated
-//! about the magnetic field and damped in closed form.
+//! The exact flow of the kinetic term under `M`, with uniform gravity joined to it when no body
+//! has a magnetic field: each body's free flight — a drift, a free fall, or rotated about the
+//! magnetic field and damped in closed form.
 
 use super::SceneModel;
+use crate::error::StepError;
+use crate::flow::{EXACT, Flow, Ledger};
 use crate::real::Real;
+use crate::vector::Vector;
+use std::sync::Arc;
 
 /// The free flight of one body under `M`: what its kinetic flow has to do.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum Flight<T> {
     /// `q += t p/m`.
     Drift,
-    /// The closed form with `γ = c/m` and `ω⃗ = e B/m`.
+    /// Under the constant force `F` (uniform gravity): `q += t p/m + t² F/(2m)`, `p += t F`.
+    Fall { force: [T; 3] },
+    /// The closed form with `γ = c/m` and `ω⃗ = e B/m`, no force.
     Exact { gamma: T, omega: [T; 3] },
+    /// Damped (`γ = c/m > 0`) under the constant force `F`, no field.
+    DampedFall { gamma: T, force: [T; 3] },
 }
 
-/// The free flight of one body with `γ`, `ω⃗` for time `t` from momentum `p`: `(∫₀ᵗ p(s) ds, p(t))`.
-pub(super) fn exact_flight<T: Real>(gamma: T, omega: [T; 3], t: T, p: [T; 3]) -> ([T; 3], [T; 3]) {
-    let decay = (-gamma * t).exp();
-    // φ∥ = ∫₀ᵗ e^{−γs} ds.
-    let phi_par = if gamma == T::lit(0.0) {
-        t
+/// What a body's flight for time `t` needs that depends on `t` only: computed once per sub-step
+/// length and kept ([`FlightCache`]), since a scheme calls its flight with few lengths.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct FlightCoefficients<T> {
+    /// `e^{−γt}`.
+    decay: T,
+    /// `φ = ∫₀ᵗ e^{−γs} ds = (1 − e^{−γt})/γ`.
+    phi: T,
+    /// `(a + ib) = (e^{zt} − 1)/z`, `z = −γ + iω` (field only).
+    a: T,
+    b: T,
+    cos: T,
+    sin: T,
+    /// `1 − e^{−2γt}`: the fraction of `|p|²` the damping removes without a force.
+    lost: T,
+    /// `ψ = ∫₀ᵗ φ(s) ds` (force only).
+    psi: T,
+    /// `∫₀ᵗ e^{−2γs} ds` and `∫₀ᵗ φ(s)² ds` (damped fall: the dissipated energy).
+    i1: T,
+    i3: T,
+}
+
+impl<T: Real> Flight<T> {
+    /// The coefficients of this flight for time `t`.
+    pub(super) fn coefficients(&self, t: T) -> FlightCoefficients<T> {
+        let zero = T::lit(0.0);
+        let mut c = FlightCoefficients {
+            decay: T::one(),
+            phi: t,
+            a: zero,
+            b: zero,
+            cos: T::one(),
+            sin: zero,
+            lost: zero,
+            psi: T::lit(0.5) * t * t,
+            i1: t,
+            i3: t * t * t / T::lit(3.0),
+        };
+        match *self {
+            Flight::Drift | Flight::Fall { .. } => {}
+            Flight::Exact { gamma, omega } => {
+                let x = gamma * t;
+                c.decay = (-x).exp();
+                if gamma != zero {
+                    c.phi = -(-x).exp_m1() / gamma;
+                    c.lost = -(T::lit(-2.0) * x).exp_m1();
+                }
+                let om = norm3(omega);
+                if om != zero {
+                    let (s, co) = (om * t).sin_cos();
+                    let half = (T::lit(0.5) * om * t).sin();
+                    // e^{zt} − 1 = (e^{−γt} cos ωt − 1) + i e^{−γt} sin ωt, the real part
+                    // without cancellation.
+                    let nr = (-x).exp_m1() * co - T::lit(2.0) * half * half;
+                    let ni = c.decay * s;
+                    // (nr + i ni) / z with z scaled by max(γ, ω) first, so that a field so weak
+                    // that γ² + ω² underflows still divides correctly.
+                    let scale = gamma.max(om);
+                    let (zr, zi) = (-gamma / scale, om / scale);
+                    let den = (zr * zr + zi * zi) * scale;
+                    c.a = (zr * nr + zi * ni) / den;
+                    c.b = (zr * ni - zi * nr) / den;
+                    c.cos = co;
+                    c.sin = s;
+                }
+            }
+            Flight::DampedFall { gamma, .. } => {
+                let x = gamma * t;
+                c.decay = (-x).exp();
+                c.phi = -(-x).exp_m1() / gamma;
+                c.psi = t * t * fall_series(x, 2);
+                c.i1 = -(T::lit(-2.0) * x).exp_m1() / (T::lit(2.0) * gamma);
+                c.i3 = t * t * t * fall_series(x, 3);
+            }
+        }
+        c
+    }
+
+    /// The flight without its force: the linear part of the (affine) flow, its tangent map.
+    fn homogeneous(&self) -> Self {
+        match *self {
+            Flight::Fall { .. } => Flight::Drift,
+            Flight::DampedFall { gamma, .. } => Flight::Exact {
+                gamma,
+                omega: [T::lit(0.0); 3],
+            },
+            other => other,
+        }
+    }
+
+    /// Advances one body (`w = 1/m`, `qb`, `pb` of length `d`) by the flight with coefficients
+    /// `c`; returns the energy the damping removed, `∫₀ᵗ vᵀ R v ds ≥ 0`.
+    #[inline]
+    pub(super) fn apply(&self, c: &FlightCoefficients<T>, w: T, qb: &mut [T], pb: &mut [T]) -> T {
+        let d = qb.len();
+        let zero = T::lit(0.0);
+        match *self {
+            Flight::Drift => {
+                for k in 0..d {
+                    qb[k] = qb[k] + (c.phi * w * pb[k]);
+                }
+                zero
+            }
+            Flight::Fall { force } => {
+                for k in 0..d {
+                    qb[k] = qb[k] + w * (c.phi * pb[k] + c.psi * force[k]);
+                    pb[k] = pb[k] + c.phi * force[k];
+                }
+                zero
+            }
+            Flight::Exact { gamma, omega } => {
+                let mut p = [zero; 3];
+                p[..d].copy_from_slice(pb);
+                let p2 = dot3(p, p);
+                let om = norm3(omega);
+                if om == zero {
+                    for k in 0..d {
+                        qb[k] = qb[k] + w * c.phi * p[k];
+                        pb[k] = c.decay * p[k];
+                    }
+                } else {
+                    let bh = omega.map(|o| o / om);
+                    let along = dot3(bh, p);
+                    let par = bh.map(|b| along * b);
+                    let perp = [p[0] - par[0], p[1] - par[1], p[2] - par[2]];
+                    let wv = cross(bh, perp);
+                    for k in 0..d {
+                        qb[k] = qb[k] + w * (c.phi * par[k] + c.a * perp[k] - c.b * wv[k]);
+                        pb[k] = c.decay * (par[k] + c.cos * perp[k] - c.sin * wv[k]);
+                    }
+                }
+                // |p|² − |p(t)|² = (1 − e^{−2γt}) |p|² (the field only turns p).
+                if gamma != zero {
+                    T::lit(0.5) * w * c.lost * p2
+                } else {
+                    zero
+                }
+            }
+            Flight::DampedFall { gamma, force } => {
+                let mut p = [zero; 3];
+                p[..d].copy_from_slice(pb);
+                for k in 0..d {
+                    qb[k] = qb[k] + w * (c.phi * p[k] + c.psi * force[k]);
+                    pb[k] = c.decay * p[k] + c.phi * force[k];
+                }
+                // γ w ∫|p(s)|² ds with p(s) = e^{−γs} p + φ(s) F and ∫ e^{−γs} φ(s) ds = φ²/2:
+                // a sum whose exact value is ≥ 0.
+                let removed = gamma
+                    * w
+                    * (c.i1 * dot3(p, p)
+                        + c.phi * c.phi * dot3(p, force)
+                        + c.i3 * dot3(force, force));
+                removed.max(zero)
+            }
+        }
+    }
+}
+
+/// `(x − 1 + e^{−x})/x²` (`k = 2`) or `(x − 2(1 − e^{−x}) + (1 − e^{−2x})/2)/x³` (`k = 3`),
+/// the free fall's `ψ/t²` and `∫φ²/t³` at `x = γt`: by their Taylor series below `x = 1/2`,
+/// where the closed forms cancel, `Σ_{n≥k} cₙ (−x)^{n−k}/n!` with `cₙ = 1` (`k = 2`) or
+/// `cₙ = 2^{n−1} − 2` (`k = 3`), summed to the scalar's round-off.
+fn fall_series<T: Real>(x: T, k: u32) -> T {
+    let one = T::one();
+    if x >= T::lit(0.5) {
+        let e1 = (-x).exp_m1();
+        return if k == 2 {
+            (x + e1) / (x * x)
+        } else {
+            (x + T::lit(2.0) * e1 - T::lit(0.5) * (T::lit(-2.0) * x).exp_m1()) / (x * x * x)
+        };
+    }
+    // term = (−x)^{n−k}/n!, starting at n = k.
+    let mut term = if k == 2 {
+        T::lit(0.5)
     } else {
-        -(-gamma * t).exp_m1() / gamma
+        one / T::lit(6.0)
     };
-    let om = (omega[0] * omega[0] + omega[1] * omega[1] + omega[2] * omega[2]).sqrt();
-    if om == T::lit(0.0) {
-        return (p.map(|pk| phi_par * pk), p.map(|pk| decay * pk));
+    let mut pow2 = if k == 2 { one } else { T::lit(4.0) }; // 2^{n−1}
+    let mut sum = T::lit(0.0);
+    let mut n = k;
+    loop {
+        let coefficient = if k == 2 { one } else { pow2 - T::lit(2.0) };
+        let add = coefficient * term;
+        sum = sum + add;
+        if add.abs() <= T::epsilon() * sum.abs() || n > 80 {
+            return sum;
+        }
+        n += 1;
+        term = -term * x / T::lit(f64::from(n));
+        pow2 = pow2 * T::lit(2.0);
     }
-    let bh = omega.map(|o| o / om);
-    let along = bh[0] * p[0] + bh[1] * p[1] + bh[2] * p[2];
-    let par = bh.map(|b| along * b);
-    let perp = [p[0] - par[0], p[1] - par[1], p[2] - par[2]];
-    let w = cross(bh, perp);
-    let (s, c) = (om * t).sin_cos();
-    let half = (T::lit(0.5) * om * t).sin();
-    // e^{zt} − 1 = (e^{−γt} cos ωt − 1) + i e^{−γt} sin ωt, the real part without cancellation.
-    let nr = (-gamma * t).exp_m1() * c - T::lit(2.0) * half * half;
-    let ni = decay * s;
-    // (nr + i ni) / z with z scaled by s = max(γ, ω) first, so that a field so weak that
-    // γ² + ω² underflows still divides correctly.
-    let scale = gamma.max(om);
-    let (zr, zi) = (-gamma / scale, om / scale);
-    let den = (zr * zr + zi * zi) * scale;
-    let a = (zr * nr + zi * ni) / den;
-    let bb = (zr * ni - zi * nr) / den;
-    let mut dq = [T::lit(0.0); 3];
-    let mut pn = [T::lit(0.0); 3];
-    for k in 0..3 {
-        dq[k] = phi_par * par[k] + a * perp[k] - bb * w[k];
-        pn[k] = decay * (par[k] + c * perp[k] - s * w[k]);
-    }
-    (dq, pn)
+}
+
+#[inline]
+fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+fn norm3<T: Real>(a: [T; 3]) -> T {
+    dot3(a, a).sqrt()
 }
 
 #[inline]
@@ -61,22 +235,49 @@ pub(super) fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     ]
 }
 
+/// The flights' coefficients for the last sub-step length, one per body: a flow that calls the
+/// free flight with the same `t` again (every step of a fixed-step run) recomputes no
+/// exponential.
+#[derive(Debug, Clone, Default)]
+pub struct FlightCache<T> {
+    t: Option<T>,
+    coefficients: Vec<FlightCoefficients<T>>,
+}
+
 impl<T: Real> SceneModel<T> {
-    /// The exact flow of the kinetic term under `M` for time `t`: per body, `q' = v = p/m`,
-    /// `p' = e v × B − c v`. With `γ = c/m`, `ω⃗ = e B/m = ω b̂`, `p = p∥ + p⊥` along and
-    /// across `b̂`, `w = b̂ × p⊥` and `z = −γ + iω`:
+    /// The exact flow of the kinetic term under `M` for time `t` — with uniform gravity when it
+    /// is joined to it (no magnetic term): per body, `q' = v = p/m`, `p' = F + e v × B − c v`
+    /// (`F = m g`). With `γ = c/m`, `ω⃗ = e B/m = ω b̂`, `p = p∥ + p⊥` along and across `b̂`,
+    /// `w = b̂ × p⊥` and `z = −γ + iω`, without force:
     ///
     /// ```text
     /// p(t) = e^{−γt} (p∥ + cos(ωt) p⊥ − sin(ωt) w),
-    /// q(t) = q + (1/m) (φ∥ p∥ + a p⊥ − b w),   φ∥ = (1 − e^{−γt})/γ,   a + ib = (e^{zt} − 1)/z,
+    /// q(t) = q + (1/m) (φ p∥ + a p⊥ − b w),   φ = (1 − e^{−γt})/γ,   a + ib = (e^{zt} − 1)/z,
     /// ```
     ///
-    /// evaluated without cancellation (`expm1`, `1 − cos = 2 sin²`). Bodies without field and
-    /// damping take the plain drift `q += t p/m`.
+    /// and under a force without field `p(t) = e^{−γt} p + φ F`, `q(t) = q + (φ p + ψ F)/m`,
+    /// `ψ = ∫₀ᵗ φ = (γt − 1 + e^{−γt})/γ²` (free fall `t²/2` at `γ = 0`); all evaluated without
+    /// cancellation (`expm1`, `1 − cos = 2 sin²`, series for small `γt`). Bodies without field,
+    /// damping and gravity take the plain drift `q += t p/m`.
     ///
-    /// Returns the kinetic energy the damping removed, `Σ (|p_b|² − |p_b(t)|²)/(2 m_b)` over the
-    /// damped bodies: the exact `∫ vᵀ R v dt` along this sub-flow (the field only turns `p`).
+    /// Returns the energy the damping removed, `∫₀ᵗ vᵀ R v ds` over the damped bodies, exactly:
+    /// `(1 − e^{−2γt}) |p|²/(2m)` without force, `γ/m (|p|² ∫e^{−2γs} + (p·F) φ² + |F|² ∫φ²)`
+    /// with one.
     pub fn free_flight(&self, t: T, x: &mut [T]) -> T {
+        let mut cache = FlightCache::default();
+        self.free_flight_cached(t, x, &mut cache)
+    }
+
+    /// [`free_flight`](Self::free_flight) with the coefficients of `t` kept in `cache` (computed
+    /// only when `t` differs from the last call's).
+    pub fn free_flight_cached(&self, t: T, x: &mut [T], cache: &mut FlightCache<T>) -> T {
+        if cache.t != Some(t) || cache.coefficients.len() != self.flights.len() {
+            cache.coefficients.clear();
+            cache
+                .coefficients
+                .extend(self.flights.iter().map(|f| f.coefficients(t)));
+            cache.t = Some(t);
+        }
         let mut removed = T::lit(0.0);
         let d = self.dim;
         let nq = d * self.masses.len();
@@ -88,32 +289,86 @@ impl<T: Real> SceneModel<T> {
         if let Some(magnetic) = &self.magnetic {
             magnetic.counter.hit();
         }
-        for (b, flight) in self.flights.iter().enumerate() {
-            let w = self.inv_masses[b];
-            let (qb, pb) = (&mut q[b * d..b * d + d], &mut p[b * d..b * d + d]);
-            match *flight {
-                Flight::Drift => {
-                    for k in 0..d {
-                        qb[k] = qb[k] + (t * w * pb[k]);
-                    }
-                }
-                Flight::Exact { gamma, omega } => {
-                    let mut p3 = [T::lit(0.0); 3];
-                    p3[..d].copy_from_slice(pb);
-                    let (dq, pn) = exact_flight(gamma, omega, t, p3);
-                    for k in 0..d {
-                        qb[k] = qb[k] + (w * dq[k]);
-                    }
-                    if gamma != T::lit(0.0) {
-                        // |p|² − |p(t)|² = (1 − e^{−2γt}) |p|², without cancellation.
-                        let p2 = p3.iter().fold(T::lit(0.0), |s, &v| s + v * v);
-                        let lost = -(T::lit(-2.0) * gamma * t).exp_m1();
-                        removed = removed + T::lit(0.5) * w * lost * p2;
-                    }
-                    pb.copy_from_slice(&pn[..d]);
-                }
+        if self.gravity_in_flight {
+            for term in self.potentials.iter().filter(|t| t.is_gravity()) {
+                term.counter.hit();
             }
         }
+        for (b, (flight, c)) in self.flights.iter().zip(&cache.coefficients).enumerate() {
+            let (qb, pb) = (&mut q[b * d..b * d + d], &mut p[b * d..b * d + d]);
+            removed = removed + flight.apply(c, self.inv_masses[b], qb, pb);
+        }
         removed
+    }
+}
+
+/// The free flight of a scene's bodies as a [`Flow`] (see [`SceneModel::free_flight`]): exact
+/// and symmetric, dissipative when the scene declares damping (it books the removed energy in
+/// the [`Ledger`]), with its coefficients cached per sub-step length, and its tangent map — the
+/// flight is affine in `x`, so `DΦ_t v` is the flight of `v` without the force — for the
+/// Jacobian of a projection's `λ_k` system, which then converges quadratically.
+#[derive(Debug)]
+pub struct FreeFlight<T: Real> {
+    model: Arc<SceneModel<T>>,
+    cache: FlightCache<T>,
+}
+
+impl<T: Real> FreeFlight<T> {
+    /// The free flight of `model`'s bodies.
+    pub fn new(model: Arc<SceneModel<T>>) -> Self {
+        Self {
+            model,
+            cache: FlightCache::default(),
+        }
+    }
+}
+
+impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
+    fn step(&mut self, h: T, x: &mut V) -> Result<(), StepError> {
+        self.model
+            .free_flight_cached(h, x.as_mut_slice(), &mut self.cache);
+        Ok(())
+    }
+    #[inline]
+    fn step_at(&mut self, ledger: &mut Ledger<T>, h: T, x: &mut V) -> Result<(), StepError> {
+        let removed = self
+            .model
+            .free_flight_cached(h, x.as_mut_slice(), &mut self.cache);
+        if self.model.is_dissipative() {
+            ledger.dissipated = ledger.dissipated + removed;
+        }
+        Ok(())
+    }
+    fn order(&self) -> u32 {
+        EXACT
+    }
+    fn is_symmetric(&self) -> bool {
+        true
+    }
+    fn is_fallible(&self) -> bool {
+        false
+    }
+    fn dissipates(&self) -> bool {
+        self.model.is_dissipative()
+    }
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        if self.cache.t.is_none() || self.cache.coefficients.len() != self.model.flights.len() {
+            return false;
+        }
+        out.copy_from(v);
+        let model = &*self.model;
+        let d = model.dim;
+        let nq = d * model.masses.len();
+        let (q, p) = out.as_mut_slice().split_at_mut(nq);
+        for (b, (flight, c)) in model
+            .flights
+            .iter()
+            .zip(&self.cache.coefficients)
+            .enumerate()
+        {
+            let (qb, pb) = (&mut q[b * d..b * d + d], &mut p[b * d..b * d + d]);
+            flight.homogeneous().apply(c, model.inv_masses[b], qb, pb);
+        }
+        true
     }
 }

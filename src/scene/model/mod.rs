@@ -28,6 +28,7 @@ mod terms;
 pub use crate::scene::effects::EffectKind;
 use crate::scene::effects::PotentialTerm;
 use flight::Flight;
+pub use flight::{FlightCache, FreeFlight};
 pub(crate) use terms::{ConstraintKind, ConstraintTerm, StructureTerm};
 
 use crate::real::Real;
@@ -56,6 +57,8 @@ pub struct SceneModel<T = f64> {
     /// projection's small dense path is faster.
     pub(crate) sparse: bool,
     flights: Vec<Flight<T>>,
+    /// Uniform gravity is part of the free flight (no magnetic term), not of the kick.
+    gravity_in_flight: bool,
     /// The declared inputs (`None`: no input, no input sub-flow).
     pub(crate) inputs: Option<crate::scene::ports::SceneInputs<T>>,
 }
@@ -74,20 +77,38 @@ impl<T: Real> SceneModel<T> {
     ) -> Self {
         let inv_masses: Vec<T> = masses.iter().map(|&m| T::one() / m).collect();
         let m = constraints.iter().map(|c| c.rows(dim)).sum();
+        // Uniform gravity joins the free flight when no body turns in a field: the flow of
+        // `T + V_gravity` under `M` is then still linear per body and solved exactly, so the
+        // splitting loses a sub-flow and the free fall its splitting error.
+        let gravity_in_flight = magnetic.is_none() && potentials.iter().any(|t| t.is_gravity());
+        let mut forces = vec![[T::lit(0.0); 3]; masses.len()];
+        if gravity_in_flight {
+            for t in &potentials {
+                if let crate::scene::effects::Potential::Gravity(g) = &t.potential {
+                    g.add_forces(&mut forces);
+                }
+            }
+        }
         let flights = (0..masses.len())
             .map(|b| {
                 let c = damping.as_ref().map_or(T::lit(0.0), |t| t.per_body[b]);
                 let eb = magnetic
                     .as_ref()
                     .map_or([T::lit(0.0); 3], |t| t.per_body[b]);
-                if c == T::lit(0.0) && eb == [T::lit(0.0); 3] {
-                    Flight::Drift
-                } else {
-                    let w = inv_masses[b];
-                    Flight::Exact {
+                let w = inv_masses[b];
+                let force = forces[b];
+                let forced = force != [T::lit(0.0); 3];
+                match (c == T::lit(0.0), eb == [T::lit(0.0); 3], forced) {
+                    (true, true, false) => Flight::Drift,
+                    (true, true, true) => Flight::Fall { force },
+                    (false, true, true) => Flight::DampedFall {
+                        gamma: c * w,
+                        force,
+                    },
+                    _ => Flight::Exact {
                         gamma: c * w,
                         omega: [eb[0] * w, eb[1] * w, eb[2] * w],
-                    }
+                    },
                 }
             })
             .collect();
@@ -105,6 +126,7 @@ impl<T: Real> SceneModel<T> {
             profile,
             sparse: m > 4,
             flights,
+            gravity_in_flight,
             inputs: None,
         }
     }
@@ -168,6 +190,18 @@ impl<T: Real> SceneModel<T> {
     /// The declared inputs.
     pub fn inputs(&self) -> Option<&crate::scene::ports::SceneInputs<T>> {
         self.inputs.as_ref()
+    }
+
+    /// `true` if uniform gravity is part of the free flight (no magnetic term is assembled).
+    pub fn gravity_in_flight(&self) -> bool {
+        self.gravity_in_flight
+    }
+
+    /// `true` if the kick has terms: a potential that is not joined to the free flight.
+    pub fn has_kick(&self) -> bool {
+        self.potentials
+            .iter()
+            .any(|t| !(self.gravity_in_flight && t.is_gravity()))
     }
 
     /// `true` if a damping term is assembled (`M` has a dissipative part).

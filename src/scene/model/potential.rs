@@ -36,13 +36,22 @@ impl<T: Real> SceneModel<T> {
         }
     }
 
-    /// The kick `p ← p − t ∇V(q)`: the exact flow of all potential terms together. `scratch`
-    /// holds `dN` entries.
+    /// The kick `p ← p − t ∇V_kick(q)`: the exact flow of the potential terms together, all
+    /// but uniform gravity when the free flight carries it ([`has_kick`](Self::has_kick)).
+    /// `scratch` holds `dN` entries.
     pub fn kick(&self, t: T, x: &mut [T], scratch: &mut [T]) {
         let nq = self.dim * self.masses.len();
         let (q, p) = x.split_at_mut(nq);
         scratch.fill(T::lit(0.0));
-        self.potential_gradient_add(q, T::lit(1.0), scratch);
+        let d = self.dim;
+        for term in &self.potentials {
+            if self.gravity_in_flight && term.is_gravity() {
+                continue;
+            }
+            self.timed(&term.counter, || {
+                term.potential.gradient_add(q, d, T::lit(1.0), scratch)
+            });
+        }
         for (pi, gi) in p.iter_mut().zip(scratch.iter()) {
             *pi = *pi - (t * *gi);
         }
