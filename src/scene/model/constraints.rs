@@ -19,6 +19,7 @@ impl<T: Real> SceneModel<T> {
     }
 
     /// `g` of a single-row constraint (rod, sphere, plane) at positions `q`; `None` for a pin.
+    #[inline]
     pub(super) fn single_row_residual(&self, q: &[T], kind: &ConstraintKind<T>) -> Option<T> {
         let half = T::lit(0.5);
         match kind {
@@ -52,17 +53,25 @@ impl<T: Real> SceneModel<T> {
         }
     }
 
+    /// `q_a − q_b` (or `q_a − point`), built from values rather than written per coordinate
+    /// into a stack array: a dot product that loads such an array as one vector stalls on
+    /// store forwarding, which cost more than the rest of a rod's residual (inlined, so that the
+    /// array is not returned through memory either).
+    #[inline(always)]
     pub(super) fn rod_vector(&self, q: &[T], a: usize, b: Option<usize>, point: &[T; 3]) -> [T; 3] {
         let d = self.dim;
-        let mut u = [T::lit(0.0); 3];
-        for k in 0..d {
-            let r = match b {
-                Some(b) => q[b * d + k],
-                None => point[k],
-            };
-            u[k] = q[a * d + k] - r;
+        let at = |k: usize| {
+            q[a * d + k]
+                - match b {
+                    Some(b) => q[b * d + k],
+                    None => point[k],
+                }
+        };
+        if d == 3 {
+            [at(0), at(1), at(2)]
+        } else {
+            [at(0), at(1), T::lit(0.0)]
         }
-        u
     }
 }
 

@@ -114,7 +114,7 @@ impl<T: Real> Flight<T> {
 
     /// Advances one body (`w = 1/m`, `qb`, `pb` of length `d`) by the flight with coefficients
     /// `c`; returns the energy the damping removed, `∫₀ᵗ vᵀ R v ds ≥ 0`.
-    #[inline]
+    #[inline(always)]
     pub(super) fn apply(&self, c: &FlightCoefficients<T>, w: T, qb: &mut [T], pb: &mut [T]) -> T {
         let d = qb.len();
         let zero = T::lit(0.0);
@@ -133,8 +133,7 @@ impl<T: Real> Flight<T> {
                 zero
             }
             Flight::Exact { gamma, omega } => {
-                let mut p = [zero; 3];
-                p[..d].copy_from_slice(pb);
+                let p = load3(pb);
                 let p2 = dot3(p, p);
                 let om = norm3(omega);
                 if om == zero {
@@ -161,8 +160,7 @@ impl<T: Real> Flight<T> {
                 }
             }
             Flight::DampedFall { gamma, force } => {
-                let mut p = [zero; 3];
-                p[..d].copy_from_slice(pb);
+                let p = load3(pb);
                 for k in 0..d {
                     qb[k] = qb[k] + w * (c.phi * p[k] + c.psi * force[k]);
                     pb[k] = c.decay * p[k] + c.phi * force[k];
@@ -213,6 +211,17 @@ fn fall_series<T: Real>(x: T, k: u32) -> T {
         n += 1;
         term = -term * x / T::lit(f64::from(n));
         pow2 = pow2 * T::lit(2.0);
+    }
+}
+
+/// A body's 2 or 3 coordinates as a 3-vector, built from values (see `rod_vector`: a stack
+/// array written per coordinate and loaded as a vector stalls on store forwarding).
+#[inline]
+fn load3<T: Real>(s: &[T]) -> [T; 3] {
+    if s.len() == 3 {
+        [s[0], s[1], s[2]]
+    } else {
+        [s[0], s[1], T::lit(0.0)]
     }
 }
 
