@@ -68,6 +68,25 @@ fn a_residual_with_a_round_off_floor_above_ftol_converges() {
 }
 
 #[test]
+fn a_kept_jacobian_that_reaches_the_floor_is_not_rebuilt() {
+    // The second solve starts next to the root with the first solve's Jacobian: its updates
+    // fall to the round-off of z while the residual sits at its floor (40 ε, above ftol), which
+    // is convergence; rebuilding the Jacobian there (one factorization) would learn nothing.
+    let mut newton: Newton<V> = Newton::new(
+        2,
+        NewtonOptions::default().with_jacobian(JacobianUpdate::Reuse),
+    )
+    .unwrap();
+    let mut z = [1.0, 2.0];
+    newton.solve(&mut Circle { s: 10.0 }, &mut z).unwrap();
+    let mut z = [z[0] + 1e-7, z[1] - 2e-7];
+    let report = newton.solve(&mut Circle { s: 10.0 }, &mut z).unwrap();
+    assert_eq!(report.factorizations, 0, "{report:?}");
+    assert!((z[0] - 2f64.sqrt()).abs() < 1e-15, "{z:?}");
+    assert!(report.residual <= 40.0 * f64::EPSILON, "{report:?}");
+}
+
+#[test]
 fn a_floor_far_above_ftol_is_reported_not_hidden() {
     // s = 1e4: floor 4e4 ε ≈ 8.9e-12 = 4e4 ftol. ftol is absolute; Newton must say it did not
     // reach it rather than accept the floor silently.

@@ -528,6 +528,13 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             {
                 return Ok(report);
             }
+            // With a kept Jacobian, an update at the round-off of `z` that leaves the residual
+            // within its noise is the same evidence: the kept matrix has converged the
+            // iteration as far as `z` can be represented (a rebuild would cost a Jacobian to
+            // learn nothing).
+            if !fresh && r_new <= noise && at_roundoff {
+                return Ok(report);
+            }
             if !fresh && (r_new.is_nan() || r_new >= r) {
                 // A kept Jacobian made things worse (or non-finite): go back, rebuild it there.
                 ops::axpy(z, -one, &self.dz.as_slice()[..k]);

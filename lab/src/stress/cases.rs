@@ -284,6 +284,26 @@ pub fn cases() -> Vec<StressCase> {
         },
     ];
     v.push(StressCase {
+        name: "fekete-petrov-galerkin-1e5",
+        about: "the Fekete problem (scenes/fekete.toml), the energy-consistent Petrov–Galerkin scheme of order 4, 1e5 steps of h = 0.01",
+        source: "IVP test set (Bari), Fekete problem",
+        long: false,
+        kind: Kind::Scene {
+            text: include_str!("../../../scenes/fekete.toml").replace(
+                "t_end = 10.0",
+                "t_end = 1000.0\nscheme = \"petrov-galerkin\"\norder = 4",
+            ),
+            // H(x_{n+1}) − H(x_n) = −D_n with D_n ≥ 0 up to the Newton tolerance: each step's
+            // balance rounds at a few dozen ε of |H| (|H| ≈ 54 over the run).
+            expect: Expect::Stable {
+                g_bound: 1e-14,
+                energy: EnergyRule::Balanced {
+                    slack: 64.0 * f64::EPSILON * 60.0,
+                },
+            },
+        },
+    });
+    v.push(StressCase {
         name: "paper-1e7",
         about: "the paper's example, 1e7 steps of h = 0.1",
         source: "Zhang & Deng (2004), section 4; very long runs",

@@ -193,6 +193,8 @@ where
             newton: Newton::new(k * (n + m), {
                 let mut newton = options.newton;
                 newton.equilibrate = true;
+                newton.max_contraction = V::Real::lit(0.5);
+                newton.broyden = false;
                 newton
             })?,
             hidden,
