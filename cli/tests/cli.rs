@@ -341,7 +341,7 @@ fn check_says_which_scheme_a_damped_scene_gets_and_why() {
         (
             "",
             "free flight under gravity (exact)",
-            "the exact damping flow",
+            "the damping flow among them",
         ),
     ] {
         let path = scratch("why.toml");

@@ -41,9 +41,11 @@ impl Raise {
                 "no damping and an order above 2 asked: a symmetric composition (its negative sub-steps are harmless without dissipation)"
             }
             (Method::Auto, Raise::Base) if dissipative && order == 2 => {
-                "order 2: the symmetric splitting with the exact damping flow"
+                "order 2: the symmetric step of the exact sub-flows, the damping flow among them"
             }
-            (Method::Auto, Raise::Base) => "order 2: the symmetric splitting itself",
+            (Method::Auto, Raise::Base) => {
+                "order 2: the symmetric step of the exact sub-flows itself"
+            }
             (Method::Extrapolation, _) => {
                 "`scheme = \"extrapolation\"`: Strang extrapolated, every sub-step forward"
             }
