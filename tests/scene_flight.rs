@@ -200,3 +200,28 @@ fn the_free_flight_tangent_is_its_derivative() {
         }
     }
 }
+
+/// The kick with its gradient kept for the last positions gives, bit for bit, the kick of the
+/// positions it is called at: reused when only momenta changed (a projection's half-steps),
+/// recomputed when positions moved.
+#[test]
+fn the_kept_kick_gradient_is_the_gradient_at_the_positions() {
+    let compiled = parse(include_str!("../scenes/shell_damped.toml"))
+        .compile()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let model = compiled.model.expect("a scene model");
+    let n = model.state_len();
+    let mut cache = lieflow::scene::KickCache::default();
+    let mut scratch = vec![0.0; n / 2];
+    let base: Vec<f64> = (0..n).map(|i| (0.37 * i as f64).sin()).collect();
+    let mut momenta_moved = base.clone();
+    momenta_moved[n - 1] += 0.25;
+    let mut positions_moved = momenta_moved.clone();
+    positions_moved[0] += 1e-3;
+    for x0 in [&base, &momenta_moved, &positions_moved, &base] {
+        let (mut kept, mut fresh) = (x0.clone(), x0.clone());
+        model.kick_cached(0.1, &mut kept, &mut cache);
+        model.kick(0.1, &mut fresh, &mut scratch);
+        assert_eq!(kept, fresh);
+    }
+}

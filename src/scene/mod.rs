@@ -61,7 +61,7 @@ pub use compile::{
 };
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
 pub use gram::MassGram;
-pub use model::{EffectKind, FlightCache, FreeFlight, SceneModel};
+pub use model::{EffectKind, FlightCache, FreeFlight, KickCache, SceneModel};
 pub use run::{
     Advanced, EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation,
     SimulationCheckpoint, advance, run,

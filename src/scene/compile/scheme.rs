@@ -14,12 +14,11 @@ use crate::nonlinear::{NewtonOptions, SMALL_MAX};
 use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::model::{ConstraintKind, FreeFlight, SceneModel};
+use crate::scene::model::{ConstraintKind, FreeFlight, KickCache, SceneModel};
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
 use crate::system::{Case, System};
 use crate::vector::Vector;
 use faer::Col;
-use num_traits::Zero as _;
 use std::sync::Arc;
 
 /// The scheme a scene asks for: how its order-2 step is raised, and the order.
@@ -369,11 +368,10 @@ pub fn splitting_flow<V: Vector + 'static>(
     backward: bool,
     eps: V::Real,
 ) -> std::result::Result<Splitting<V>, SetupError> {
-    let nq = model.state_len() / 2;
-    let mut scratch = vec![V::Real::zero(); nq];
+    let mut cache = KickCache::default();
     let kick = {
         let model = model.clone();
-        from_fn(move |t: V::Real, x: &mut V| model.kick(t, x.as_mut_slice(), &mut scratch))
+        from_fn(move |t: V::Real, x: &mut V| model.kick_cached(t, x.as_mut_slice(), &mut cache))
     };
     // The exact free flight (booking the energy a damping removes, exactly, per sub-step).
     let drift = FreeFlight::new(model.clone());

@@ -29,6 +29,7 @@ pub use crate::scene::effects::EffectKind;
 use crate::scene::effects::PotentialTerm;
 use flight::Flight;
 pub use flight::{FlightCache, FreeFlight};
+pub use potential::KickCache;
 pub(crate) use terms::{ConstraintKind, ConstraintTerm, StructureTerm};
 
 use crate::real::Real;

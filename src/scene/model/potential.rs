@@ -4,6 +4,7 @@
 
 use super::SceneModel;
 use crate::real::Real;
+use crate::scene::effects::EffectKind;
 
 impl<T: Real> SceneModel<T> {
     /// `V(q)`, the sum of the potential terms.
@@ -43,17 +44,58 @@ impl<T: Real> SceneModel<T> {
         let nq = self.dim * self.masses.len();
         let (q, p) = x.split_at_mut(nq);
         scratch.fill(T::lit(0.0));
+        self.kick_gradient_add(q, scratch);
+        for (pi, gi) in p.iter_mut().zip(scratch.iter()) {
+            *pi = *pi - (t * *gi);
+        }
+    }
+
+    /// [`kick`](Self::kick) with the gradient of the last positions kept in `cache`: a projected
+    /// step's half-steps move only momenta (a scene's constraint forces act on `p`), so the
+    /// first kick of each Newton iteration, and of the next step, is at positions the last
+    /// kick already saw. Kept only when the kick has pair terms (`O(n²)` a gradient); for the
+    /// others comparing the positions costs what recomputing does.
+    pub fn kick_cached(&self, t: T, x: &mut [T], cache: &mut KickCache<T>) {
+        let nq = self.dim * self.masses.len();
+        let (q, p) = x.split_at_mut(nq);
+        if cache.grad.len() != nq {
+            cache.grad = vec![T::lit(0.0); nq];
+            cache.q = vec![T::lit(0.0); nq];
+            cache.valid = false;
+            cache.enabled = self.potentials.iter().any(|t| t.kind == EffectKind::Pair);
+        }
+        if !(cache.valid && cache.q.as_slice() == &*q) {
+            cache.grad.fill(T::lit(0.0));
+            self.kick_gradient_add(q, &mut cache.grad);
+            if cache.enabled {
+                cache.q.copy_from_slice(q);
+                cache.valid = true;
+            }
+        }
+        for (pi, gi) in p.iter_mut().zip(cache.grad.iter()) {
+            *pi = *pi - (t * *gi);
+        }
+    }
+
+    /// `out += ∇V_kick(q)`: the potential terms the kick carries.
+    fn kick_gradient_add(&self, q: &[T], out: &mut [T]) {
         let d = self.dim;
         for term in &self.potentials {
             if self.gravity_in_flight && term.is_gravity() {
                 continue;
             }
             self.timed(&term.counter, || {
-                term.potential.gradient_add(q, d, T::lit(1.0), scratch)
+                term.potential.gradient_add(q, d, T::lit(1.0), out)
             });
         }
-        for (pi, gi) in p.iter_mut().zip(scratch.iter()) {
-            *pi = *pi - (t * *gi);
-        }
     }
+}
+
+/// The kick's gradient at the last positions it saw ([`SceneModel::kick_cached`]).
+#[derive(Debug, Clone, Default)]
+pub struct KickCache<T> {
+    q: Vec<T>,
+    grad: Vec<T>,
+    valid: bool,
+    enabled: bool,
 }
