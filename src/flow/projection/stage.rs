@@ -189,30 +189,6 @@ where
                 if self.compute_y(z).is_err() {
                     return false;
                 }
-                // An inner flow that applies its own tangent map (at `y`'s evaluation, the
-                // last one) gives the exact group `G(y) DΦ_h (h/2) M Gᵀ e`.
-                let e = &mut self.indicator.as_mut_slice()[..m];
-                ops::fill_zero(e);
-                for &j in cols {
-                    e[j] = V::Real::one();
-                }
-                let e = &self.indicator.as_slice()[..m];
-                self.system.constraint_force(self.x, e, self.t1, self.t2);
-                if self.inner.tangent_apply(&*self.t2, self.hess_v) {
-                    self.system
-                        .constraint()
-                        .jacobian_apply(&*self.y, &*self.hess_v, out);
-                    out.iter_mut().for_each(|v| *v = *v * half);
-                    return true;
-                }
-                // With dissipation the inner flow's tangent is not `I + h M ∇²H`: the exact
-                // damping flow moves positions by `(1 − e^{−ch/m}) p / c`, not `h p / m`, so the
-                // closed form is off by a factor up to `c h / m` and Newton would crawl.
-                // Differences of the flow itself (one residual per colour group) are exact to
-                // `fd_step` instead.
-                if self.system.structure().is_dissipative() {
-                    return false;
-                }
             }
             Mode::LambdaK1 => self.end_point_explicit(z),
             Mode::Coupled | Mode::Symmetric => return false,
@@ -226,19 +202,29 @@ where
         let (sys, x) = (self.system, self.x);
         if mode == Mode::LambdaK {
             sys.constraint_force(x, e, self.t1, self.t2);
-            if !sys
-                .hamiltonian()
-                .hessian_apply(self.x, &*self.t2, self.hess_v)
-            {
-                return false;
+            // An inner flow that applies its own tangent map (at `y`'s evaluation, the last
+            // one) gives the exact group `G(y) DΦ_h (h/2) M Gᵀ e`.
+            if !self.inner.tangent_apply(&*self.t2, self.hess_v) {
+                // With dissipation the inner flow's tangent is not `I + h M ∇²H`: the exact
+                // damping flow moves positions by `(1 − e^{−ch/m}) p / c`, not `h p / m`, so
+                // the closed form is off by a factor up to `c h / m` and Newton would crawl.
+                // Differences of the flow itself (one residual per colour group) are exact to
+                // `fd_step` instead.
+                if sys.structure().is_dissipative()
+                    || !sys
+                        .hamiltonian()
+                        .hessian_apply(self.x, &*self.t2, self.hess_v)
+                {
+                    return false;
+                }
+                sys.structure().apply(self.x, &*self.hess_v, self.m_hess_v);
+                ops::add_scaled(
+                    self.hess_v.as_mut_slice(),
+                    self.t2.as_slice(),
+                    h,
+                    self.m_hess_v.as_slice(),
+                );
             }
-            sys.structure().apply(self.x, &*self.hess_v, self.m_hess_v);
-            ops::add_scaled(
-                self.hess_v.as_mut_slice(),
-                self.t2.as_slice(),
-                h,
-                self.m_hess_v.as_slice(),
-            );
             sys.constraint()
                 .jacobian_apply(&*self.y, &*self.hess_v, out);
         } else {

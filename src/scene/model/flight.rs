@@ -30,6 +30,9 @@ pub(super) struct FlightCoefficients<T> {
     decay: T,
     /// `φ = ∫₀ᵗ e^{−γs} ds = (1 − e^{−γt})/γ`.
     phi: T,
+    /// The field's direction `b̂ = ω⃗/ω`, and whether there is a field (`ω > 0`).
+    axis: [T; 3],
+    turning: bool,
     /// `(a + ib) = (e^{zt} − 1)/z`, `z = −γ + iω` (field only).
     a: T,
     b: T,
@@ -51,6 +54,8 @@ impl<T: Real> Flight<T> {
         let mut c = FlightCoefficients {
             decay: T::one(),
             phi: t,
+            axis: [zero; 3],
+            turning: false,
             a: zero,
             b: zero,
             cos: T::one(),
@@ -86,6 +91,8 @@ impl<T: Real> Flight<T> {
                     c.b = (zr * ni - zi * nr) / den;
                     c.cos = co;
                     c.sin = s;
+                    c.axis = omega.map(|o| o / om);
+                    c.turning = true;
                 }
             }
             Flight::DampedFall { gamma, .. } => {
@@ -132,17 +139,16 @@ impl<T: Real> Flight<T> {
                 }
                 zero
             }
-            Flight::Exact { gamma, omega } => {
+            Flight::Exact { gamma, .. } => {
                 let p = load3(pb);
                 let p2 = dot3(p, p);
-                let om = norm3(omega);
-                if om == zero {
+                if !c.turning {
                     for k in 0..d {
                         qb[k] = qb[k] + w * c.phi * p[k];
                         pb[k] = c.decay * p[k];
                     }
                 } else {
-                    let bh = omega.map(|o| o / om);
+                    let bh = c.axis;
                     let along = dot3(bh, p);
                     let par = bh.map(|b| along * b);
                     let perp = [p[0] - par[0], p[1] - par[1], p[2] - par[2]];
