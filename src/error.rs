@@ -107,7 +107,7 @@ pub enum LinearSolveError {
 #[non_exhaustive]
 pub enum NewtonError<E = core::convert::Infallible> {
     /// The iteration limit was reached before the residual met the tolerance.
-    #[error("Newton did not converge in {iterations} iterations (residual {residual:e})")]
+    #[error("Newton did not converge in {iterations} iterations (residual {residual:.3e})")]
     NotConverged {
         /// Iterations performed.
         iterations: usize,
@@ -161,7 +161,7 @@ pub enum StepError {
     },
     /// The implicit end point of a projection half-step did not converge.
     #[error(
-        "implicit projection end point did not converge in {iterations} iterations (change {change:e})"
+        "implicit projection end point did not converge in {iterations} iterations (change {change:.3e})"
     )]
     FixedPointNotConverged {
         /// Iterations performed.

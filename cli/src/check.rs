@@ -1,5 +1,6 @@
 //! `lieflow check`: validate a scene and print what it assembles.
 
+use crate::number::count;
 use crate::{bad_scene, load};
 use lieflow::scene::Assembly;
 use std::path::Path;
@@ -27,8 +28,9 @@ pub(crate) fn print_assembly(a: &Assembly) {
     println!("scene        {}", a.name);
     if let Some(d) = a.dim {
         println!(
-            "space        {d}D, {} bodies, state of {}",
-            a.bodies, a.state_len
+            "space        {d}D, {}, state of {}",
+            count(a.bodies, "body", "bodies"),
+            a.state_len
         );
     } else {
         println!("model        built-in, state of {}", a.state_len);
@@ -42,8 +44,8 @@ pub(crate) fn print_assembly(a: &Assembly) {
             .map(|(k, n)| format!("{n} {k}"))
             .collect();
         println!(
-            "constraints  {} rows: {}",
-            a.constraint_rows,
+            "constraints  {}: {}",
+            count(a.constraint_rows, "row", "rows"),
             list.join(", ")
         );
     }
@@ -67,11 +69,7 @@ pub(crate) fn print_assembly(a: &Assembly) {
     }
     println!(
         "structure    {}, {}",
-        if a.canonical {
-            "J canonical"
-        } else {
-            "J non-canonical (magnetic field)"
-        },
+        a.structure,
         if a.dissipative {
             "dissipative (M = J - R)"
         } else {

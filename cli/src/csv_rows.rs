@@ -91,15 +91,17 @@ fn write_header(
     writeln!(w)
 }
 
+/// A row: every number in its shortest form that reads back to the same `f64` (`{:?}`:
+/// scientific below 1e-5 and from 1e16, so a subnormal is `5e-324`, not 324 digits).
 fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
-    write!(w, "{},{}", s.step, s.t)?;
+    write!(w, "{},{:?}", s.step, s.t)?;
     for v in s.x {
-        write!(w, ",{v}")?;
+        write!(w, ",{v:?}")?;
     }
-    let opt = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
+    let opt = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{v:?}"));
     write!(w, ",{},{},{}", opt(s.energy), opt(s.g), opt(s.phi))?;
     for v in s.outputs {
-        write!(w, ",{v}")?;
+        write!(w, ",{v:?}")?;
     }
     writeln!(w)
 }

@@ -8,6 +8,8 @@
 mod check;
 mod csv_rows;
 mod distributed;
+mod interrupt;
+mod number;
 mod plot;
 mod precision;
 mod precision_plot;
@@ -65,6 +67,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    interrupt::default_pipe();
     let cli = Cli::parse();
     match cli.command {
         Command::Scene => {

@@ -12,6 +12,24 @@ const PATHS: usize = 24;
 /// Declared outputs drawn at most (all are in the CSV).
 pub const OUTPUT_PANELS: usize = 6;
 
+/// Checks, before a run, that the plot can be written to `path`: an `.svg` name (the plot is
+/// SVG; a `.png` would hold SVG bytes) in a directory that takes the file. Creates the file
+/// (the run overwrites it), so that an unwritable path fails now, not after the run.
+pub fn check_target(path: &Path) -> Result<(), String> {
+    let svg = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    if !svg {
+        return Err(format!(
+            "{}: the plot is SVG; give a file name ending in .svg",
+            path.display()
+        ));
+    }
+    std::fs::File::create(path)
+        .map(drop)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
 /// Decimated samples of a run.
 pub struct Series {
     every: usize,

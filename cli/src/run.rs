@@ -2,22 +2,60 @@
 //! a plot; the last line of stdout is a JSON summary.
 
 use crate::csv_rows::CsvRows;
+use crate::interrupt;
+use crate::number::{count, num};
 use crate::progress::Progress;
 use crate::{bad_scene, load, plot};
 use lieflow::scene::schema::Diagnostic;
-use lieflow::scene::{RunSummary, Sample, run};
+use lieflow::scene::{Assembly, RunPlan};
+use lieflow::scene::{RunSummary, Sample, run_until};
 use std::path::PathBuf;
 use std::process::ExitCode;
+
+/// The run's first line: the scene, what it holds, its scheme and its steps (the shortened
+/// last one named).
+fn headline(a: &Assembly, plan: &RunPlan, dt: f64) -> String {
+    let holds = match a.dim {
+        Some(_) => format!(
+            "{}, {}",
+            count(a.bodies, "body", "bodies"),
+            count(a.constraint_rows, "constraint row", "constraint rows")
+        ),
+        None if a.constraint_rows == 0 => format!("built-in model, state of {}", a.state_len),
+        None => format!(
+            "built-in model, state of {}, {}",
+            a.state_len,
+            count(a.constraint_rows, "constraint row", "constraint rows")
+        ),
+    };
+    let steps = match plan.last_step {
+        None => count(plan.steps, "step", "steps"),
+        Some(last) => format!(
+            "{} (the last {} long, to end at t_end = {})",
+            count(plan.total_steps(), "step", "steps"),
+            num(last, 6),
+            num(plan.t_end, 12)
+        ),
+    };
+    format!(
+        "{}: {holds}, {}, order {}, dt = {}, {steps}",
+        a.name,
+        a.scheme,
+        a.order,
+        num(dt, 12)
+    )
+}
 
 #[derive(Debug, clap::Args)]
 pub(crate) struct RunArgs {
     /// The scene file (default: the embedded default scene, see `lieflow scene`).
     scene: Option<PathBuf>,
-    /// Override the scene's step size.
-    #[arg(long, value_name = "H")]
+    /// Override the scene's step size (when it does not divide the final time, the last step
+    /// is shortened to end there).
+    #[arg(long, value_name = "H", allow_negative_numbers = true)]
     dt: Option<f64>,
     /// Override the scene's final time.
-    #[arg(long, value_name = "T")]
+    #[arg(long, value_name = "T", allow_negative_numbers = true)]
     t_end: Option<f64>,
     /// Write the trajectory (t, x, and the diagnostics) as CSV.
     #[arg(long, value_name = "FILE")]
@@ -25,7 +63,8 @@ pub(crate) struct RunArgs {
     /// Write every K-th step to the CSV (default: about 1000 rows).
     #[arg(long, value_name = "K")]
     every: Option<usize>,
-    /// Plot energy and constraint residual over time (and the paths, for 2D scenes) as SVG.
+    /// Plot energy and constraint residual over time (and the paths, for 2D scenes) as SVG
+    /// (the file must end in `.svg`; it is checked writable before the run).
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
     /// Time each effect (adds a clock read per evaluation; shares go in the JSON).
@@ -62,19 +101,33 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     if let Some(t) = args.t_end {
         scene.file.integrator.t_end = t;
     }
+    let (dt, t_end) = (scene.file.integrator.dt, scene.file.integrator.t_end);
+    if (args.dt.is_some() || args.t_end.is_some()) && dt > t_end {
+        // The same refusal as the scene's, naming the flag that caused it.
+        let flag = if args.dt.is_some() { "--dt" } else { "--t-end" };
+        eprintln!(
+            "error: {flag}: the step dt = {} is longer than the run (t_end = {})",
+            num(dt, 12),
+            num(t_end, 12)
+        );
+        return ExitCode::from(2);
+    }
     let diagnostics = &mut scene.file.integrator.diagnostics;
     if args.profile && !diagnostics.contains(&Diagnostic::Profile) {
         diagnostics.push(Diagnostic::Profile);
+    }
+    if let Some(p) = &args.plot
+        && let Err(e) = plot::check_target(p)
+    {
+        eprintln!("error: --plot: {e}");
+        return ExitCode::from(2);
     }
     let mut compiled = match scene.compile() {
         Ok(c) => c,
         Err(e) => return bad_scene(&e),
     };
+    println!("{}", headline(&compiled.assembly, &compiled.plan, dt));
     let a = &compiled.assembly;
-    println!(
-        "{}: {} bodies, {} constraint rows, {}, order {}, dt = {}, {} steps",
-        a.name, a.bodies, a.constraint_rows, a.scheme, a.order, scene.file.integrator.dt, a.steps
-    );
     if let Some((dq, dp)) = a.initial_projection {
         println!("  initial state projected: max |dq| = {dq:.3e}, max |dp| = {dp:.3e}");
     }
@@ -84,7 +137,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
             a.dropped_constraints.join(", ")
         );
     }
-    let steps = compiled.plan.steps;
+    let steps = compiled.plan.total_steps();
     if args.every == Some(0) {
         eprintln!("error: --every must be at least 1");
         return ExitCode::from(2);
@@ -122,7 +175,13 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
             rows.observe(s);
         }
     };
-    let summary = run(compiled.simulation.as_mut(), &compiled.plan, &mut observe);
+    interrupt::catch_interrupt();
+    let summary = run_until(
+        compiled.simulation.as_mut(),
+        &compiled.plan,
+        &mut observe,
+        &interrupt::INTERRUPTED,
+    );
     progress.finish();
     let final_sample = Sample {
         step: last.0,
@@ -155,9 +214,24 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     if let Some(f) = &summary.error {
         eprintln!(
             "error: step {} at t = {} failed ({}): {}; the outputs hold the run up to the last good state",
-            f.step, f.t, f.kind, f.message
+            f.step,
+            num(f.t, 12),
+            f.kind,
+            f.message
         );
+        if let Some(advice) = &f.advice {
+            eprintln!("  what to try: {advice}");
+        }
         code = ExitCode::from(1);
+    }
+    if summary.interrupted {
+        eprintln!(
+            "interrupted at t = {} after {} of {} steps: the CSV, plot and summary hold the run so far",
+            num(summary.t, 12),
+            summary.steps,
+            summary.steps_planned
+        );
+        code = ExitCode::from(interrupt::EXIT_INTERRUPTED);
     }
     let mut json = serde_json::to_value(&summary).expect("serializable");
     let obj = json.as_object_mut().expect("an object");
@@ -175,19 +249,26 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
 }
 
 pub(crate) fn print_summary(s: &RunSummary) {
-    let opt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| format!("{v:.3e}"));
+    let opt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| num(v, 4));
     println!(
-        "  t = {}, {} of {} steps, {:.0} ns/step",
-        s.t, s.steps, s.steps_planned, s.ns_per_step
+        "  t = {}, {} of {} steps, {} ns/step",
+        num(s.t, 12),
+        s.steps,
+        s.steps_planned,
+        num(s.ns_per_step.round(), 6)
     );
-    println!(
-        "  max |g|   = {}   max |phi| = {}",
-        opt(s.max_abs_g),
-        opt(s.max_abs_phi)
-    );
+    if s.max_abs_g.is_some() || s.max_abs_phi.is_some() {
+        println!(
+            "  max |g|   = {}   max |phi| = {}",
+            opt(s.max_abs_g),
+            opt(s.max_abs_phi)
+        );
+    }
     if let (Some(e0), Some(e1)) = (s.energy_initial, s.energy_final) {
         println!(
-            "  energy {e0:.9} -> {e1:.9}, max |H - H0| = {}, max increase per step = {}",
+            "  energy {} -> {}, max |H - H0| = {}, max increase per step = {}",
+            num(e0, 10),
+            num(e1, 10),
             opt(s.max_abs_energy_error),
             opt(s.max_energy_increase)
         );
@@ -206,7 +287,7 @@ pub(crate) fn print_summary(s: &RunSummary) {
             .events
             .iter()
             .take(5)
-            .map(|e| format!("{} at t = {:.12}", e.name, e.t))
+            .map(|e| format!("{} at t = {}", e.name, num(e.t, 12)))
             .collect();
         let more = s.events.len().saturating_sub(5);
         println!(
@@ -220,7 +301,7 @@ pub(crate) fn print_summary(s: &RunSummary) {
         );
     }
     if let Some(name) = &s.stopped_by {
-        println!("  stopped by event '{name}' at t = {}", s.t);
+        println!("  stopped by event '{name}' at t = {}", num(s.t, 12));
     }
     let counts: Vec<String> = s
         .effects
@@ -230,5 +311,7 @@ pub(crate) fn print_summary(s: &RunSummary) {
             None => format!("{} {}", e.name, e.evaluations),
         })
         .collect();
-    println!("  evaluations: {}", counts.join(", "));
+    if !counts.is_empty() {
+        println!("  evaluations: {}", counts.join(", "));
+    }
 }

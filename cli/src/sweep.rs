@@ -215,5 +215,10 @@ pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
             "plot": plot,
         })
     );
+    if failed > 0 && failed == member_rows.len() {
+        // Every member failed: the rows say why, but nothing was swept.
+        eprintln!("error: every member failed (the first failures are listed above)");
+        return ExitCode::from(1);
+    }
     ExitCode::SUCCESS
 }

@@ -1,39 +1,8 @@
 //! The `lieflow` command as a user runs it: flags, exit codes, the JSON line, CSV and SVG.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
 
-fn lieflow(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lieflow"))
-        .args(args)
-        .output()
-        .expect("runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8(o.stdout.clone()).unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8(o.stderr.clone()).unwrap()
-}
-
-/// The last line of stdout as JSON.
-fn summary(o: &Output) -> serde_json::Value {
-    let out = stdout(o);
-    let last = out.lines().last().expect("output");
-    serde_json::from_str(last).unwrap_or_else(|e| panic!("{e}: {last}"))
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lieflow-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
-
-fn repo(path: &str) -> String {
-    format!("{}/../{path}", env!("CARGO_MANIFEST_DIR"))
-}
+use common::{lieflow, repo, scratch, stderr, stdout, summary};
 
 #[test]
 fn run_without_a_scene_runs_the_default_and_ends_with_json() {

@@ -64,6 +64,18 @@ impl MassGram {
 
     /// Assembles and factors `A` at positions `q` (no allocation).
     pub fn factor(&mut self, model: &SceneModel, q: &[f64]) -> Result<(), LinearSolveError> {
+        self.factor_weighted(model, q, &model.inv_masses)
+    }
+
+    /// Assembles and factors `G W⁻¹ Gᵀ` with the inverse masses `inv_masses` in place of the
+    /// model's: with unit masses it is `G Gᵀ`, whose rank is the constraints' own — singular
+    /// only when they are redundant, whatever the masses.
+    pub fn factor_weighted(
+        &mut self,
+        model: &SceneModel,
+        q: &[f64],
+        inv_masses: &[f64],
+    ) -> Result<(), LinearSolveError> {
         let d = model.dim;
         let mut e = 0;
         let coefs = &mut self.coefs;
@@ -75,7 +87,7 @@ impl MassGram {
         for &(e1, e2, k) in &self.products {
             let (c1, c2) = (self.coefs[e1], self.coefs[e2]);
             let dot = (0..d).fold(0.0, |s, i| s + c1[i] * c2[i]);
-            self.vals[k] += dot * model.inv_masses[self.walk[e1].1];
+            self.vals[k] += dot * inv_masses[self.walk[e1].1];
         }
         if let Some(diag) = &mut self.diagonal {
             for (&(i, _), &v) in self.keys.iter().zip(&self.vals) {

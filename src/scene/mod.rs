@@ -64,7 +64,7 @@ pub use gram::MassGram;
 pub use model::{EffectKind, FlightCache, FreeFlight, KickCache, SceneModel};
 pub use run::{
     Advanced, EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation,
-    SimulationCheckpoint, advance, run,
+    SimulationCheckpoint, advance, advance_plan, advance_plan_until, advance_until, run, run_until,
 };
 pub use schema::SceneFile;
 pub use watch::EventRecord;

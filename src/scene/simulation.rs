@@ -361,7 +361,10 @@ where
     }
     fn dissipation_power(&self) -> Option<f64> {
         let model = self.model.as_ref()?;
-        let damping = model.damping.as_ref()?;
+        let Some(damping) = model.damping.as_ref() else {
+            // A damping declared zero dissipates nothing, and says so.
+            return model.zero_damping.then_some(0.0);
+        };
         let x = self.state();
         let power = dissipated_power(
             &damping.per_body,

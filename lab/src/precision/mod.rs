@@ -11,7 +11,7 @@
 
 use lieflow::scene::Scene;
 use lieflow::scene::schema::Method;
-use lieflow::scene::{RunPlan, advance, run};
+use lieflow::scene::{RunPlan, advance_plan, run};
 
 pub(crate) mod plan;
 mod reference;
@@ -135,9 +135,9 @@ fn lieflow_row(
         Err(e) => return PrecisionRow::failed(name, Some(dt), None, "Setup", e.to_string()),
     };
     let observed = RunPlan {
-        steps: c.plan.steps,
         energy: true,
         residuals: true,
+        ..c.plan
     };
     let summary = run(c.simulation.as_mut(), &observed, &mut |_| {});
     if let Some(f) = &summary.error {
@@ -158,7 +158,8 @@ fn lieflow_row(
     'timed: for _ in 0..repeats {
         let Ok(mut c) = compile() else { break };
         let start = std::time::Instant::now();
-        let done = advance(c.simulation.as_mut(), c.plan.steps, &mut ());
+        let plan = c.plan;
+        let done = advance_plan(c.simulation.as_mut(), &plan, &mut ());
         if done.error.is_some() {
             break 'timed;
         }

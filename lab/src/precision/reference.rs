@@ -34,9 +34,9 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
     let at_order = |scheme: Method, order: Option<u32>, h: f64| -> Result<Vec<f64>, SceneError> {
         let mut c = lieflow::scene::compile_reference(&with_scheme(scene, scheme, order, h).file)?;
         let quiet = RunPlan {
-            steps: c.plan.steps,
             energy: false,
             residuals: false,
+            ..c.plan
         };
         let s = run(c.simulation.as_mut(), &quiet, &mut |_| {});
         match s.error {

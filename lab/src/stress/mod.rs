@@ -20,7 +20,7 @@ use fekete::fekete;
 pub use fekete::{FEKETE_MULTIPLIER, FEKETE_REFERENCE, fekete_initial_positions, fekete_scene};
 use lieflow::scene::observe::{EnergyDrift, NewtonMax, Residuals};
 use lieflow::scene::{Compiled, Scene};
-use lieflow::scene::{RunFailure, advance};
+use lieflow::scene::{RunFailure, advance_plan};
 use mechanisms::{andrews, bricard, four_bar};
 pub use scenes::{
     chain_scene, damped_chain_scene, stiff_spring_among_pins_scene, stiff_spring_scene,
@@ -198,14 +198,15 @@ struct Measured {
 fn simulate(c: &mut Compiled) -> Measured {
     let sim = c.simulation.as_mut();
     sim.reset_counters();
-    let steps = c.plan.steps;
+    let plan = c.plan;
+    let steps = plan.total_steps();
     let cond0 = sim.multiplier_condition();
     let mut watch = (
         Residuals::default(),
         EnergyDrift::new(sim, steps),
         NewtonMax::new(sim),
     );
-    let done = advance(sim, steps, &mut watch);
+    let done = advance_plan(sim, &plan, &mut watch);
     let (residuals, drift, newton) = watch;
     let cond1 = sim.multiplier_condition();
     let condition = match (cond0, cond1) {

@@ -203,7 +203,19 @@ impl Sweep {
                 )));
             }
         }
-        Ok(Self { file, base, values })
+        let sweep = Self { file, base, values };
+        // Every path must name a field of the scene: set each on the base and read the result
+        // as a scene (an index past the end, a misspelt key are refused here, before any
+        // member runs; a value a member's scene refuses stays that member's failure).
+        if let Some(first) = sweep.members().next() {
+            sweep.scene(&first).map_err(|e| {
+                bad(format!(
+                    "the parameters do not fit the base scene {scene_name}: {}",
+                    e.message.trim_end()
+                ))
+            })?;
+        }
+        Ok(sweep)
     }
 
     /// The number of members.
@@ -266,9 +278,7 @@ impl Sweep {
         }
         let file = toml::Value::Table(t)
             .try_into()
-            .map_err(|e: toml::de::Error| {
-                bad(format!("member {}: {}", m.id, e.message().trim_end()))
-            })?;
+            .map_err(|e: toml::de::Error| bad(e.message().trim_end().to_owned()))?;
         Ok(Scene::from_file(file))
     }
 }

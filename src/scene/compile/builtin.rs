@@ -2,7 +2,7 @@
 //! instead of declaring bodies.
 
 use super::{
-    Assembly, Compiled, MAX_BODIES, Result, err, initial_state_error,
+    Assembly, CANONICAL, Compiled, MAX_BODIES, Result, err, initial_state_error,
     scheme::{choose_scheme, plan, with_table},
 };
 use crate::error::SetupError;
@@ -11,7 +11,7 @@ use crate::flow::{
 };
 use crate::nonlinear::NewtonOptions;
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::run::{ModelRun, RunPlan, Simulation};
+use crate::scene::run::{ModelRun, Simulation};
 use crate::scene::schema::{Builtin, Method, Redundant, SceneFile};
 use crate::system::{System, Unconstrained};
 use faer::Col;
@@ -23,7 +23,8 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
     };
     use nalgebra::SVector;
     let path = FieldPath::root().key("builtin");
-    let (steps, energy, residuals, profile) = plan(&file.integrator, &file.flags)?;
+    let (run_plan, profile) = plan(&file.integrator, &file.flags)?;
+    let steps = run_plan.total_steps();
     // What a built-in model does not use is an error, not silently ignored.
     let unused = |what: &str, at: FieldPath| {
         Err(err(
@@ -131,7 +132,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                 "Zhang & Deng (2004) §4",
                 4,
                 1,
-                false,
+                "J non-canonical (the paper's state-dependent structure matrix)",
                 compose(table, inner),
                 order,
                 steps,
@@ -175,7 +176,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                 "free rigid body (Lie-Poisson, GNI constants)",
                 3,
                 0,
-                false,
+                "J non-canonical (Lie–Poisson, the rigid body's angular momentum)",
                 "implicit midpoint rule".to_owned(),
                 2,
                 steps,
@@ -205,7 +206,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                 "spherical pendulum (RATTLE)",
                 6,
                 1,
-                true,
+                CANONICAL,
                 compose(table, "projection around kick ∘ drift ∘ kick (RATTLE)"),
                 order,
                 steps,
@@ -242,7 +243,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
                 "pendulum chain",
                 chain.state_len(),
                 links,
-                true,
+                CANONICAL,
                 compose(table, "projection around kick ∘ drift ∘ kick (RATTLE)"),
                 order,
                 steps,
@@ -268,11 +269,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
     Ok(Compiled {
         simulation,
         assembly,
-        plan: RunPlan {
-            steps,
-            energy,
-            residuals,
-        },
+        plan: run_plan,
         model: None,
     })
 }
@@ -283,7 +280,7 @@ pub(super) fn builtin_assembly(
     what: &str,
     n: usize,
     m: usize,
-    canonical: bool,
+    structure: &str,
     scheme: String,
     order: u32,
     steps: usize,
@@ -293,11 +290,16 @@ pub(super) fn builtin_assembly(
         dim: None,
         bodies: 0,
         state_len: n,
-        constraints: vec![("built-in".to_owned(), m)],
+        constraints: if m == 0 {
+            Vec::new()
+        } else {
+            vec![("built-in".to_owned(), m)]
+        },
         constraint_rows: m,
         effects: vec![(what.to_owned(), "built-in".to_owned())],
         disabled: Vec::new(),
-        canonical,
+        canonical: structure == CANONICAL,
+        structure: structure.to_owned(),
         dissipative: false,
         case: Some("degenerate".to_owned()),
         projection: None,

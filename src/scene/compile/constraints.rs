@@ -238,7 +238,7 @@ pub(super) fn drop_dependent(model: &mut SceneModel, q: &[f64]) -> Result<Vec<St
 /// Gram matrix `G W⁻¹ Gᵀ` non-singular. The projection's own analysis is skipped for scenes (the
 /// case is known), and without this check a duplicated constraint would only fail at the first
 /// step, with a singular Newton matrix that names no constraint.
-pub(super) fn check_independent(model: &SceneModel, q: &[f64]) -> Result<()> {
+pub(super) fn check_independent(model: &SceneModel, q: &[f64], bodies: &Bodies) -> Result<()> {
     let singular = |e: LinearSolveError| match e {
         LinearSolveError::Singular { pivot, ratio, .. } => SetupError::RankDeficient {
             constraint: pivot,
@@ -251,8 +251,65 @@ pub(super) fn check_independent(model: &SceneModel, q: &[f64]) -> Result<()> {
         other => SetupError::Linear(other),
     };
     let mut gram = MassGram::new(model, q).map_err(|e| setup_error(model, singular(e)))?;
-    gram.factor(model, q)
-        .map_err(|e| setup_error(model, singular(e)))
+    let Err(e) = gram.factor(model, q) else {
+        return Ok(());
+    };
+    // Singular with the masses: redundant constraints, or masses so far apart that
+    // `G W⁻¹ Gᵀ` rounds to singular. `G Gᵀ` (unit masses) tells which.
+    let unit = vec![1.0; model.masses.len()];
+    if gram.factor_weighted(model, q, &unit).is_ok() {
+        return Err(mass_ratio_error(model, q, bodies, &e));
+    }
+    Err(setup_error(model, singular(e)))
+}
+
+/// The error for independent constraints whose force system `G W⁻¹ Gᵀ` is singular in double
+/// precision because the constrained bodies' masses are too far apart: it names the lightest
+/// and heaviest of them and the ratio.
+fn mass_ratio_error(
+    model: &SceneModel,
+    q: &[f64],
+    bodies: &Bodies,
+    e: &LinearSolveError,
+) -> SceneError {
+    let mut constrained = vec![false; model.masses.len()];
+    model.for_each_gradient(q, |_, body, _| constrained[body] = true);
+    let by_mass = |pick: fn(f64, f64) -> bool| {
+        (0..constrained.len())
+            .filter(|&b| constrained[b])
+            .reduce(|a, b| {
+                if pick(model.masses[b], model.masses[a]) {
+                    b
+                } else {
+                    a
+                }
+            })
+            .unwrap_or(0)
+    };
+    let (light, heavy) = (by_mass(|a, b| a < b), by_mass(|a, b| a > b));
+    let name = |b: usize| {
+        bodies
+            .list
+            .get(b)
+            .map_or_else(|| format!("body {b}"), |x| format!("'{}'", x.name))
+    };
+    let (row, ratio) = match e {
+        LinearSolveError::Singular { pivot, ratio, .. } => (*pivot, *ratio),
+        _ => (0, 0.0),
+    };
+    let path = constraint_term(model, row).map_or_else(FieldPath::root, |c| c.path.clone());
+    err(
+        SceneErrorKind::Value,
+        path,
+        format!(
+            "a mass ratio of {:.1e} among the constrained bodies ({} {:e}, {} {:e}): the constraints are independent, but the system for their forces, G W⁻¹ Gᵀ, is singular in double precision (pivot ratio {ratio:.1e}); bring the masses closer together",
+            model.masses[heavy] / model.masses[light],
+            name(light),
+            model.masses[light],
+            name(heavy),
+            model.masses[heavy],
+        ),
+    )
 }
 
 /// Turns a projection's setup error into a scene error that names the constraint and points at

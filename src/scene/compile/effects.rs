@@ -14,6 +14,8 @@ pub(super) struct Effects {
     pub(super) damping: Option<StructureTerm<f64>>,
     pub(super) magnetic: Option<StructureTerm<[f64; 3]>>,
     pub(super) disabled: Vec<String>,
+    /// Damping declared and on, zero on every body (see `SceneModel::zero_damping`).
+    pub(super) zero_damping: bool,
 }
 
 /// Checks every declared effect (switched on or not) and assembles the ones switched on.
@@ -24,6 +26,7 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
         damping: None,
         magnetic: None,
         disabled: Vec::new(),
+        zero_damping: false,
     };
     let mut cx = Assembler {
         bodies,
@@ -69,6 +72,7 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
             damping_labels.join("+")
         ));
         damping_labels.clear();
+        fx.zero_damping = true;
     }
     if !magnetic_labels.is_empty() && !magnetic.iter().any(|b| *b != [0.0; 3]) {
         fx.disabled.push(format!(

@@ -36,6 +36,9 @@ use std::sync::Arc;
 /// The most steps a run may plan (`t_end / dt`).
 pub const MAX_STEPS: usize = 1_000_000_000_000;
 
+/// [`Assembly::structure`] of a canonical `J`.
+pub const CANONICAL: &str = "J canonical";
+
 /// The largest number of unknowns (`n`, or `n + m` for the joint midpoint system) on which the
 /// implicit schemes factor a dense Newton matrix at every step.
 pub const DENSE_MAX_DIM: usize = 400;
@@ -61,6 +64,9 @@ pub struct Assembly {
     pub disabled: Vec<String>,
     /// The skew part `J` of `M` canonical (no magnetic field).
     pub canonical: bool,
+    /// What `J` is, in words: [`CANONICAL`], or what makes it non-canonical (a magnetic field,
+    /// a built-in model's Lie–Poisson structure).
+    pub structure: String,
     /// `M` has a dissipative part.
     pub dissipative: bool,
     /// The paper's case: `degenerate` (`⟨g,g⟩ = 0`) or `non-degenerate`; `None` without constraints.
@@ -176,7 +182,8 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             ));
         }
     };
-    let (steps, energy, residuals, profile) = plan(&file.integrator, &file.flags)?;
+    let (run_plan, profile) = plan(&file.integrator, &file.flags)?;
+    let steps = run_plan.total_steps();
     let (bodies, generated) = expand_bodies(file, dim)?;
     let mut disabled = Vec::new();
     let constraints = constraint_terms(file, &bodies, generated)?;
@@ -233,6 +240,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         profile,
     );
     model.inputs = compile_inputs(&file.inputs, &bodies, dim)?;
+    model.zero_damping = fx.zero_damping;
     let splitting = !matches!(
         file.integrator.scheme,
         Method::DiscreteGradient | Method::Midpoint | Method::Modified
@@ -296,7 +304,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
                 ));
             }
         }
-        check_independent(&model, &x0.as_slice()[..nq])?;
+        check_independent(&model, &x0.as_slice()[..nq], &bodies)?;
     }
     let dt = file.integrator.dt;
     let dissipative = model.is_dissipative();
@@ -338,6 +346,11 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         effects,
         disabled,
         canonical: model.is_canonical(),
+        structure: if model.is_canonical() {
+            CANONICAL.to_owned()
+        } else {
+            "J non-canonical (magnetic field)".to_owned()
+        },
         dissipative,
         case,
         projection,
@@ -386,11 +399,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     Ok(Compiled {
         simulation,
         assembly,
-        plan: RunPlan {
-            steps,
-            energy,
-            residuals,
-        },
+        plan: run_plan,
         model: Some(model),
     })
 }

@@ -15,6 +15,7 @@ use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{ConstraintKind, FreeFlight, KickCache, SceneModel};
+use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
 use crate::system::{Case, System};
 use crate::vector::Vector;
@@ -96,25 +97,11 @@ pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result
     Ok((raise, order))
 }
 
-pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(usize, bool, bool, bool)> {
+pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(RunPlan, bool)> {
     let path = FieldPath::root().key("integrator");
     let dt = positive(integ.dt, &path.key("dt"), "step size")?;
     let t_end = positive(integ.t_end, &path.key("t_end"), "final time")?;
-    let steps = (t_end / dt).round();
-    if steps > MAX_STEPS as f64 {
-        return Err(err(
-            SceneErrorKind::Value,
-            path.key("dt"),
-            format!("t_end / dt = {steps:.3e} steps, more than {MAX_STEPS:.0e}"),
-        ));
-    }
-    if steps < 1.0 {
-        return Err(err(
-            SceneErrorKind::Value,
-            path.key("t_end"),
-            format!("t_end = {t_end} is less than half a step (dt = {dt})"),
-        ));
-    }
+    let (steps, last_step) = step_grid(dt, t_end, &path)?;
     let (mut energy, mut residuals, mut profile) = (false, false, false);
     for d in &integ.diagnostics {
         match d {
@@ -124,11 +111,44 @@ pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(usize, bool
         }
     }
     Ok((
-        steps as usize,
-        energy && flags.energy,
-        residuals && flags.residuals,
+        RunPlan {
+            steps,
+            last_step,
+            t_end,
+            energy: energy && flags.energy,
+            residuals: residuals && flags.residuals,
+        },
         profile,
     ))
+}
+
+/// The steps that end a run exactly at `t_end`: `t_end / dt` full steps when `dt` divides
+/// `t_end` to within the rounding of the step times (`8 ε (t_end + dt)`, the slack of
+/// [`Stepper::advance_to`](crate::stepper::Stepper::advance_to)), otherwise the whole steps that
+/// fit and a shorter last one that lands on `t_end`. A step longer than the run is refused.
+fn step_grid(dt: f64, t_end: f64, path: &FieldPath) -> Result<(usize, Option<f64>)> {
+    if dt > t_end {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("dt"),
+            format!("the step dt = {dt} is longer than the run (t_end = {t_end})"),
+        ));
+    }
+    let ratio = t_end / dt;
+    if ratio > MAX_STEPS as f64 {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("dt"),
+            format!("t_end / dt = {ratio:.3e} steps, more than {MAX_STEPS:.0e}"),
+        ));
+    }
+    let slack = 8.0 * f64::EPSILON * (t_end + dt);
+    let nearest = ratio.round();
+    if (t_end - nearest * dt).abs() <= slack {
+        return Ok((nearest as usize, None));
+    }
+    let full = ratio.floor();
+    Ok((full as usize, Some(t_end - full * dt)))
 }
 
 /// The flow a scene's scheme builds, and what the assembly reports of it.

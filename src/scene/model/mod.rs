@@ -49,6 +49,9 @@ pub struct SceneModel<T = f64> {
     pub(crate) constraints: Vec<ConstraintTerm<T>>,
     pub(crate) m: usize,
     pub(crate) damping: Option<StructureTerm<T>>,
+    /// A damping effect is declared and switched on but zero on every body: no term, and a
+    /// run reports the energy it dissipated as 0, not as absent.
+    pub(crate) zero_damping: bool,
     pub(crate) magnetic: Option<StructureTerm<[T; 3]>>,
     pub(crate) kinetic: Counter,
     pub(crate) constraint_counter: Counter,
@@ -129,6 +132,7 @@ impl<T: Real> SceneModel<T> {
             flights,
             gravity_in_flight,
             inputs: None,
+            zero_damping: false,
         }
     }
 

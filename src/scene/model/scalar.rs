@@ -87,6 +87,7 @@ impl SceneModel<f64> {
             false,
         );
         model.inputs = self.inputs.as_ref().map(|i| i.with_scalar());
+        model.zero_damping = self.zero_damping;
         model
     }
 }

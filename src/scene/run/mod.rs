@@ -11,10 +11,11 @@ mod summary;
 
 pub(crate) use crate::scene::simulation::ModelRun;
 pub use crate::scene::simulation::{EffectReport, Simulation, SimulationCheckpoint};
-pub(crate) use summary::step_error_kind;
 pub use summary::{RunFailure, RunPlan, RunSummary, Sample};
+pub(crate) use summary::{step_error_advice, step_error_kind};
 
 use crate::scene::observe::{EnergyBudget, Residuals, RunObserver, StepClock};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// What [`advance`] did: the steps taken, and why it stopped early, if it did (the state is
@@ -25,22 +26,38 @@ pub struct Advanced {
     pub steps: usize,
     /// The failing step, if one failed.
     pub error: Option<RunFailure>,
+    /// The run was interrupted (its `interrupt` flag was raised) before it took every step.
+    pub interrupted: bool,
 }
 
 /// Takes up to `steps` steps of `sim`, calling `observer` after each successful one (with the
 /// step count of this run, from 1). A failing step ends the run. Nothing is measured that the
 /// observer does not measure (a [`StepClock`] times the steps).
 pub fn advance(sim: &mut dyn Simulation, steps: usize, observer: &mut dyn RunObserver) -> Advanced {
+    advance_until(sim, steps, observer, &AtomicBool::new(false))
+}
+
+/// [`advance`] that stops before the next step once `interrupt` is raised (by a signal
+/// handler, another thread): the state is then the last one reached, and observed.
+pub fn advance_until(
+    sim: &mut dyn Simulation,
+    steps: usize,
+    observer: &mut dyn RunObserver,
+    interrupt: &AtomicBool,
+) -> Advanced {
     for k in 0..steps {
+        if interrupt.load(Ordering::Relaxed) {
+            return Advanced {
+                steps: k,
+                error: None,
+                interrupted: true,
+            };
+        }
         if let Err(e) = sim.step() {
             return Advanced {
                 steps: k,
-                error: Some(RunFailure {
-                    step: k,
-                    t: sim.time(),
-                    kind: step_error_kind(&e).to_owned(),
-                    message: e.to_string(),
-                }),
+                error: Some(failure(k, sim, &e)),
+                interrupted: false,
             };
         }
         observer.observe(k + 1, sim);
@@ -48,19 +65,94 @@ pub fn advance(sim: &mut dyn Simulation, steps: usize, observer: &mut dyn RunObs
             return Advanced {
                 steps: k + 1,
                 error: None,
+                interrupted: false,
             };
         }
     }
-    Advanced { steps, error: None }
+    Advanced {
+        steps,
+        error: None,
+        interrupted: false,
+    }
 }
 
-/// Runs `plan.steps` steps of `sim`, computing the planned diagnostics after every step and
-/// passing each state to `observe` (also the initial one). A failing step ends the run: the
-/// state stays the last good one and the summary's `error` says what happened.
+fn failure(step: usize, sim: &dyn Simulation, e: &crate::error::StepError) -> RunFailure {
+    RunFailure {
+        step,
+        t: sim.time(),
+        kind: step_error_kind(e).to_owned(),
+        message: e.to_string(),
+        advice: step_error_advice(e, sim.dt()),
+    }
+}
+
+/// Takes the steps of `plan`: its full steps of `dt`, then, when `dt` does not divide `t_end`,
+/// the shorter last step that lands on `t_end` ([`Simulation::advance_to`]). Observed, failing
+/// and stopped like [`advance`].
+pub fn advance_plan(
+    sim: &mut dyn Simulation,
+    plan: &RunPlan,
+    observer: &mut dyn RunObserver,
+) -> Advanced {
+    advance_plan_until(sim, plan, observer, &AtomicBool::new(false))
+}
+
+/// [`advance_plan`] that stops once `interrupt` is raised, like [`advance_until`].
+pub fn advance_plan_until(
+    sim: &mut dyn Simulation,
+    plan: &RunPlan,
+    observer: &mut dyn RunObserver,
+    interrupt: &AtomicBool,
+) -> Advanced {
+    let done = advance_until(sim, plan.steps, observer, interrupt);
+    if done.error.is_some()
+        || done.interrupted
+        || sim.stopped().is_some()
+        || plan.last_step.is_none()
+    {
+        return done;
+    }
+    if interrupt.load(Ordering::Relaxed) {
+        return Advanced {
+            interrupted: true,
+            ..done
+        };
+    }
+    match sim.advance_to(plan.t_end) {
+        Ok(0) => done,
+        Ok(_) => {
+            observer.observe(done.steps + 1, sim);
+            Advanced {
+                steps: done.steps + 1,
+                ..done
+            }
+        }
+        Err(e) => Advanced {
+            error: Some(failure(done.steps, sim, &e)),
+            ..done
+        },
+    }
+}
+
+/// Runs the steps of `plan` (see [`advance_plan`]) of `sim`, computing the planned diagnostics
+/// after every step and passing each state to `observe` (also the initial one). A failing step
+/// ends the run: the state stays the last good one and the summary's `error` says what
+/// happened.
 pub fn run(
     sim: &mut dyn Simulation,
     plan: &RunPlan,
     observe: &mut dyn FnMut(&Sample<'_>),
+) -> RunSummary {
+    run_until(sim, plan, observe, &AtomicBool::new(false))
+}
+
+/// [`run`] that stops before the next step once `interrupt` is raised (Ctrl-C in the
+/// command): the summary then covers the steps taken and says `interrupted`.
+pub fn run_until(
+    sim: &mut dyn Simulation,
+    plan: &RunPlan,
+    observe: &mut dyn FnMut(&Sample<'_>),
+    interrupt: &AtomicBool,
 ) -> RunSummary {
     sim.reset_counters();
     let run_start = Instant::now();
@@ -89,7 +181,7 @@ pub fn run(
         clock.start();
     };
     each(0, sim);
-    let done = advance(sim, plan.steps, &mut each);
+    let done = advance_plan_until(sim, plan, &mut each, interrupt);
     let stats = sim.stats();
     let run_ns = run_start.elapsed().as_nanos() as f64;
     let effects = sim
@@ -107,7 +199,8 @@ pub fn run(
     RunSummary {
         t: sim.time(),
         steps: taken,
-        steps_planned: plan.steps,
+        steps_planned: plan.total_steps(),
+        last_step: plan.last_step.filter(|_| taken == plan.total_steps()),
         dt: sim.dt(),
         x: sim.state().to_vec(),
         max_abs_g: residuals.as_ref().and_then(|r| r.max_g),
@@ -132,5 +225,6 @@ pub fn run(
             0.0
         },
         error: done.error,
+        interrupted: done.interrupted,
     }
 }

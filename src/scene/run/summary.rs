@@ -8,12 +8,24 @@ use serde::Serialize;
 /// What to compute during a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunPlan {
-    /// Steps to take.
+    /// Steps of `dt` to take.
     pub steps: usize,
+    /// The length of one last, shorter step that lands on `t_end` when `dt` does not divide
+    /// it, taken after the `steps` full ones (`None` when the full steps end there).
+    pub last_step: Option<f64>,
+    /// The final time the run ends at.
+    pub t_end: f64,
     /// Evaluate `H` after every step.
     pub energy: bool,
     /// Evaluate `|g|` and `|φ|` after every step.
     pub residuals: bool,
+}
+
+impl RunPlan {
+    /// Every step the plan takes: the full ones and the shortened last one.
+    pub fn total_steps(&self) -> usize {
+        self.steps + usize::from(self.last_step.is_some())
+    }
 }
 
 /// The state after a step, with the diagnostics the plan asked for; passed to the run's observer.
@@ -46,6 +58,8 @@ pub struct RunFailure {
     pub kind: String,
     /// The error's message.
     pub message: String,
+    /// What to try instead, when the error says (a smaller `dt`, another scheme).
+    pub advice: Option<String>,
 }
 
 /// The summary of a run (printed as the command's final JSON line).
@@ -59,6 +73,9 @@ pub struct RunSummary {
     pub steps_planned: usize,
     /// Step size.
     pub dt: f64,
+    /// The length of the last step when it was shortened to end at `t_end` (`dt` does not
+    /// divide `t_end`); `None` when every step was `dt`.
+    pub last_step: Option<f64>,
     /// The final state.
     pub x: Vec<f64>,
     /// `max |g|` over the run (`None` without constraints or with the diagnostic off).
@@ -98,6 +115,26 @@ pub struct RunSummary {
     pub ns_per_step: f64,
     /// Why the run stopped early, if it did.
     pub error: Option<RunFailure>,
+    /// The run was interrupted (Ctrl-C) before its last step: the summary covers the steps
+    /// taken.
+    pub interrupted: bool,
+}
+
+/// What to try after a failed step, by the error's cause.
+pub(crate) fn step_error_advice(e: &StepError, dt: f64) -> Option<String> {
+    let smaller = format!(
+        "a smaller step (dt = {:e} or less: the multiplier system is nearer linear, its Newton start nearer the solution, the smaller the step)",
+        dt / 4.0
+    );
+    match e {
+        StepError::Newton { .. } | StepError::FixedPointNotConverged { .. } => Some(format!(
+            "the multiplier solve failed at this step size; try {smaller}; for stiff springs or damping, an implicit scheme (`scheme = \"midpoint\"`, `\"discrete-gradient\"` or `\"petrov-galerkin\"`) keeps larger steps stable"
+        )),
+        StepError::NonFinite { .. } => Some(format!(
+            "the state grew without bound: the step is past the explicit splitting's stability limit (ω dt < 2 for a spring of angular frequency ω); try {smaller}, or an implicit scheme (`scheme = \"midpoint\"`)"
+        )),
+        _ => None,
+    }
 }
 
 /// The variant name of a step error, for summaries.
