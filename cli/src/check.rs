@@ -97,4 +97,7 @@ pub(crate) fn print_assembly(a: &Assembly) {
             a.dropped_constraints.join(", ")
         );
     }
+    for note in &a.notes {
+        println!("note         {note}");
+    }
 }

@@ -1,14 +1,32 @@
 //! The run's CSV: a header naming the scene and scheme, then every `every`-th sample (and the
 //! last one), written as the run goes; an I/O error is kept and reported after the run.
+//!
+//! Columns: `step, t`, the state by name (`q.<body>.<axis>`, `p.<body>.<axis>`), the
+//! velocities `v.<body>.<axis> = p/m` for scenes of bodies, `energy, max_abs_g, max_abs_phi`,
+//! one `lambda.<constraint>` per constraint row (the multipliers `(λ_k + λ_{k+1})/2` of the step
+//! that reached the row's state; empty in the initial row), then the declared outputs.
 
 use lieflow::scene::{Assembly, Sample};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
+/// What a row holds besides the state, and the names of its columns.
+pub(crate) struct Columns {
+    /// The state's component names.
+    pub(crate) state: Vec<String>,
+    /// `1/m` per position coordinate, for the velocities (scenes of bodies).
+    pub(crate) inv_mass: Option<Vec<f64>>,
+    /// One name per constraint row.
+    pub(crate) multipliers: Vec<String>,
+    /// The declared outputs.
+    pub(crate) outputs: Vec<String>,
+}
+
 /// An observer of a run that writes its samples as CSV rows.
 pub(crate) struct CsvRows {
     w: BufWriter<File>,
+    columns: Columns,
     every: usize,
     steps: usize,
     /// The last sample seen was written (a run that stops early ends with its last state).
@@ -17,11 +35,10 @@ pub(crate) struct CsvRows {
 }
 
 impl CsvRows {
-    /// Creates `path` and writes the header for states of length `n`.
+    /// Creates `path` and writes the header.
     pub(crate) fn create(
         path: &Path,
-        n: usize,
-        outputs: &[String],
+        columns: Columns,
         a: &Assembly,
         every: usize,
         steps: usize,
@@ -29,12 +46,13 @@ impl CsvRows {
         let f = File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
         let mut rows = Self {
             w: BufWriter::new(f),
+            columns,
             every,
             steps,
             last_written: true,
             error: None,
         };
-        if let Err(e) = write_header(&mut rows.w, n, outputs, a) {
+        if let Err(e) = write_header(&mut rows.w, &rows.columns, a) {
             rows.error = Some(e);
         }
         Ok(rows)
@@ -61,18 +79,13 @@ impl CsvRows {
     }
 
     fn write(&mut self, s: &Sample<'_>) {
-        if let Err(e) = write_row(&mut self.w, s) {
+        if let Err(e) = write_row(&mut self.w, &self.columns, s) {
             self.error.get_or_insert(e);
         }
     }
 }
 
-fn write_header(
-    w: &mut impl Write,
-    n: usize,
-    outputs: &[String],
-    a: &Assembly,
-) -> std::io::Result<()> {
+fn write_header(w: &mut impl Write, c: &Columns, a: &Assembly) -> std::io::Result<()> {
     writeln!(
         w,
         "# lieflow {} scene: {}; scheme: {}",
@@ -81,11 +94,19 @@ fn write_header(
         a.scheme
     )?;
     write!(w, "step,t")?;
-    for i in 0..n {
-        write!(w, ",x{i}")?;
+    for name in &c.state {
+        write!(w, ",{name}")?;
+    }
+    if c.inv_mass.is_some() {
+        for name in c.state.iter().filter_map(|n| n.strip_prefix("p.")) {
+            write!(w, ",v.{name}")?;
+        }
     }
     write!(w, ",energy,max_abs_g,max_abs_phi")?;
-    for name in outputs {
+    for name in &c.multipliers {
+        write!(w, ",lambda.{name}")?;
+    }
+    for name in &c.outputs {
         write!(w, ",{name}")?;
     }
     writeln!(w)
@@ -93,13 +114,25 @@ fn write_header(
 
 /// A row: every number in its shortest form that reads back to the same `f64` (`{:?}`:
 /// scientific below 1e-5 and from 1e16, so a subnormal is `5e-324`, not 324 digits).
-fn write_row(w: &mut impl Write, s: &Sample<'_>) -> std::io::Result<()> {
+fn write_row(w: &mut impl Write, c: &Columns, s: &Sample<'_>) -> std::io::Result<()> {
     write!(w, "{},{:?}", s.step, s.t)?;
     for v in s.x {
         write!(w, ",{v:?}")?;
     }
+    if let Some(inv_mass) = &c.inv_mass {
+        let p = &s.x[s.x.len() / 2..];
+        for (p, w_i) in p.iter().zip(inv_mass) {
+            write!(w, ",{:?}", p * w_i)?;
+        }
+    }
     let opt = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{v:?}"));
     write!(w, ",{},{},{}", opt(s.energy), opt(s.g), opt(s.phi))?;
+    for k in 0..c.multipliers.len() {
+        match s.multipliers.get(k) {
+            Some(v) => write!(w, ",{v:?}")?,
+            None => write!(w, ",")?,
+        }
+    }
     for v in s.outputs {
         write!(w, ",{v:?}")?;
     }

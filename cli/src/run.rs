@@ -1,7 +1,7 @@
 //! `lieflow run`: a scene (the default scene without an argument) with a summary, CSV rows and
 //! a plot; the last line of stdout is a JSON summary.
 
-use crate::csv_rows::CsvRows;
+use crate::csv_rows::{Columns, CsvRows};
 use crate::interrupt;
 use crate::number::{count, num};
 use crate::progress::Progress;
@@ -70,8 +70,9 @@ pub(crate) struct RunArgs {
     /// Time each effect (adds a clock read per evaluation; shares go in the JSON).
     #[arg(long)]
     profile: bool,
-    /// Switch a declared part off, as `[flags] NAME = false` does (repeatable): gravity,
-    /// springs, pair, trap, damping, magnetic, constraints, energy, residuals.
+    /// Switch declared parts off (repeatable): a kind, as `[flags] NAME = false` does
+    /// (gravity, springs, pair, trap, damping, magnetic, constraints, energy, residuals), or
+    /// one effect or constraint by its `name`.
     #[arg(long, value_name = "NAME")]
     off: Vec<String>,
 }
@@ -90,9 +91,10 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         }
     }
     for name in &args.off {
-        if let Err(e) = scene.file.flags.set_named(name, false) {
-            eprintln!("error: --off: {e}");
-            return ExitCode::from(2);
+        // A kind of part (every gravity, every constraint) by its flag; otherwise one named
+        // effect or constraint (the compile refuses a name the scene does not have).
+        if scene.file.flags.set_named(name, false).is_err() {
+            scene.file.off.push(name.clone());
         }
     }
     if let Some(dt) = args.dt {
@@ -128,6 +130,9 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     };
     println!("{}", headline(&compiled.assembly, &compiled.plan, dt));
     let a = &compiled.assembly;
+    for note in &a.notes {
+        println!("  note: {note}");
+    }
     if let Some((dq, dp)) = a.initial_projection {
         println!("  initial state projected: max |dq| = {dq:.3e}, max |dp| = {dp:.3e}");
     }
@@ -145,9 +150,21 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     let every = args.every.unwrap_or((steps / 1000).max(1));
     let mut csv = match &args.csv {
         Some(p) => {
-            let n = compiled.simulation.state().len();
-            let names = compiled.simulation.output_names();
-            match CsvRows::create(p, n, &names, &compiled.assembly, every, steps) {
+            let sim = compiled.simulation.as_ref();
+            let columns = Columns {
+                state: sim.state_names(),
+                inv_mass: compiled.model.as_ref().map(|m| {
+                    let d = m.space_dim();
+                    m.inv_masses()
+                        .iter()
+                        .flat_map(|&w| std::iter::repeat_n(w, d))
+                        .collect()
+                }),
+                multipliers: sim.multiplier_names(),
+                outputs: sim.output_names(),
+            };
+            compiled.plan.multipliers = !columns.multipliers.is_empty();
+            match CsvRows::create(p, columns, &compiled.assembly, every, steps) {
                 Ok(rows) => Some(rows),
                 Err(e) => {
                     eprintln!("error: {e}");
@@ -163,6 +180,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     // The last state seen: a run that stops early still ends its CSV and plot with it.
     let mut last = (0usize, 0.0f64, None, None, None);
     let mut last_outputs: Vec<f64> = Vec::new();
+    let mut last_multipliers: Vec<f64> = Vec::new();
     let mut observe = |s: &Sample<'_>| {
         progress.observe(s);
         if args.plot.is_some() {
@@ -171,6 +189,8 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         last = (s.step, s.t, s.energy, s.g, s.phi);
         last_outputs.clear();
         last_outputs.extend_from_slice(s.outputs);
+        last_multipliers.clear();
+        last_multipliers.extend_from_slice(s.multipliers);
         if let Some(rows) = csv.as_mut() {
             rows.observe(s);
         }
@@ -191,6 +211,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         g: last.3,
         phi: last.4,
         outputs: &last_outputs,
+        multipliers: &last_multipliers,
     };
     if args.plot.is_some() {
         series.push(&final_sample, true);

@@ -70,11 +70,24 @@ fn a_bad_scene_exits_2_with_file_line_and_field() {
     assert!(o.stdout.is_empty());
     let o = lieflow(&["run", "--off", "gravitation"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("unknown flag"));
+    assert!(
+        stderr(&o).contains("--off gravitation: not a kind of part (gravity, springs"),
+        "{}",
+        stderr(&o)
+    );
     let o = lieflow(&["run", "--dt", "-1"]);
     assert_eq!(o.status.code(), Some(2));
     let o = lieflow(&["run", "--bogus"]);
     assert_eq!(o.status.code(), Some(2));
+}
+
+/// The constraint rows a run's first line reports.
+fn j_rows(o: &std::process::Output) -> usize {
+    let head = stdout(o);
+    let head = head.lines().next().unwrap();
+    let (_, rest) = head.split_once(" bod").unwrap();
+    let rows = rest.split(", ").nth(1).unwrap();
+    rows.split(' ').next().unwrap().parse().unwrap()
 }
 
 #[test]
@@ -113,15 +126,26 @@ fn csv_and_plot_are_written_and_flags_switch_effects_off() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    // step, t, 2·2·19 state entries, energy, max_abs_g, max_abs_phi.
-    assert_eq!(header.len(), 2 + 76 + 3);
+    // step, t, 2·2·19 state entries, 2·19 velocities, energy, max_abs_g, max_abs_phi, one
+    // multiplier per constraint row.
+    let m = j_rows(&o);
+    assert_eq!(header.len(), 2 + 76 + 38 + 3 + m);
     assert_eq!(header[..2], ["step", "t"]);
+    assert!(
+        header[2].starts_with("q.") && header[40].starts_with("p.") && header[78].starts_with("v.")
+    );
+    assert!(header[2 + 76 + 38 + 3].starts_with("lambda."), "{header:?}");
     let rows: Vec<&str> = lines.collect();
     assert_eq!(rows.len(), 200 / 10 + 1);
-    for r in &rows {
+    for (k, r) in rows.iter().enumerate() {
         assert_eq!(r.split(',').count(), header.len());
-        for v in r.split(',') {
-            v.parse::<f64>().unwrap();
+        for (i, v) in r.split(',').enumerate() {
+            // The initial row has no step, hence no multipliers.
+            if k == 0 && i >= 2 + 76 + 38 + 3 {
+                assert!(v.is_empty());
+            } else {
+                v.parse::<f64>().unwrap();
+            }
         }
     }
     let svg = std::fs::read_to_string(&svg).unwrap();
@@ -281,12 +305,16 @@ fn a_scene_with_ports_writes_its_outputs_events_and_budget() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let header = text.lines().nth(1).unwrap();
     assert!(
-        header.ends_with("max_abs_phi,bob.x,y.motor,power.motor,lambda0,supplied,dissipated"),
+        header.ends_with(
+            "max_abs_phi,lambda.rod:bob,bob.x,y.motor,power.motor,lambda0,supplied,dissipated"
+        ),
         "{header}"
     );
     let last: Vec<&str> = text.lines().last().unwrap().split(',').collect();
     let supplied: f64 = last[last.len() - 2].parse().unwrap();
-    assert_eq!(supplied, s["supplied"].as_f64().unwrap());
+    // serde_json reads floats to within an ulp (without its `float_roundtrip` feature).
+    let expected = s["supplied"].as_f64().unwrap();
+    assert!((supplied - expected).abs() <= 2.0 * f64::EPSILON * expected.abs());
     let plot = std::fs::read_to_string(&svg).unwrap();
     assert!(plot.contains("output power.motor"));
 }

@@ -167,8 +167,15 @@ fn numbers_print_in_one_format() {
         rows.lines().all(|l| l.len() < 2000),
         "a row of hundreds of digits"
     );
+    let column = rows
+        .lines()
+        .find(|l| l.starts_with("step,"))
+        .unwrap()
+        .split(',')
+        .position(|c| c == "energy")
+        .unwrap();
     let last = rows.lines().last().unwrap();
-    let energy: f64 = last.split(',').nth(6).unwrap().parse().unwrap();
+    let energy: f64 = last.split(',').nth(column).unwrap().parse().unwrap();
     let final_energy = summary(&o)["energy_final"].as_f64().unwrap();
     assert!((energy - final_energy).abs() <= 2.0 * f64::EPSILON * final_energy.abs());
 }
@@ -377,4 +384,112 @@ fn a_sweep_with_a_path_the_scene_lacks_is_refused_before_any_member_runs() {
         );
         assert!(!stdout(&o).contains("member 0"), "no member ran");
     }
+}
+
+#[test]
+fn what_is_accepted_but_unexpected_is_said_once_as_a_note() {
+    // A rod longer than the initial distance by 1e-11: accepted (below √ε), and said.
+    let f = pendulum_with("rod_off.toml", "length = 1.0", "length = 1.00000000001");
+    let o = lieflow(&["run", &f, "--t-end", "0.1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("note: the initial positions are off the constraints by 1.0e-11 at constraints[0] rod 'bob'–point"),
+        "{text}"
+    );
+    assert!(
+        summary(&o)["max_abs_g"].as_f64().unwrap() > 5e-12,
+        "the note explains this"
+    );
+    // Two gravities add, and check says so.
+    let g = pendulum_with(
+        "two_gravities.toml",
+        "[integrator]",
+        "[[effects]]\ntype = \"gravity\"\ng = [0.0, -1.0]\n\n[integrator]",
+    );
+    let text = stdout(&lieflow(&["check", &g]));
+    assert!(
+        text.contains("note         effects[2] is a second gravity: it adds to effects[0]"),
+        "{text}"
+    );
+    // The repository's scenes need no note.
+    let text = stdout(&lieflow(&["check", &repo("scenes/damped_pendulum.toml")]));
+    assert!(!text.contains("note"), "{text}");
+}
+
+#[test]
+fn the_csv_names_its_columns_and_holds_velocities_and_named_multipliers() {
+    // A named rod to a fixed point: its multiplier column carries the name.
+    let f = pendulum_with(
+        "named_rod.toml",
+        "type = \"rod\"\nbodies = [\"bob\"]",
+        "type = \"rod\"\nname = \"hinge\"\nbodies = [\"bob\"]",
+    );
+    let csv = scratch("named.csv");
+    let o = lieflow(&["run", &f, "--t-end", "0.05", "--csv", csv.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header = lines.next().unwrap();
+    assert_eq!(
+        header,
+        "step,t,q.bob.x,q.bob.y,p.bob.x,p.bob.y,v.bob.x,v.bob.y,energy,max_abs_g,max_abs_phi,lambda.hinge"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows[0][11], "", "no multiplier before the first step");
+    let value = |r: &Vec<&str>, i: usize| r[i].parse::<f64>().unwrap();
+    // g = (|q|² − L²)/2, so the rod's force on the bob is −λ q, its magnitude λ |q| = λ L:
+    // the tension m g cos θ + m |v|²/L (the damping acts across the rod).
+    let tension = |r: &Vec<&str>| 9.81 * -value(r, 3) + value(r, 6).powi(2) + value(r, 7).powi(2);
+    for pair in rows.windows(2) {
+        let (before, r) = (&pair[0], &pair[1]);
+        // Unit mass: v = p.
+        assert_eq!(value(r, 6), value(r, 4));
+        assert_eq!(value(r, 7), value(r, 5));
+        // λ is the step's (λ_k + λ_{k+1})/2: the tension at the step's middle, which the mean
+        // of its ends matches to h² T''/8 ≤ 5e-3 (T'' ≤ 400 here).
+        let mean = 0.5 * (tension(before) + tension(r));
+        assert!(
+            (value(r, 11) - mean).abs() < 5e-3,
+            "{} against {mean}",
+            value(r, 11)
+        );
+    }
+    // The name is what the messages call it, and what --off switches off.
+    let o = lieflow(&["run", &f, "--t-end", "0.05", "--off", "hinge"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with("damped pendulum: 1 body, 0 constraint rows"),
+        "{}",
+        stdout(&o)
+    );
+    let text = stdout(&lieflow(&["check", &f]));
+    assert!(text.contains("1 row: 1 rod"), "{text}");
+    let o = lieflow(&["run", &f, "--off", "hinj"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("no effect or constraint is named 'hinj' (named here: 'hinge')"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn off_switches_one_named_effect_and_leaves_the_others() {
+    // The default scene names its spring and its damper: switch the spring off.
+    let o = lieflow(&["run", "--t-end", "0.01", "--off", "coupling"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = summary(&o);
+    let names: Vec<&str> = j["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["kinetic", "gravity", "right damper", "constraints"]);
+    let text = stdout(&lieflow(&[
+        "check",
+        &scene_file("default.toml", &stdout(&lieflow(&["scene"]))),
+    ]));
+    assert!(text.contains("coupling"), "{text}");
 }

@@ -61,6 +61,11 @@ pub struct SceneFile {
     /// Switches that turn declared parts off without deleting them.
     #[serde(default)]
     pub flags: Flags,
+    /// Named effects and constraints switched off (the command's `--off NAME`), as if they
+    /// were not written; listed among the assembly's switched-off parts. Not read from the
+    /// file.
+    #[serde(skip)]
+    pub off: Vec<String>,
 }
 
 /// A ready model of the library, run through the same command and summary as a scene.
@@ -177,6 +182,10 @@ pub struct GridSpec {
 pub enum ConstraintSpec {
     /// `q_b = point` for each body `b` (`dim` equations each).
     Pin {
+        /// A name: the constraint's label in messages, its multipliers' CSV columns, and
+        /// what `--off NAME` switches off.
+        #[serde(default)]
+        name: Option<String>,
         /// The bodies pinned.
         bodies: Vec<String>,
         /// Where (default: each body's initial position; only for a single body).
@@ -185,6 +194,10 @@ pub enum ConstraintSpec {
     },
     /// `|q_a − q_b| = length` between two bodies, or between one body and a fixed `point`.
     Rod {
+        /// A name: the constraint's label in messages, its multipliers' CSV columns, and
+        /// what `--off NAME` switches off.
+        #[serde(default)]
+        name: Option<String>,
         /// One or two bodies.
         bodies: Vec<String>,
         /// The fixed end, when one body is named.
@@ -196,6 +209,10 @@ pub enum ConstraintSpec {
     },
     /// `|q_b − center| = radius` for each body `b`.
     Sphere {
+        /// A name: the constraint's label in messages, its multipliers' CSV columns, and
+        /// what `--off NAME` switches off.
+        #[serde(default)]
+        name: Option<String>,
         /// The bodies held on the sphere.
         bodies: Vec<String>,
         /// Centre (default: the origin).
@@ -207,6 +224,10 @@ pub enum ConstraintSpec {
     },
     /// `n · q_b = offset` for each body `b` (`n` normalized).
     Plane {
+        /// A name: the constraint's label in messages, its multipliers' CSV columns, and
+        /// what `--off NAME` switches off.
+        #[serde(default)]
+        name: Option<String>,
         /// The bodies held on the plane.
         bodies: Vec<String>,
         /// The normal, non-zero.
@@ -215,6 +236,18 @@ pub enum ConstraintSpec {
         #[serde(default)]
         offset: Option<f64>,
     },
+}
+
+impl ConstraintSpec {
+    /// Its `name`, if the file gives one.
+    pub fn name(&self) -> Option<&String> {
+        match self {
+            Self::Pin { name, .. }
+            | Self::Rod { name, .. }
+            | Self::Sphere { name, .. }
+            | Self::Plane { name, .. } => name.as_ref(),
+        }
+    }
 }
 
 pub use super::effects::{

@@ -68,6 +68,22 @@ pub trait Simulation {
     fn output_names(&self) -> Vec<String> {
         Vec::new()
     }
+    /// The names of the state's components: `q.<body>.<axis>` then `p.<body>.<axis>` for a
+    /// scene of bodies, `x<i>` otherwise.
+    fn state_names(&self) -> Vec<String> {
+        (0..self.state().len()).map(|i| format!("x{i}")).collect()
+    }
+    /// The velocities `v = p/m` of a scene's bodies (in the order of the positions) into
+    /// `out`, and `true`; `false` (and `out` empty) when the state has no bodies.
+    fn velocities(&self, out: &mut Vec<f64>) -> bool {
+        out.clear();
+        false
+    }
+    /// One name per constraint row (the multipliers' columns): the constraint's `name`, or
+    /// its kind and bodies (`rod:a-b`).
+    fn multiplier_names(&self) -> Vec<String> {
+        Vec::new()
+    }
     /// The declared outputs at the current state, into `out` (allocates nothing once `out`
     /// has room).
     fn outputs(&mut self, out: &mut Vec<f64>) {
@@ -329,6 +345,32 @@ where
         let d = self.stepper.ledger().dissipated;
         let books = self.watch.as_ref().is_some_and(|w| w.dissipated);
         (books || d != 0.0).then_some(d)
+    }
+    fn state_names(&self) -> Vec<String> {
+        match &self.model {
+            Some(m) if m.state_names.len() == self.state().len() => m.state_names.clone(),
+            _ => (0..self.state().len()).map(|i| format!("x{i}")).collect(),
+        }
+    }
+    fn velocities(&self, out: &mut Vec<f64>) -> bool {
+        out.clear();
+        let Some(model) = &self.model else {
+            return false;
+        };
+        let x = self.state();
+        let p = &x[x.len() / 2..];
+        let d = model.dim;
+        out.extend(
+            p.iter()
+                .enumerate()
+                .map(|(i, &pi)| pi * model.inv_masses[i / d]),
+        );
+        true
+    }
+    fn multiplier_names(&self) -> Vec<String> {
+        self.model
+            .as_ref()
+            .map_or_else(Vec::new, |m| m.multiplier_names.clone())
     }
     fn output_names(&self) -> Vec<String> {
         self.watch.as_ref().map_or_else(Vec::new, |w| {

@@ -310,6 +310,7 @@ pub(super) fn builtin_assembly(
         steps,
         initial_projection: None,
         dropped_constraints: Vec::new(),
+        notes: Vec::new(),
         inputs: Vec::new(),
         outputs: Vec::new(),
         events: Vec::new(),

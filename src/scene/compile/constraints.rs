@@ -14,18 +14,50 @@ use crate::scene::gram::MassGram;
 use crate::scene::model::{ConstraintKind, ConstraintTerm, SceneModel};
 use crate::scene::schema::{ConstraintSpec, SceneFile};
 
+/// The declared constraints' terms after the generators' own, each labelled with its name when
+/// it has one; a constraint whose name is in `file.off` is checked and left out, and listed in
+/// `disabled`.
 pub(super) fn constraint_terms(
     file: &SceneFile,
     bodies: &Bodies,
     generated: Vec<Declared>,
+    disabled: &mut Vec<String>,
 ) -> Result<Vec<Declared>> {
     let dim = bodies.dim;
     let mut out = generated;
     let root = FieldPath::root().key("constraints");
     for (i, c) in file.constraints.iter().enumerate() {
         let path = root.index(i);
+        let start = out.len();
+        declared_terms(c, i, &path, bodies, dim, &mut out)?;
+        if let Some(name) = c.name() {
+            if file.off.contains(name) {
+                out.truncate(start);
+                disabled.push(format!("constraints[{i}] '{name}'"));
+                continue;
+            }
+            for term in &mut out[start..] {
+                term.1 = format!("'{name}' ({})", term.1);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The terms of one declared constraint `c`, the `i`-th, appended to `out`.
+fn declared_terms(
+    c: &ConstraintSpec,
+    i: usize,
+    path: &FieldPath,
+    bodies: &Bodies,
+    dim: usize,
+    out: &mut Vec<Declared>,
+) -> Result<()> {
+    {
         match c {
-            ConstraintSpec::Pin { bodies: sel, point } => {
+            ConstraintSpec::Pin {
+                bodies: sel, point, ..
+            } => {
                 let list = bodies.select_all(sel, &path.key("bodies"))?;
                 if point.is_some() && list.len() != 1 {
                     return Err(err(
@@ -47,6 +79,7 @@ pub(super) fn constraint_terms(
                 bodies: sel,
                 point,
                 length,
+                ..
             } => {
                 let bp = path.key("bodies");
                 let ends: Vec<usize> = sel
@@ -111,6 +144,7 @@ pub(super) fn constraint_terms(
                 bodies: sel,
                 center,
                 radius,
+                ..
             } => {
                 let center = vector_or(center, dim, &path.key("center"), [0.0; 3])?;
                 let radius = radius
@@ -140,6 +174,7 @@ pub(super) fn constraint_terms(
                 bodies: sel,
                 normal,
                 offset,
+                ..
             } => {
                 let n = vector(normal, dim, &path.key("normal"))?;
                 let len = norm(n);
@@ -175,7 +210,7 @@ pub(super) fn constraint_terms(
             }
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The label of the constraint term that owns row `row`.

@@ -40,8 +40,8 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
     for (i, e) in file.effects.iter().enumerate() {
         let path = root.index(i);
         let kind = e.kind();
-        let on = file.flags.get(e.flag());
         let label = e.label().cloned().unwrap_or_else(|| kind.name().to_owned());
+        let on = file.flags.get(e.flag()) && !e.label().is_some_and(|n| file.off.contains(n));
         let potential = e.assemble(&mut cx, &path, &label, on)?;
         if !on {
             fx.disabled

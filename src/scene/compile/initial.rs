@@ -51,10 +51,19 @@ pub(super) fn off_constraints(
     model: &Arc<SceneModel>,
     x: &Col<f64>,
 ) -> Option<(f64, usize, &'static str)> {
+    constraint_offset(model, x, f64::EPSILON.sqrt()).map(|(_, v, r, level)| (v, r, level))
+}
+
+/// The worst violation of `g = 0` (then of `G v = 0`) whose ratio to its row's scale
+/// ([`row_scales`]) exceeds `tol`: `(ratio, value, row, "position"|"velocity")`.
+pub(super) fn constraint_offset(
+    model: &Arc<SceneModel>,
+    x: &Col<f64>,
+    tol: f64,
+) -> Option<(f64, f64, usize, &'static str)> {
     let m = model.m;
     let nq = model.state_len() / 2;
     let scales = row_scales(model, &x.as_slice()[..nq]);
-    let tol = f64::EPSILON.sqrt();
     let mut g = vec![0.0; m];
     HolonomicConstraint::<Col<f64>>::residual(model, x, &mut g);
     let worst = |g: &[f64], scale: &dyn Fn(usize) -> f64| {
@@ -65,7 +74,7 @@ pub(super) fn off_constraints(
     };
     let (ratio, v, r) = worst(&g, &|i| scales[i].0);
     if ratio > tol {
-        return Some((v, r, "position"));
+        return Some((ratio, v, r, "position"));
     }
     let vel = velocity_state(model, x);
     let vscale = vel.as_slice()[..nq]
@@ -76,8 +85,12 @@ pub(super) fn off_constraints(
     }
     HolonomicConstraint::<Col<f64>>::jacobian_apply(model, x, &vel, &mut g);
     let (ratio, v, r) = worst(&g, &|i| scales[i].1 * vscale);
-    (ratio > tol).then_some((v, r, "velocity"))
+    (ratio > tol).then_some((ratio, v, r, "velocity"))
 }
+
+/// How far above round-off an accepted initial state may be off its constraints before the
+/// run says so: `64 ε` relative to a row's scale.
+pub(super) const ROUND_OFF_RATIO: f64 = 64.0 * f64::EPSILON;
 
 /// `(v, 0)` as a state-sized vector whose first half holds the velocities `p/m`.
 pub(super) fn velocity_state(model: &SceneModel, x: &Col<f64>) -> Col<f64> {

@@ -3,6 +3,7 @@
 
 pub(crate) mod bodies;
 mod builtin;
+mod columns;
 mod constraints;
 mod effects;
 mod initial;
@@ -27,7 +28,7 @@ use builtin::compile_builtin;
 use constraints::{check_independent, constraint_term, constraint_terms, drop_dependent};
 use effects::assemble_effects;
 use faer::Col;
-use initial::{off_constraints, project_initial};
+use initial::{ROUND_OFF_RATIO, constraint_offset, off_constraints, project_initial};
 pub use raise::Raise;
 use scheme::{SchemeFlow, choose_scheme, plan, scheme_flow};
 pub use scheme::{Splitting, splitting_flow};
@@ -87,6 +88,10 @@ pub struct Assembly {
     pub initial_projection: Option<(f64, f64)>,
     /// Redundant constraints removed (`redundant = "drop-dependent"`), by label.
     pub dropped_constraints: Vec<String>,
+    /// What the scene does that a reader might not expect and that is accepted, said once:
+    /// effects that add up (two gravities), an initial state off its constraints by more
+    /// than round-off but less than the refusal threshold.
+    pub notes: Vec<String>,
     /// The declared inputs: `(name, what it drives)`.
     pub inputs: Vec<(String, String)>,
     /// The declared outputs' column names.
@@ -186,7 +191,8 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     let steps = run_plan.total_steps();
     let (bodies, generated) = expand_bodies(file, dim)?;
     let mut disabled = Vec::new();
-    let constraints = constraint_terms(file, &bodies, generated)?;
+    check_off_names(file)?;
+    let constraints = constraint_terms(file, &bodies, generated, &mut disabled)?;
     let constraints = if file.flags.constraints {
         constraints
     } else {
@@ -266,6 +272,8 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             drop_dependent(&mut model, &q0)?
         }
     };
+    model.state_names = columns::state_names(&bodies);
+    model.multiplier_names = columns::multiplier_names(&model, &bodies, file);
     let model = Arc::new(model);
     let n = model.state_len();
     let nq = n / 2;
@@ -279,6 +287,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     let (raise, order) = choose_scheme(&file.integrator, model.is_dissipative() && !backward)?;
     let m = model.m;
     let mut initial_projection = None;
+    let mut notes = gravity_notes(file);
     if m > 0 {
         let off = off_constraints(&model, &x0);
         if let Some((value, row, level)) = off {
@@ -303,6 +312,15 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
                     ),
                 ));
             }
+        }
+        if initial_projection.is_none()
+            && let Some((ratio, value, row, level)) =
+                constraint_offset(&model, &x0, ROUND_OFF_RATIO)
+        {
+            let label = constraint_term(&model, row).map_or_else(String::new, |c| c.label.clone());
+            notes.push(format!(
+                "the initial {level}s are off the constraints by {value:.1e} at {label} ({ratio:.0e} of its scale: accepted below √ε = 1.5e-8, above round-off); the first step projects them, so max |g| reports it at t = 0; fix the {level}s or set `integrator.project_initial = true`"
+            ));
         }
         check_independent(&model, &x0.as_slice()[..nq], &bodies)?;
     }
@@ -361,6 +379,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         steps,
         initial_projection,
         dropped_constraints,
+        notes,
         inputs: file
             .inputs
             .iter()
@@ -402,4 +421,57 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         plan: run_plan,
         model: Some(model),
     })
+}
+
+/// A note for each gravity beyond the first that is switched on: their fields add.
+fn gravity_notes(file: &SceneFile) -> Vec<String> {
+    let gravities: Vec<usize> = file
+        .effects
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| {
+            matches!(e, crate::scene::schema::EffectSpec::Gravity(_)) && file.flags.get(e.flag())
+        })
+        .map(|(i, _)| i)
+        .collect();
+    gravities
+        .iter()
+        .skip(1)
+        .map(|i| {
+            format!(
+                "effects[{i}] is a second gravity: it adds to effects[{}] (the bodies both select feel the sum of the fields)",
+                gravities[0]
+            )
+        })
+        .collect()
+}
+
+/// Every name in `file.off` must name an effect or a constraint of the scene.
+fn check_off_names(file: &SceneFile) -> Result<()> {
+    let names: Vec<&String> = file
+        .effects
+        .iter()
+        .filter_map(|e| e.label())
+        .chain(file.constraints.iter().filter_map(|c| c.name()))
+        .collect();
+    match file.off.iter().find(|n| !names.contains(n)) {
+        None => Ok(()),
+        Some(n) => Err(err(
+            SceneErrorKind::Reference,
+            FieldPath::root(),
+            format!(
+                "--off {n}: not a kind of part ({}) and no effect or constraint is named '{n}' (named here: {})",
+                crate::scene::schema::Flag::names(),
+                if names.is_empty() {
+                    "none".to_owned()
+                } else {
+                    names
+                        .iter()
+                        .map(|s| format!("'{s}'"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            ),
+        )),
+    }
 }

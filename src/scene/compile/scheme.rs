@@ -117,6 +117,7 @@ pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(RunPlan, bo
             t_end,
             energy: energy && flags.energy,
             residuals: residuals && flags.residuals,
+            multipliers: false,
         },
         profile,
     ))

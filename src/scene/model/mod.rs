@@ -52,6 +52,10 @@ pub struct SceneModel<T = f64> {
     /// A damping effect is declared and switched on but zero on every body: no term, and a
     /// run reports the energy it dissipated as 0, not as absent.
     pub(crate) zero_damping: bool,
+    /// The state's component names (`q.<body>.<axis>`, `p.<body>.<axis>`), for CSV columns.
+    pub(crate) state_names: Vec<String>,
+    /// One name per constraint row, for the multipliers' CSV columns.
+    pub(crate) multiplier_names: Vec<String>,
     pub(crate) magnetic: Option<StructureTerm<[T; 3]>>,
     pub(crate) kinetic: Counter,
     pub(crate) constraint_counter: Counter,
@@ -133,6 +137,8 @@ impl<T: Real> SceneModel<T> {
             gravity_in_flight,
             inputs: None,
             zero_damping: false,
+            state_names: Vec::new(),
+            multiplier_names: Vec::new(),
         }
     }
 

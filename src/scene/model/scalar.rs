@@ -88,6 +88,8 @@ impl SceneModel<f64> {
         );
         model.inputs = self.inputs.as_ref().map(|i| i.with_scalar());
         model.zero_damping = self.zero_damping;
+        model.state_names.clone_from(&self.state_names);
+        model.multiplier_names.clone_from(&self.multiplier_names);
         model
     }
 }

@@ -161,6 +161,7 @@ pub fn run_until(
     let mut clock = StepClock::default();
     let with_outputs = !sim.output_names().is_empty();
     let mut outputs = Vec::new();
+    let mut multipliers = Vec::new();
     let mut each = |step: usize, sim: &mut dyn Simulation| {
         clock.stop();
         energy.observe(step, sim);
@@ -168,6 +169,9 @@ pub fn run_until(
         let last = residuals.as_ref().and_then(|r| r.last);
         if with_outputs {
             sim.outputs(&mut outputs);
+        }
+        if plan.multipliers && step > 0 {
+            multipliers = sim.multipliers().unwrap_or_default();
         }
         observe(&Sample {
             step,
@@ -177,6 +181,7 @@ pub fn run_until(
             g: last.map(|r| r.0),
             phi: last.map(|r| r.1),
             outputs: &outputs,
+            multipliers: &multipliers,
         });
         clock.start();
     };

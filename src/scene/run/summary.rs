@@ -19,6 +19,9 @@ pub struct RunPlan {
     pub energy: bool,
     /// Evaluate `|g|` and `|φ|` after every step.
     pub residuals: bool,
+    /// Pass the step's multipliers `(λ_k + λ_{k+1})/2` to the observer (a copy per step: for
+    /// writing them out, off by default).
+    pub multipliers: bool,
 }
 
 impl RunPlan {
@@ -45,6 +48,9 @@ pub struct Sample<'a> {
     pub phi: Option<f64>,
     /// The declared outputs (see [`Simulation::output_names`](crate::scene::Simulation::output_names)).
     pub outputs: &'a [f64],
+    /// The multipliers of the step that reached this state, when the plan asks for them and
+    /// the scheme is a projection (empty otherwise; see [`Simulation::multipliers`](crate::scene::Simulation::multipliers)).
+    pub multipliers: &'a [f64],
 }
 
 /// Why a run stopped early.

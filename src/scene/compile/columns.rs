@@ -1,0 +1,75 @@
+//! The names a run's CSV gives the state and the multipliers: `q.<body>.<axis>`,
+//! `p.<body>.<axis>` and `v.<body>.<axis>` per body, and one `lambda.<constraint>` column per
+//! constraint row — the constraint's `name` when the file gives one, otherwise its kind and
+//! bodies (`rod:a-b`, `rod:a` to a fixed point, `pin:a.x`, `sphere:a`, `plane:a`).
+
+use super::bodies::Bodies;
+use crate::scene::error::FieldPath;
+use crate::scene::model::{ConstraintKind, SceneModel};
+use crate::scene::schema::SceneFile;
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// `q.<body>.<axis>` for every position coordinate, then `p.<body>.<axis>` for every momentum.
+pub(super) fn state_names(bodies: &Bodies) -> Vec<String> {
+    let dim = bodies.dim;
+    ["q", "p"]
+        .iter()
+        .flat_map(|part| {
+            bodies.list.iter().flat_map(move |b| {
+                AXES[..dim]
+                    .iter()
+                    .map(move |axis| format!("{part}.{}.{axis}", b.name))
+            })
+        })
+        .collect()
+}
+
+/// One name per constraint row of `model`, in row order.
+pub(super) fn multiplier_names(
+    model: &SceneModel,
+    bodies: &Bodies,
+    file: &SceneFile,
+) -> Vec<String> {
+    let name = |b: usize| bodies.list[b].name.as_str();
+    let root = FieldPath::root().key("constraints");
+    // How many terms each named declaration produced: a name alone when it made one term,
+    // the name and the body when it made several.
+    let declared_name = |path: &FieldPath| {
+        file.constraints.iter().enumerate().find_map(|(i, c)| {
+            let n = c.name()?;
+            (root.index(i) == *path).then(|| {
+                let terms = model.constraints.iter().filter(|t| t.path == *path).count();
+                (n.clone(), terms > 1)
+            })
+        })
+    };
+    let mut out = Vec::with_capacity(model.m);
+    for term in &model.constraints {
+        let named = declared_name(&term.path);
+        let (kind, body) = match &term.kind {
+            ConstraintKind::Pin { body, .. } => ("pin", name(*body).to_owned()),
+            ConstraintKind::Rod { a, b: Some(b), .. } => {
+                ("rod", format!("{}-{}", name(*a), name(*b)))
+            }
+            ConstraintKind::Rod { a, b: None, .. } => ("rod", name(*a).to_owned()),
+            ConstraintKind::Sphere { body, .. } => ("sphere", name(*body).to_owned()),
+            ConstraintKind::Plane { body, .. } => ("plane", name(*body).to_owned()),
+        };
+        let base = match named {
+            Some((n, false)) => n,
+            Some((n, true)) => format!("{n}:{body}"),
+            None => format!("{kind}:{body}"),
+        };
+        if matches!(term.kind, ConstraintKind::Pin { .. }) {
+            out.extend(
+                AXES[..model.dim]
+                    .iter()
+                    .map(|axis| format!("{base}.{axis}")),
+            );
+        } else {
+            out.push(base);
+        }
+    }
+    out
+}
