@@ -493,3 +493,24 @@ fn off_switches_one_named_effect_and_leaves_the_others() {
     ]));
     assert!(text.contains("coupling"), "{text}");
 }
+
+#[test]
+fn precision_without_a_scene_measures_the_damped_pendulum_in_seconds_and_shows_progress() {
+    let start = std::time::Instant::now();
+    let o = lieflow(&["precision", "--repeats", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with("damped pendulum: T = 10"),
+        "{}",
+        stdout(&o)
+    );
+    // stderr is a pipe here: one progress line per run instead of a spinner.
+    let e = stderr(&o);
+    assert!(
+        e.contains("[1 runs, ") && e.contains("lieflow order 2"),
+        "{e}"
+    );
+    let j = summary(&o);
+    assert_eq!(j["failed"], 0);
+    assert!(start.elapsed().as_secs() < 60, "{:?}", start.elapsed());
+}

@@ -115,6 +115,16 @@ pub struct ChainSpec {
     /// Direction the chain initially points in (default: along the first axis).
     #[serde(default)]
     pub direction: Option<Vec<f64>>,
+    /// 2D: each link's initial angle from the downward vertical (`−y`), in degrees,
+    /// counter-clockwise positive — one value for every link or one per link; instead of
+    /// `direction`. A pendulum is a chain of one link.
+    #[serde(default)]
+    pub angles_deg: Option<Vec<f64>>,
+    /// 2D, with `angles_deg`: each link's initial angular velocity in degrees per second (one
+    /// value or one per link; default 0). The bodies' velocities follow from them, so they
+    /// satisfy the rods' hidden constraints exactly.
+    #[serde(default)]
+    pub angular_velocities_deg: Option<Vec<f64>>,
     /// Length of every link, positive.
     pub length: f64,
     /// Mass of every body, positive.
@@ -284,6 +294,12 @@ pub struct IntegratorSpec {
     /// positions then velocities) and report by how much, instead of refusing it.
     #[serde(default)]
     pub project_initial: bool,
+    /// Make the initial velocities consistent with the constraints — the velocities nearest
+    /// the given ones in the kinetic-energy metric with `G v = 0`,
+    /// `v ← v − W⁻¹Gᵀ (G W⁻¹ Gᵀ)⁻¹ G v` — and report by how much; the positions must satisfy
+    /// the constraints as given (refused otherwise, unless `project_initial`).
+    #[serde(default)]
+    pub consistent_velocities: bool,
     /// What to do with redundant constraints (gradients that depend on the others at the
     /// initial state): `"refuse"` (default: an error naming one) or `"drop-dependent"` (remove
     /// them one by one, each found as the dependent pivot of `G W⁻¹ Gᵀ`, and report which — the

@@ -60,19 +60,21 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
             ));
         }
         let dir = dir.map(|x| x / n);
+        let links = chain_links(c, dim, dir, &path)?;
         let mut members = Vec::with_capacity(c.links);
-        for k in 0..c.links {
-            let s = (k + 1) as f64 * length;
-            let q = [
-                anchor[0] + s * dir[0],
-                anchor[1] + s * dir[1],
-                anchor[2] + s * dir[2],
-            ];
+        let (mut q, mut v) = (anchor, [0.0; 3]);
+        for (k, (dir, rate)) in links.into_iter().enumerate() {
+            // Each link turns about the previous body: its end moves by L θ̇ (cos θ, sin θ).
+            for a in 0..3 {
+                q[a] += length * dir[a];
+            }
+            v[0] -= length * rate * dir[1];
+            v[1] += length * rate * dir[0];
             let idx = bodies.push(Body {
                 name: format!("{}.{k}", c.name),
                 mass,
                 q,
-                v: [0.0; 3],
+                v,
                 charge,
             });
             let kind = match members.last() {
@@ -278,4 +280,70 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
         ));
     }
     Ok((bodies, generated))
+}
+
+/// Each link's unit direction and angular velocity (rad/s): `direction` for every link at rest,
+/// or from `angles_deg` (from the downward vertical, counter-clockwise: `(sin θ, −cos θ)`) and
+/// `angular_velocities_deg` in 2D.
+fn chain_links(
+    c: &crate::scene::schema::ChainSpec,
+    dim: usize,
+    dir: [f64; 3],
+    path: &FieldPath,
+) -> Result<Vec<([f64; 3], f64)>> {
+    let per_link = |values: &Vec<f64>, key: &str| -> Result<Vec<f64>> {
+        let p = path.key(key);
+        if dim != 2 {
+            return Err(err(
+                SceneErrorKind::Dimension,
+                p,
+                "link angles are for 2D chains; in 3D give a `direction`",
+            ));
+        }
+        let list = match values.len() {
+            1 => vec![values[0]; c.links],
+            n if n == c.links => values.clone(),
+            n => {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    p,
+                    format!(
+                        "{n} values for {} links: give one, or one per link",
+                        c.links
+                    ),
+                ));
+            }
+        };
+        for (k, &x) in list.iter().enumerate() {
+            finite(x, &p.index(k))?;
+        }
+        Ok(list.into_iter().map(f64::to_radians).collect())
+    };
+    match (&c.angles_deg, &c.angular_velocities_deg) {
+        (None, None) => Ok(vec![(dir, 0.0); c.links]),
+        (None, Some(_)) => Err(err(
+            SceneErrorKind::Value,
+            path.key("angular_velocities_deg"),
+            "angular velocities need `angles_deg`",
+        )),
+        (Some(angles), rates) => {
+            if c.direction.is_some() {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.key("angles_deg"),
+                    "give `angles_deg` or `direction`, not both",
+                ));
+            }
+            let angles = per_link(angles, "angles_deg")?;
+            let rates = match rates {
+                Some(r) => per_link(r, "angular_velocities_deg")?,
+                None => vec![0.0; c.links],
+            };
+            Ok(angles
+                .iter()
+                .zip(rates)
+                .map(|(&t, w)| ([t.sin(), -t.cos(), 0.0], w))
+                .collect())
+        }
+    }
 }

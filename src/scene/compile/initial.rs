@@ -108,9 +108,12 @@ pub(super) fn velocity_state(model: &SceneModel, x: &Col<f64>) -> Col<f64> {
 /// Projects `x` onto `g = 0`, then its velocities onto `G v = 0`, in the mass metric:
 /// `q ← q − W⁻¹Gᵀ (G W⁻¹ Gᵀ)⁻¹ g` (Gauss–Newton, to round-off), `v ← v − W⁻¹Gᵀ (G W⁻¹ Gᵀ)⁻¹ G v`.
 /// Returns `(max |Δq|, max |Δp|)`.
+///
+/// With `velocities_only`, the positions are kept and only the velocities are projected.
 pub(super) fn project_initial(
     model: &Arc<SceneModel>,
     x: &mut Col<f64>,
+    velocities_only: bool,
 ) -> std::result::Result<(f64, f64), String> {
     let n = model.state_len();
     let (nq, d, m) = (n / 2, model.dim, model.m);
@@ -133,6 +136,11 @@ pub(super) fn project_initial(
         }
         Ok(delta)
     };
+    if velocities_only {
+        project_velocities(model, x, &mut g, &w_inv, &mut solve)?;
+        let dp = (0..nq).fold(0.0f64, |a, i| a.max((x[nq + i] - x_start[nq + i]).abs()));
+        return Ok((0.0, dp));
+    }
     let mut converged = false;
     for _ in 0..50 {
         HolonomicConstraint::<Col<f64>>::residual(model, x, &mut g);
@@ -152,14 +160,30 @@ pub(super) fn project_initial(
     if !converged {
         return Err("projecting the initial positions onto the constraints did not converge in 50 Gauss–Newton steps".into());
     }
-    let vel = velocity_state(model, x);
-    HolonomicConstraint::<Col<f64>>::jacobian_apply(model, x, &vel, &mut g);
-    let delta = solve(x, &mut g)?;
-    for i in 0..nq {
-        // Δp = m Δv.
-        x[nq + i] -= delta[i] / w_inv[i];
-    }
+    project_velocities(model, x, &mut g, &w_inv, &mut solve)?;
     let dq = (0..nq).fold(0.0f64, |a, i| a.max((x[i] - x_start[i]).abs()));
     let dp = (0..nq).fold(0.0f64, |a, i| a.max((x[nq + i] - x_start[nq + i]).abs()));
     Ok((dq, dp))
+}
+
+/// `rhs ↦ W⁻¹ Gᵀ (G W⁻¹ Gᵀ)⁻¹ rhs` at the positions of a state.
+type MassSolve<'a> = dyn FnMut(&Col<f64>, &mut [f64]) -> std::result::Result<Col<f64>, String> + 'a;
+
+/// `v ← v − W⁻¹Gᵀ (G W⁻¹ Gᵀ)⁻¹ G v` on the momenta of `x` (`Δp = m Δv`); `solve` applies
+/// `W⁻¹ Gᵀ (G W⁻¹ Gᵀ)⁻¹` to a right-hand side of constraint rows.
+fn project_velocities(
+    model: &Arc<SceneModel>,
+    x: &mut Col<f64>,
+    g: &mut [f64],
+    w_inv: &[f64],
+    solve: &mut MassSolve<'_>,
+) -> std::result::Result<(), String> {
+    let nq = w_inv.len();
+    let vel = velocity_state(model, x);
+    HolonomicConstraint::<Col<f64>>::jacobian_apply(model, x, &vel, g);
+    let delta = solve(x, g)?;
+    for i in 0..nq {
+        x[nq + i] -= delta[i] / w_inv[i];
+    }
+    Ok(())
 }

@@ -289,16 +289,27 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     let mut initial_projection = None;
     let mut notes = gravity_notes(file);
     if m > 0 {
+        if file.integrator.consistent_velocities && !file.integrator.project_initial {
+            // The velocities only, from positions that must hold as given (checked next).
+            initial_projection = Some(project_initial(&model, &mut x0, true).map_err(|e| {
+                err(
+                    SceneErrorKind::OffConstraints,
+                    root.key("integrator").key("consistent_velocities"),
+                    e,
+                )
+            })?);
+        }
         let off = off_constraints(&model, &x0);
         if let Some((value, row, level)) = off {
             if file.integrator.project_initial {
-                initial_projection = Some(project_initial(&model, &mut x0).map_err(|e| {
-                    err(
-                        SceneErrorKind::OffConstraints,
-                        root.key("integrator").key("project_initial"),
-                        e,
-                    )
-                })?);
+                initial_projection =
+                    Some(project_initial(&model, &mut x0, false).map_err(|e| {
+                        err(
+                            SceneErrorKind::OffConstraints,
+                            root.key("integrator").key("project_initial"),
+                            e,
+                        )
+                    })?);
             } else {
                 let (path, label) = constraint_term(&model, row)
                     .map_or((root.clone(), String::new()), |c| {
@@ -308,7 +319,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
                     SceneErrorKind::OffConstraints,
                     path,
                     format!(
-                        "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `integrator.project_initial = true` to project them (mass-weighted, reported)"
+                        "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `integrator.project_initial = true` to project them (mass-weighted, reported), or `integrator.consistent_velocities = true` for the velocities alone"
                     ),
                 ));
             }
