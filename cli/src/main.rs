@@ -11,6 +11,7 @@ mod distributed;
 mod interrupt;
 mod number;
 mod plot;
+mod plot_axes;
 mod precision;
 mod precision_plot;
 mod progress;

@@ -12,6 +12,18 @@ use lieflow::scene::{RunSummary, Sample, run_until};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The scalar fields of a [`Sample`].
+#[derive(Default, Clone, Copy)]
+struct Scalars {
+    step: usize,
+    t: f64,
+    energy: Option<f64>,
+    dissipated: Option<f64>,
+    supplied: Option<f64>,
+    g: Option<f64>,
+    phi: Option<f64>,
+}
+
 /// The run's first line: the scene, what it holds, its scheme and its steps (the shortened
 /// last one named).
 fn headline(a: &Assembly, plan: &RunPlan, dt: f64) -> String {
@@ -119,7 +131,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         diagnostics.push(Diagnostic::Profile);
     }
     if let Some(p) = &args.plot
-        && let Err(e) = plot::check_target(p)
+        && let Err(e) = crate::plot_axes::check_target(p)
     {
         eprintln!("error: --plot: {e}");
         return ExitCode::from(2);
@@ -175,10 +187,23 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         None => None,
     };
     let bodies = compiled.simulation.bodies();
-    let mut series = plot::Series::new(steps, bodies, &compiled.simulation.output_names());
+    // Body names from the state's columns `q.<body>.x`.
+    let body_names: Vec<String> = compiled
+        .simulation
+        .state_names()
+        .iter()
+        .filter_map(|n| n.strip_prefix("q.")?.strip_suffix(".x").map(str::to_owned))
+        .collect();
+    let mut series = plot::Series::new(
+        steps,
+        bodies,
+        &body_names,
+        &compiled.simulation.output_names(),
+    );
     let mut progress = Progress::new(steps);
     // The last state seen: a run that stops early still ends its CSV and plot with it.
-    let mut last = (0usize, 0.0f64, None, None, None);
+    // The scalars of the last sample seen (its slices are copied beside it).
+    let mut last = Scalars::default();
     let mut last_outputs: Vec<f64> = Vec::new();
     let mut last_multipliers: Vec<f64> = Vec::new();
     let mut observe = |s: &Sample<'_>| {
@@ -186,7 +211,15 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         if args.plot.is_some() {
             series.push(s, false);
         }
-        last = (s.step, s.t, s.energy, s.g, s.phi);
+        last = Scalars {
+            step: s.step,
+            t: s.t,
+            energy: s.energy,
+            dissipated: s.dissipated,
+            supplied: s.supplied,
+            g: s.g,
+            phi: s.phi,
+        };
         last_outputs.clear();
         last_outputs.extend_from_slice(s.outputs);
         last_multipliers.clear();
@@ -204,12 +237,14 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     );
     progress.finish();
     let final_sample = Sample {
-        step: last.0,
-        t: last.1,
+        step: last.step,
+        t: last.t,
         x: compiled.simulation.state(),
-        energy: last.2,
-        g: last.3,
-        phi: last.4,
+        energy: last.energy,
+        dissipated: last.dissipated,
+        supplied: last.supplied,
+        g: last.g,
+        phi: last.phi,
         outputs: &last_outputs,
         multipliers: &last_multipliers,
     };

@@ -514,3 +514,88 @@ fn precision_without_a_scene_measures_the_damped_pendulum_in_seconds_and_shows_p
     assert_eq!(j["failed"], 0);
     assert!(start.elapsed().as_secs() < 60, "{:?}", start.elapsed());
 }
+
+/// The texts of an SVG's `<text>` elements.
+fn svg_texts(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|s| {
+            let body = &s[s.find('>')? + 1..];
+            Some(body[..body.find("</text>")?].trim().to_owned())
+        })
+        .collect()
+}
+
+/// The number after `prefix` in the caption that starts with it, up to `)`.
+fn caption_number(texts: &[String], prefix: &str) -> f64 {
+    let t = texts
+        .iter()
+        .find(|t| t.starts_with(prefix))
+        .unwrap_or_else(|| panic!("no `{prefix}`: {texts:?}"));
+    t[prefix.len()..].trim_end_matches(')').parse().unwrap()
+}
+
+#[test]
+fn figures_show_the_balance_both_residuals_and_paths_at_equal_aspect_with_a_legend() {
+    let svg = scratch("figures_2d.svg");
+    let o = lieflow(&[
+        "run",
+        &repo("scenes/damped_pendulum.toml"),
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = summary(&o);
+    let texts = svg_texts(&std::fs::read_to_string(&svg).unwrap());
+    for wanted in [
+        "energy",
+        "H(t) - H(0)",
+        "H - H(0) + dissipated - supplied",
+        "paths, x-y plane (equal aspect)",
+        "bob",
+    ] {
+        assert!(
+            texts.iter().any(|t| t == wanted),
+            "no `{wanted}`: {texts:?}"
+        );
+    }
+    // The plotted maxima are the summary's (to the caption's three digits).
+    for (what, key) in [("g", "max_abs_g"), ("phi", "max_abs_phi")] {
+        let shown = caption_number(
+            &texts,
+            &format!("constraint residual max |{what}| (largest "),
+        );
+        let summary = j[key].as_f64().unwrap();
+        assert!(
+            (shown / summary - 1.0).abs() < 5e-3,
+            "{what}: {shown} against {summary}"
+        );
+    }
+    // Decade labels on the residual axes, and no tick that is rounding noise around zero.
+    assert!(
+        texts.iter().any(|t| t == "1e-15" || t == "1e-16"),
+        "{texts:?}"
+    );
+    for t in texts.iter().filter(|t| !t.starts_with("1e")) {
+        if let Ok(v) = t.parse::<f64>() {
+            assert!(v == 0.0 || v.abs() > 1e-9, "a tick of {t}");
+        }
+    }
+    // A 3D scene gets two projections.
+    let svg = scratch("figures_3d.svg");
+    let o = lieflow(&[
+        "run",
+        &repo("scenes/shell_damped.toml"),
+        "--t-end",
+        "0.5",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let texts = svg_texts(&std::fs::read_to_string(&svg).unwrap());
+    assert!(
+        texts.iter().any(|t| t == "paths, x-z plane (equal aspect)"),
+        "{texts:?}"
+    );
+    assert!(texts.iter().any(|t| t == "p.9"), "{texts:?}");
+}

@@ -178,6 +178,8 @@ pub fn run_until(
             t: sim.time(),
             x: sim.state(),
             energy: energy.as_ref().map(|e| e.last),
+            dissipated: energy.as_ref().and_then(|e| e.dissipated),
+            supplied: energy.as_ref().and_then(|e| e.supplied),
             g: last.map(|r| r.0),
             phi: last.map(|r| r.1),
             outputs: &outputs,

@@ -48,6 +48,10 @@ pub struct Sample<'a> {
     pub phi: Option<f64>,
     /// The declared outputs (see [`Simulation::output_names`](crate::scene::Simulation::output_names)).
     pub outputs: &'a [f64],
+    /// The energy dissipated so far, when the run books it (with the energy diagnostic).
+    pub dissipated: Option<f64>,
+    /// The energy supplied through the inputs so far, likewise.
+    pub supplied: Option<f64>,
     /// The multipliers of the step that reached this state, when the plan asks for them and
     /// the scheme is a projection (empty otherwise; see [`Simulation::multipliers`](crate::scene::Simulation::multipliers)).
     pub multipliers: &'a [f64],
