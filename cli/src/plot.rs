@@ -234,13 +234,16 @@ impl Series {
     }
 }
 
+/// A named curve `(t, value)` and its colour.
+type Curve<'a, C> = (&'a str, &'a Vec<(f64, f64)>, C);
+
 /// A panel of curves against `t` on a linear axis, with a legend when there are several;
 /// ticks in the command's number format (a tick at zero reads `0`).
 fn linear_panel<C: Color + Copy>(
     area: &DrawingArea<SVGBackend<'_>, Shift>,
     caption: &str,
     t_max: f64,
-    curves: &[(&str, &Vec<(f64, f64)>, C)],
+    curves: &[Curve<'_, C>],
 ) -> Result<(), Box<dyn std::error::Error>> {
     let (lo, hi) = bounds(curves.iter().flat_map(|c| c.1.iter().map(|p| p.1)));
     let span = hi - lo;
