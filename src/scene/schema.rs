@@ -261,7 +261,7 @@ impl ConstraintSpec {
 }
 
 pub use super::effects::{
-    DampingSpec, EffectSpec, GravitySpec, MagneticSpec, PairSpec, SpringSpec, TrapSpec,
+    DampingSpec, DashpotSpec, EffectSpec, GravitySpec, MagneticSpec, PairSpec, SpringSpec, TrapSpec,
 };
 pub use super::ports::{EventSpec, InputSpec, OutputSpec, SignalSpec};
 

@@ -403,17 +403,18 @@ where
     }
     fn dissipation_power(&self) -> Option<f64> {
         let model = self.model.as_ref()?;
-        let Some(damping) = model.damping.as_ref() else {
+        if !model.is_dissipative() {
             // A damping declared zero dissipates nothing, and says so.
             return model.zero_damping.then_some(0.0);
-        };
+        }
         let x = self.state();
-        let power = dissipated_power(
-            &damping.per_body,
-            &model.inv_masses,
-            &x[x.len() / 2..],
-            model.dim,
-        );
+        let p = &x[x.len() / 2..];
+        let mut power = model.damping.as_ref().map_or(0.0, |damping| {
+            dissipated_power(&damping.per_body, &model.inv_masses, p, model.dim)
+        });
+        if let Some(dashpots) = &model.dashpots {
+            power += dashpots.power(&model.inv_masses, p, model.dim);
+        }
         Some(power)
     }
     fn residuals(&mut self) -> Option<(f64, f64)> {
@@ -481,6 +482,14 @@ impl SceneModel {
             out.push(EffectReport {
                 name: t.label.clone(),
                 kind: "damping",
+                evaluations: t.counter.evaluations(),
+                time_share: None,
+            });
+        }
+        if let Some(t) = &self.dashpots {
+            out.push(EffectReport {
+                name: t.label.clone(),
+                kind: "dashpot",
                 evaluations: t.counter.evaluations(),
                 time_share: None,
             });

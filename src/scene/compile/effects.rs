@@ -16,6 +16,8 @@ pub(super) struct Effects {
     pub(super) disabled: Vec<String>,
     /// Damping declared and on, zero on every body (see `SceneModel::zero_damping`).
     pub(super) zero_damping: bool,
+    /// The dashpots that are on, with their merged label.
+    pub(super) dashpots: Option<crate::scene::model::Dashpots<f64>>,
 }
 
 /// Checks every declared effect (switched on or not) and assembles the ones switched on.
@@ -27,6 +29,7 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
         magnetic: None,
         disabled: Vec::new(),
         zero_damping: false,
+        dashpots: None,
     };
     let mut cx = Assembler {
         bodies,
@@ -35,6 +38,8 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
         damping_labels: Vec::new(),
         magnetic: vec![[0.0; 3]; n],
         magnetic_labels: Vec::new(),
+        dashpots: Vec::new(),
+        dashpot_labels: Vec::new(),
     };
     let root = FieldPath::root().key("effects");
     for (i, e) in file.effects.iter().enumerate() {
@@ -62,8 +67,17 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
         mut damping_labels,
         magnetic,
         mut magnetic_labels,
+        dashpots,
+        dashpot_labels,
         ..
     } = cx;
+    if !dashpots.is_empty() {
+        fx.dashpots = Some(crate::scene::model::Dashpots {
+            label: dashpot_labels.join("+"),
+            pairs: dashpots,
+            counter: Counter::default(),
+        });
+    }
     // A damping or field that acts on nothing (zero coefficients, no charge, no bodies) has no
     // term: the model stays conservative (or canonical) and says so.
     if !damping_labels.is_empty() && !damping.iter().any(|&c| c > 0.0) {

@@ -230,6 +230,11 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
                     .map(|t| (t.label.clone(), "damping".to_owned())),
             )
             .chain(
+                fx.dashpots
+                    .iter()
+                    .map(|t| (t.label.clone(), "dashpot".to_owned())),
+            )
+            .chain(
                 fx.magnetic
                     .iter()
                     .map(|t| (t.label.clone(), "magnetic".to_owned())),
@@ -246,7 +251,8 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         profile,
     );
     model.inputs = compile_inputs(&file.inputs, &bodies, dim)?;
-    model.zero_damping = fx.zero_damping;
+    model.zero_damping = fx.zero_damping && fx.dashpots.is_none();
+    model.dashpots = fx.dashpots;
     let splitting = !matches!(
         file.integrator.scheme,
         Method::DiscreteGradient | Method::Midpoint | Method::Modified

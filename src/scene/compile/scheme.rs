@@ -14,7 +14,7 @@ use crate::nonlinear::{NewtonOptions, SMALL_MAX};
 use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::model::{ConstraintKind, FreeFlight, KickCache, SceneModel};
+use crate::scene::model::{ConstraintKind, DashpotFlow, FreeFlight, KickCache, SceneModel};
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
 use crate::system::{Case, System};
@@ -396,6 +396,17 @@ pub fn splitting_flow<V: Vector + 'static>(
     };
     // The exact free flight (booking the energy a damping removes, exactly, per sub-step).
     let drift = FreeFlight::new(model.clone());
+    if let Some(dashpots) = DashpotFlow::new(model.clone()) {
+        // Dashpots couple bodies, so their flow is not part of the per-body flight: it joins
+        // the kick as `D(τ/2) ∘ K(τ) ∘ D(τ/2)` (the dashpots alone without a kick), a symmetric
+        // composition of exact flows.
+        let kick: Box<dyn Flow<V>> = if model.has_kick() {
+            Box::new(dashpots.strang(kick))
+        } else {
+            Box::new(dashpots)
+        };
+        return with_inputs(model, x0, raise, backward, eps, kick, drift);
+    }
     with_inputs(model, x0, raise, backward, eps, kick, drift)
 }
 
@@ -443,15 +454,15 @@ where
     D: Flow<V> + 'static,
 {
     let forced = model.inputs.is_some();
-    let has_potential = model.has_kick() || forced;
+    let has_potential = model.has_kick() || forced || model.has_dashpots();
     if model.m == 0 {
         return Ok(if has_potential {
             (
                 raised::<_, _, SceneSystem<V::Real>>(drift.strang(kick), raise, backward, None)?,
-                if forced {
-                    "free flight ∘ kick and inputs ∘ free flight (Strang)"
-                } else {
-                    "free flight ∘ kick ∘ free flight (Strang)"
+                match (forced, model.has_dashpots()) {
+                    (true, _) => "free flight ∘ kick and inputs ∘ free flight (Strang)",
+                    (false, true) => "free flight ∘ kick and dashpots ∘ free flight (Strang)",
+                    (false, false) => "free flight ∘ kick ∘ free flight (Strang)",
                 },
                 None,
             )
@@ -470,10 +481,14 @@ where
             raise,
             backward,
             (system, x0, options),
-            if forced {
-                "projection around kick and inputs ∘ free flight ∘ kick and inputs (Strang, RATTLE)"
-            } else {
-                "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)"
+            match (forced, model.has_dashpots()) {
+                (true, _) => {
+                    "projection around kick and inputs ∘ free flight ∘ kick and inputs (Strang, RATTLE)"
+                }
+                (false, true) => {
+                    "projection around kick and dashpots ∘ free flight ∘ kick and dashpots (Strang, RATTLE)"
+                }
+                (false, false) => "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)",
             },
         )
     } else {

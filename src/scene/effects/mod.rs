@@ -13,6 +13,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod damping;
+mod dashpot;
 mod gravity;
 mod magnetic;
 mod pair;
@@ -22,6 +23,7 @@ mod trap;
 
 pub use damping::DampingSpec;
 pub(crate) use damping::dissipated_power;
+pub use dashpot::DashpotSpec;
 pub use gravity::GravitySpec;
 pub use magnetic::MagneticSpec;
 pub use pair::{MAX_PAIRS, PairSpec};
@@ -50,6 +52,10 @@ pub(crate) struct Assembler<'a> {
     pub(crate) magnetic: Vec<[f64; 3]>,
     /// Labels of the magnetic effects that are on.
     pub(crate) magnetic_labels: Vec<String>,
+    /// `(a, b, c)` per dashpot that is on with `c > 0`.
+    pub(crate) dashpots: Vec<(usize, usize, f64)>,
+    /// Labels of the dashpots that are on.
+    pub(crate) dashpot_labels: Vec<String>,
 }
 
 /// What an effect file provides for its table in the scene file (whose struct also has the
@@ -159,6 +165,8 @@ effects! {
     Trap(trap::TrapSpec) = "trap",
     /// Viscous damping of the momenta, `p_b' = … − c v_b`: the `R` of `M = J − R`.
     Damping(damping::DampingSpec) = "damping",
+    /// A dashpot between two bodies, `p_a' = … − c (v_a − v_b)`: a term of `R` on the relative velocity.
+    Dashpot(dashpot::DashpotSpec) = "dashpot",
     /// A uniform magnetic field on charged bodies, `p_b' = … + e_b v_b × B`: a non-canonical `J`.
     Magnetic(magnetic::MagneticSpec) = "magnetic",
 }

@@ -5,6 +5,7 @@
 //! x = (q, p),  q, p ∈ R^{dN} (body b at q[b·d .. b·d + d]),
 //! H = Σ_b |p_b|²/(2 m_b) + Σ_terms V_term(q),
 //! M = [[0, I], [−I, K − R]],  K_b v = e_b v × B (magnetic),  R_b = c_b I (damping),
+//!     plus c (e_a − e_b)(e_a − e_b)ᵀ ⊗ I in R per dashpot between bodies a and b,
 //! g = (g_1, …, g_m)(q).
 //! ```
 //!
@@ -18,6 +19,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod constraints;
+mod dashpot;
 mod flight;
 mod hamiltonian;
 mod potential;
@@ -27,6 +29,8 @@ mod terms;
 
 pub use crate::scene::effects::EffectKind;
 use crate::scene::effects::PotentialTerm;
+pub use dashpot::DashpotFlow;
+pub(crate) use dashpot::Dashpots;
 use flight::Flight;
 pub use flight::{FlightCache, FreeFlight};
 pub use potential::KickCache;
@@ -52,6 +56,8 @@ pub struct SceneModel<T = f64> {
     /// A damping effect is declared and switched on but zero on every body: no term, and a
     /// run reports the energy it dissipated as 0, not as absent.
     pub(crate) zero_damping: bool,
+    /// Dashpots between bodies (a term of `R` on relative velocities), when declared.
+    pub(crate) dashpots: Option<Dashpots<T>>,
     /// The state's component names (`q.<body>.<axis>`, `p.<body>.<axis>`), for CSV columns.
     pub(crate) state_names: Vec<String>,
     /// One name per constraint row, for the multipliers' CSV columns.
@@ -137,6 +143,7 @@ impl<T: Real> SceneModel<T> {
             gravity_in_flight,
             inputs: None,
             zero_damping: false,
+            dashpots: None,
             state_names: Vec::new(),
             multiplier_names: Vec::new(),
         }
@@ -215,9 +222,14 @@ impl<T: Real> SceneModel<T> {
             .any(|t| !(self.gravity_in_flight && t.is_gravity()))
     }
 
-    /// `true` if a damping term is assembled (`M` has a dissipative part).
+    /// `true` if a damping term or a dashpot is assembled (`M` has a dissipative part).
     pub fn is_dissipative(&self) -> bool {
-        self.damping.is_some()
+        self.damping.is_some() || self.dashpots.is_some()
+    }
+
+    /// `true` if dashpots join bodies (their exact flow joins the kick).
+    pub fn has_dashpots(&self) -> bool {
+        self.dashpots.is_some()
     }
     /// `true` if the skew part `J` of `M` is canonical (no magnetic term is assembled).
     pub fn is_canonical(&self) -> bool {

@@ -88,6 +88,11 @@ impl SceneModel<f64> {
         );
         model.inputs = self.inputs.as_ref().map(|i| i.with_scalar());
         model.zero_damping = self.zero_damping;
+        model.dashpots = self.dashpots.as_ref().map(|t| super::Dashpots {
+            label: t.label.clone(),
+            pairs: t.pairs.iter().map(|&(a, b, k)| (a, b, c(k))).collect(),
+            counter: Counter::default(),
+        });
         model.state_names.clone_from(&self.state_names);
         model.multiplier_names.clone_from(&self.multiplier_names);
         model

@@ -1,5 +1,5 @@
 //! The scene's `M = [[0, I], [−I, K − R]]` as a [`StructureMatrix`]: the magnetic field's
-//! skew part `K` and the damping `R`.
+//! skew part `K` and the damping `R` (per body, and the dashpots between bodies).
 
 use super::SceneModel;
 use crate::real::Real;
@@ -44,7 +44,7 @@ impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
     }
 
     fn is_dissipative(&self) -> bool {
-        self.damping.is_some()
+        SceneModel::is_dissipative(self)
     }
 }
 
@@ -60,6 +60,9 @@ impl<T: Real> SceneModel<T> {
                     op[b * d + k] = op[b * d + k] - (alpha * *c * vp[b * d + k]);
                 }
             }
+        }
+        if let Some(dashpots) = &self.dashpots {
+            dashpots.apply_add(vp, alpha, op, d);
         }
         if let Some(magnetic) = &self.magnetic {
             magnetic.counter.hit();
