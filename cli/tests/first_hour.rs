@@ -599,3 +599,29 @@ fn figures_show_the_balance_both_residuals_and_paths_at_equal_aspect_with_a_lege
     );
     assert!(texts.iter().any(|t| t == "p.9"), "{texts:?}");
 }
+
+#[test]
+fn a_skipped_peer_says_why_in_the_user_s_terms() {
+    let o = lieflow(&[
+        "precision",
+        &repo("src/scene/default.toml"),
+        "--t-end",
+        "0.02",
+        "--dt",
+        "0.01,0.005",
+        "--orders",
+        "2",
+        "--no-implicit",
+        "--repeats",
+        "1",
+        "--tols",
+        "1e-4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("Skipped: Radau5 runs beside scenes of n + m = 5, 50, 70, 140 unknowns only; this one has 30: DOP853 is the peer here"),
+        "{text}"
+    );
+    assert!(!text.contains("fixed-size"), "{text}");
+}

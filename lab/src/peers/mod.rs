@@ -195,7 +195,12 @@ pub(crate) fn peer_rows(
                     Some(tol),
                     "Skipped",
                     format!(
-                        "Radau5 is built for n + m in {RADAU_DIMS:?} (fixed-size states); this scene has n + m = {}",
+                        "Radau5 runs beside scenes of n + m = {} unknowns only; this one has {}: DOP853 is the peer here",
+                        RADAU_DIMS
+                            .iter()
+                            .map(ToString::to_string)
+                            .collect::<Vec<_>>()
+                            .join(", "),
                         problem.n() + problem.m()
                     ),
                 ));
