@@ -138,7 +138,7 @@ pub(crate) fn step_error_advice(e: &StepError, dt: f64) -> Option<String> {
     );
     match e {
         StepError::Newton { .. } | StepError::FixedPointNotConverged { .. } => Some(format!(
-            "the multiplier solve failed at this step size; try {smaller}; for stiff springs or damping, an implicit scheme (`scheme = \"midpoint\"`, `\"discrete-gradient\"` or `\"petrov-galerkin\"`) keeps larger steps stable"
+            "the multiplier solve failed at this step size; try {smaller}. A step must resolve the scene's fastest oscillation (ω dt < 2): a stiff spring (ω² = k/m), or a light body held between heavy ones, which swings across its rods at ω² = T (1/ℓ₁ + 1/ℓ₂)/m under the tension T; for stiff springs or damping, an implicit scheme (`scheme = \"midpoint\"`, `\"discrete-gradient\"` or `\"petrov-galerkin\"`) keeps larger steps stable"
         )),
         StepError::NonFinite { .. } => Some(format!(
             "the state grew without bound: the step is past the explicit splitting's stability limit (ω dt < 2 for a spring of angular frequency ω); try {smaller}, or an implicit scheme (`scheme = \"midpoint\"`)"
