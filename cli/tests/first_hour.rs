@@ -625,3 +625,39 @@ fn a_skipped_peer_says_why_in_the_user_s_terms() {
     );
     assert!(!text.contains("fixed-size"), "{text}");
 }
+
+#[test]
+fn a_sweep_over_damping_from_zero_keeps_its_first_member() {
+    let out = scratch("sweep_from_zero");
+    let sweep = scene_file(
+        "sweep_from_zero.toml",
+        &format!(
+            "version = 1\nscene = \"{}\"\nmode = \"grid\"\n[[parameters]]\npath = \"effects[1].coefficient\"\nvalues = [0.0, 0.5, 1.0]\n[[parameters]]\npath = \"integrator.t_end\"\nvalues = [0.5]\n[plot]\nx = \"effects[1].coefficient\"\ny = \"dissipated\"\n",
+            repo("scenes/damped_pendulum.toml")
+        ),
+    );
+    let o = lieflow(&["sweep", &sweep, "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows = std::fs::read_to_string(out.join("members.jsonl")).unwrap();
+    let first: serde_json::Value = serde_json::from_str(rows.lines().next().unwrap()).unwrap();
+    assert_eq!(first["dissipated"].as_f64(), Some(0.0), "{first}");
+    // The plot draws every member: three markers.
+    let svg = std::fs::read_dir(&out)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .find(|e| e.path().extension().is_some_and(|x| x == "svg"))
+        .map(|e| std::fs::read_to_string(e.path()).unwrap())
+        .expect("a plot");
+    assert!(svg.matches("<circle").count() >= 3, "{} markers", svg.matches("<circle").count());
+}
+
+#[test]
+fn the_stress_list_speaks_of_cases_not_of_the_project_s_history() {
+    let o = lieflow(&["stress", "--list"]);
+    assert!(o.status.success());
+    let text = stdout(&o);
+    assert!(text.contains("mass-ratio-1e6"), "{text}");
+    for word in ["issue", "session", "case 5"] {
+        assert!(!text.to_lowercase().contains(word), "`{word}` in {text}");
+    }
+}
