@@ -180,38 +180,6 @@ fn numbers_print_in_one_format() {
     assert!((energy - final_energy).abs() <= 2.0 * f64::EPSILON * final_energy.abs());
 }
 
-#[test]
-fn plot_targets_are_checked_before_the_run() {
-    let png = scratch("paths.png");
-    let o = lieflow(&[
-        "run",
-        &repo("scenes/damped_pendulum.toml"),
-        "--plot",
-        png.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stdout(&o).is_empty(), "refused before running");
-    assert!(
-        stderr(&o).contains("the plot is SVG; give a file name ending in .svg"),
-        "{}",
-        stderr(&o)
-    );
-    assert!(!png.exists(), "no SVG bytes in a .png");
-    let o = lieflow(&[
-        "run",
-        &repo("scenes/damped_pendulum.toml"),
-        "--plot",
-        "/nonexistent-dir/p.svg",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(stdout(&o).is_empty(), "refused before running");
-    assert!(
-        stderr(&o).contains("cannot write /nonexistent-dir/p.svg"),
-        "{}",
-        stderr(&o)
-    );
-}
-
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_the_run_and_keeps_what_it_computed() {
@@ -418,63 +386,6 @@ fn what_is_accepted_but_unexpected_is_said_once_as_a_note() {
 }
 
 #[test]
-fn the_csv_names_its_columns_and_holds_velocities_and_named_multipliers() {
-    // A named rod to a fixed point: its multiplier column carries the name.
-    let f = pendulum_with(
-        "named_rod.toml",
-        "type = \"rod\"\nbodies = [\"bob\"]",
-        "type = \"rod\"\nname = \"hinge\"\nbodies = [\"bob\"]",
-    );
-    let csv = scratch("named.csv");
-    let o = lieflow(&["run", &f, "--t-end", "0.05", "--csv", csv.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let text = std::fs::read_to_string(&csv).unwrap();
-    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
-    let header = lines.next().unwrap();
-    assert_eq!(
-        header,
-        "step,t,q.bob.x,q.bob.y,p.bob.x,p.bob.y,v.bob.x,v.bob.y,energy,max_abs_g,max_abs_phi,lambda.hinge"
-    );
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows[0][11], "", "no multiplier before the first step");
-    let value = |r: &Vec<&str>, i: usize| r[i].parse::<f64>().unwrap();
-    // g = (|q|² − L²)/2, so the rod's force on the bob is −λ q, its magnitude λ |q| = λ L:
-    // the tension m g cos θ + m |v|²/L (the damping acts across the rod).
-    let tension = |r: &Vec<&str>| 9.81 * -value(r, 3) + value(r, 6).powi(2) + value(r, 7).powi(2);
-    for pair in rows.windows(2) {
-        let (before, r) = (&pair[0], &pair[1]);
-        // Unit mass: v = p.
-        assert_eq!(value(r, 6), value(r, 4));
-        assert_eq!(value(r, 7), value(r, 5));
-        // λ is the step's (λ_k + λ_{k+1})/2: the tension at the step's middle, which the mean
-        // of its ends matches to h² T''/8 ≤ 5e-3 (T'' ≤ 400 here).
-        let mean = 0.5 * (tension(before) + tension(r));
-        assert!(
-            (value(r, 11) - mean).abs() < 5e-3,
-            "{} against {mean}",
-            value(r, 11)
-        );
-    }
-    // The name is what the messages call it, and what --off switches off.
-    let o = lieflow(&["run", &f, "--t-end", "0.05", "--off", "hinge"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(
-        stdout(&o).starts_with("damped pendulum: 1 body, 0 constraint rows"),
-        "{}",
-        stdout(&o)
-    );
-    let text = stdout(&lieflow(&["check", &f]));
-    assert!(text.contains("1 row: 1 rod"), "{text}");
-    let o = lieflow(&["run", &f, "--off", "hinj"]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        stderr(&o).contains("no effect or constraint is named 'hinj' (named here: 'hinge')"),
-        "{}",
-        stderr(&o)
-    );
-}
-
-#[test]
 fn off_switches_one_named_effect_and_leaves_the_others() {
     // The default scene names its spring and its damper: switch the spring off.
     let o = lieflow(&["run", "--t-end", "0.01", "--off", "coupling"]);
@@ -513,91 +424,6 @@ fn precision_without_a_scene_measures_the_damped_pendulum_in_seconds_and_shows_p
     let j = summary(&o);
     assert_eq!(j["failed"], 0);
     assert!(start.elapsed().as_secs() < 60, "{:?}", start.elapsed());
-}
-
-/// The texts of an SVG's `<text>` elements.
-fn svg_texts(svg: &str) -> Vec<String> {
-    svg.split("<text")
-        .skip(1)
-        .filter_map(|s| {
-            let body = &s[s.find('>')? + 1..];
-            Some(body[..body.find("</text>")?].trim().to_owned())
-        })
-        .collect()
-}
-
-/// The number after `prefix` in the caption that starts with it, up to `)`.
-fn caption_number(texts: &[String], prefix: &str) -> f64 {
-    let t = texts
-        .iter()
-        .find(|t| t.starts_with(prefix))
-        .unwrap_or_else(|| panic!("no `{prefix}`: {texts:?}"));
-    t[prefix.len()..].trim_end_matches(')').parse().unwrap()
-}
-
-#[test]
-fn figures_show_the_balance_both_residuals_and_paths_at_equal_aspect_with_a_legend() {
-    let svg = scratch("figures_2d.svg");
-    let o = lieflow(&[
-        "run",
-        &repo("scenes/damped_pendulum.toml"),
-        "--plot",
-        svg.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let j = summary(&o);
-    let texts = svg_texts(&std::fs::read_to_string(&svg).unwrap());
-    for wanted in [
-        "energy",
-        "H(t) - H(0)",
-        "H - H(0) + dissipated - supplied",
-        "paths, x-y plane (equal aspect)",
-        "bob",
-    ] {
-        assert!(
-            texts.iter().any(|t| t == wanted),
-            "no `{wanted}`: {texts:?}"
-        );
-    }
-    // The plotted maxima are the summary's (to the caption's three digits).
-    for (what, key) in [("g", "max_abs_g"), ("phi", "max_abs_phi")] {
-        let shown = caption_number(
-            &texts,
-            &format!("constraint residual max |{what}| (largest "),
-        );
-        let summary = j[key].as_f64().unwrap();
-        assert!(
-            (shown / summary - 1.0).abs() < 5e-3,
-            "{what}: {shown} against {summary}"
-        );
-    }
-    // Decade labels on the residual axes, and no tick that is rounding noise around zero.
-    assert!(
-        texts.iter().any(|t| t == "1e-15" || t == "1e-16"),
-        "{texts:?}"
-    );
-    for t in texts.iter().filter(|t| !t.starts_with("1e")) {
-        if let Ok(v) = t.parse::<f64>() {
-            assert!(v == 0.0 || v.abs() > 1e-9, "a tick of {t}");
-        }
-    }
-    // A 3D scene gets two projections.
-    let svg = scratch("figures_3d.svg");
-    let o = lieflow(&[
-        "run",
-        &repo("scenes/shell_damped.toml"),
-        "--t-end",
-        "0.5",
-        "--plot",
-        svg.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let texts = svg_texts(&std::fs::read_to_string(&svg).unwrap());
-    assert!(
-        texts.iter().any(|t| t == "paths, x-z plane (equal aspect)"),
-        "{texts:?}"
-    );
-    assert!(texts.iter().any(|t| t == "p.9"), "{texts:?}");
 }
 
 #[test]
@@ -648,7 +474,11 @@ fn a_sweep_over_damping_from_zero_keeps_its_first_member() {
         .find(|e| e.path().extension().is_some_and(|x| x == "svg"))
         .map(|e| std::fs::read_to_string(e.path()).unwrap())
         .expect("a plot");
-    assert!(svg.matches("<circle").count() >= 3, "{} markers", svg.matches("<circle").count());
+    assert!(
+        svg.matches("<circle").count() >= 3,
+        "{} markers",
+        svg.matches("<circle").count()
+    );
 }
 
 #[test]
