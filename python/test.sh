@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Builds the Python package (an abi3 wheel, by maturin, in the workspace's target directory) into
+# a virtual environment under target/, and runs its tests against the command's numbers.
+# Needs python3 with venv; everything else comes from PyPI. Run from anywhere:
+#   bash python/test.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+if ! command -v python3 >/dev/null; then
+  echo "python/test.sh: no python3 on this machine; the Rust crates are tested by cargo test"
+  exit 0
+fi
+venv=target/python-venv
+if [ ! -x "$venv/bin/python" ]; then
+  python3 -m venv "$venv"
+fi
+"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.5,<2" "numpy>=1.21" "pytest>=7" "matplotlib>=3.5"
+# The command whose numbers the tests compare with.
+cargo build --release -p lieflow-cli
+"$venv/bin/maturin" build --release -m python/Cargo.toml -o target/wheels --interpreter "$venv/bin/python"
+"$venv/bin/pip" install -q --disable-pip-version-check --force-reinstall --no-deps target/wheels/lieflow-*-abi3-*.whl
+LIEFLOW_BIN="$PWD/target/release/lieflow" "$venv/bin/python" -m pytest -q python/tests
+# The example that plots (a notebook-style script).
+"$venv/bin/python" python/examples/pendulum_plot.py target/pendulum.png

@@ -1,0 +1,160 @@
+"""The Python package against the same numbers as the Rust tests and the command."""
+
+import json
+import math
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import lieflow
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SCENES = ROOT / "scenes"
+BIN = pathlib.Path(os.environ.get("LIEFLOW_BIN", ROOT / "target" / "release" / "lieflow"))
+
+FORCED = """version = 1
+name = "pushed pendulum"
+dim = 2
+[[bodies]]
+name = "bob"
+mass = 1.0
+position = [0.0, -1.0]
+[[constraints]]
+type = "rod"
+name = "hinge"
+bodies = ["bob"]
+point = [0.0, 0.0]
+[[effects]]
+type = "gravity"
+g = [0.0, -9.81]
+[[inputs]]
+type = "force"
+name = "push"
+bodies = ["bob"]
+direction = [1.0, 0.0]
+signal = { type = "held", value = 0.0 }
+[[outputs]]
+quantity = "position"
+body = "bob"
+component = 0
+[integrator]
+dt = 0.01
+t_end = 2.0
+"""
+
+
+def command(scene):
+    """The command's JSON summary of ``lieflow run scene``."""
+    if not BIN.exists():
+        pytest.skip(f"the command is not built at {BIN} (cargo build --release)")
+    out = subprocess.run([str(BIN), "run", str(scene)], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("scene", ["paper.toml", "damped_pendulum.toml"])
+def test_a_run_equals_the_command_bit_for_bit(scene):
+    mine = lieflow.run(SCENES / scene)
+    theirs = command(SCENES / scene)
+    # Python's float parsing is correctly rounded and the command prints the shortest
+    # round-trip form: equal floats mean equal bits.
+    assert mine["x"] == theirs["x"]
+    assert mine["steps"] == theirs["steps"]
+    assert mine["dissipated"] == theirs["dissipated"]
+    assert mine["max_abs_g"] == theirs["max_abs_g"]
+
+
+def test_the_paper_example_keeps_its_constraint_and_energy():
+    s = lieflow.run(SCENES / "paper.toml")
+    assert s["error"] is None
+    assert s["max_abs_g"] < 1e-14
+    assert s["max_abs_phi"] < 1e-14
+
+
+def test_the_trajectory_is_one_numpy_array_from_the_initial_to_the_last_state():
+    sim = lieflow.load(SCENES / "damped_pendulum.toml")
+    x0 = sim.state
+    s = sim.run(every=10)
+    times, states = s["times"], s["states"]
+    assert isinstance(states, np.ndarray) and states.dtype == np.float64
+    assert states.shape == (101, 4) and times.shape == (101,)
+    assert np.all(np.diff(times) > 0)
+    assert np.array_equal(states[0], x0)
+    assert list(states[-1]) == s["x"]
+    assert times[-1] == s["t"] == 10.0
+    # A step that does not divide t_end still ends on it, with its last state recorded.
+    sim = lieflow.loads((SCENES / "damped_pendulum.toml").read_text().replace("dt = 0.01", "dt = 0.003"))
+    s = sim.run(every=1000)
+    assert s["times"][-1] == 10.0 and s["last_step"] == pytest.approx(0.001)
+
+
+def test_stepping_saving_and_restoring_continue_bit_for_bit():
+    sim = lieflow.loads(FORCED)
+    assert sim.advance_to(0.5) == 50
+    saved = sim.save()
+    sim.set_input("push", 2.0)
+    sim.advance_to(1.0)
+    first = sim.state.copy()
+    sim.restore(saved)
+    assert sim.t == 0.5
+    sim.set_input("push", 2.0)
+    sim.advance_to(1.0)
+    assert np.array_equal(sim.state, first)
+
+
+def test_inputs_outputs_multipliers_and_energies_are_read_by_name():
+    sim = lieflow.loads(FORCED)
+    assert sim.input_names == ["push"]
+    assert sim.output_names == ["bob.x"]
+    assert sim.multiplier_names == ["hinge"]
+    assert np.array_equal(sim.multipliers(), [0.0])  # no step yet
+    sim.set_input("push", 1.0)
+    assert sim.input("push") == 1.0
+    sim.advance_to(0.2)
+    out = sim.outputs()
+    assert out["bob.x"] == sim.state[0] > 0.0
+    lam = sim.multipliers()
+    assert lam.shape == (1,)
+    # The rod carries about the bob's weight near the bottom (g = (|q|² − 1)/2: force λ |q|).
+    assert lam[0] == pytest.approx(9.81, rel=0.05)
+    assert sim.supplied > 0.0
+    g, phi = sim.residuals()
+    assert g < 1e-14 and phi < 1e-14
+    # The energy budget H − H₀ = supplied (no damping) closes to the splitting's error.
+    start = lieflow.loads(FORCED).energy
+    assert sim.energy - start == pytest.approx(sim.supplied, abs=1e-4)
+
+
+def test_a_bad_scene_raises_a_located_scene_error():
+    text = (SCENES / "damped_pendulum.toml").read_text().replace("mass = 1.0", "mass = -1.0")
+    with pytest.raises(lieflow.SceneError) as e:
+        lieflow.loads(text, "bad.toml")
+    assert "bad.toml:" in str(e.value) and "`bodies[0].mass`" in str(e.value)
+    assert e.value.kind == "Value" and e.value.path == "bodies[0].mass"
+    assert isinstance(e.value.line, int) and e.value.line > 0
+    assert isinstance(e.value, ValueError)
+    with pytest.raises(lieflow.SceneError):
+        lieflow.load(ROOT / "no-such-scene.toml")
+
+
+def test_a_failed_step_raises_and_keeps_the_last_good_state():
+    sim = lieflow.loads(lieflow.default_scene().replace("dt = 1e-4", "dt = 0.5"))
+    before = sim.state.copy()
+    with pytest.raises(lieflow.StepError) as e:
+        sim.step()
+    assert "Newton" in str(e.value)
+    assert np.array_equal(sim.state, before) and sim.t == 0.0
+
+
+def test_bad_arguments_raise_value_errors():
+    sim = lieflow.loads(FORCED)
+    with pytest.raises(ValueError, match="push"):
+        sim.set_input("pull", 1.0)
+    with pytest.raises(ValueError):
+        sim.set_state(np.zeros(3))
+    with pytest.raises(ValueError):
+        sim.advance_to(math.nan)
+    with pytest.raises(ValueError):
+        sim.run(every=0)
