@@ -158,3 +158,32 @@ def test_bad_arguments_raise_value_errors():
         sim.advance_to(math.nan)
     with pytest.raises(ValueError):
         sim.run(every=0)
+
+
+def test_a_work_precision_set_fits_the_orders_the_schemes_have():
+    s = lieflow.precision(SCENES / "paper.toml", dts=[0.4, 0.2, 0.1], tolerances=[1e-6, 1e-10],
+                          repeats=1)
+    assert s["reference"]["source"].startswith("closed form")
+    methods = {r["method"] for r in s["rows"]}
+    assert "lieflow order 2" in methods and any(m.startswith("DOP853") for m in methods)
+    assert all(r["status"] in ("ok", "Skipped") for r in s["rows"])
+    assert s["fitted_orders"]["lieflow order 2"] == pytest.approx(2.0, abs=0.3)
+    assert s["fitted_orders"]["lieflow order 4"] == pytest.approx(4.0, abs=0.3)
+    with pytest.raises(ValueError):
+        lieflow.precision(SCENES / "paper.toml", dts=[-0.1])
+
+
+def test_a_sweep_returns_the_command_s_rows():
+    sweep = ROOT / "tests" / "data" / "sweep_damped.toml"
+    rows = lieflow.sweep(sweep, threads=2)
+    assert [r["id"] for r in rows] == list(range(12))
+    assert all(r["error"] is None and r["seconds"] >= 0 for r in rows)
+    if not BIN.exists():
+        pytest.skip("the command is not built")
+    out = pathlib.Path(os.environ.get("TMPDIR", "/tmp")) / f"lieflow-py-sweep-{os.getpid()}"
+    subprocess.run([str(BIN), "sweep", str(sweep), "--out", str(out), "--threads", "1"],
+                   capture_output=True, check=True)
+    theirs = [json.loads(l) for l in (out / "members.jsonl").read_text().splitlines()]
+    for mine, their in zip(rows, theirs):
+        mine = {k: v for k, v in mine.items() if k != "seconds"}
+        assert json.loads(json.dumps(mine)) == their

@@ -21,7 +21,9 @@ from ._lieflow import (
     StepError,
     __version__,
     default_scene,
+    precision,
     run,
+    sweep,
 )
 
 __all__ = [
@@ -33,7 +35,9 @@ __all__ = [
     "default_scene",
     "load",
     "loads",
+    "precision",
     "run",
+    "sweep",
 ]
 
 

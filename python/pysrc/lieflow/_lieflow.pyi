@@ -71,3 +71,14 @@ class Simulation:
 
 def run(path: Union[str, "PathLike[str]"], every: int = 1) -> Dict[str, Any]: ...
 def default_scene() -> str: ...
+def precision(
+    path: Union[str, "PathLike[str]"],
+    dts: Optional[List[float]] = None,
+    orders: Optional[List[int]] = None,
+    tolerances: Optional[List[float]] = None,
+    repeats: int = 1,
+    peers: bool = True,
+    implicit: bool = True,
+    f64_reference: bool = False,
+) -> Dict[str, Any]: ...
+def sweep(path: Union[str, "PathLike[str]"], threads: int = 0) -> List[Dict[str, Any]]: ...
