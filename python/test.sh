@@ -16,8 +16,10 @@ fi
 "$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.5,<2" "numpy>=1.21" "pytest>=7" "matplotlib>=3.5"
 # The command whose numbers the tests compare with.
 cargo build --release -p lieflow-cli
-"$venv/bin/maturin" build --release -m python/Cargo.toml -o target/wheels --interpreter "$venv/bin/python"
-"$venv/bin/pip" install -q --disable-pip-version-check --force-reinstall --no-deps target/wheels/lieflow-*-abi3-*.whl
+# A fresh directory: the one wheel just built is the one installed.
+rm -rf target/python-wheel
+"$venv/bin/maturin" build --release -m python/Cargo.toml -o target/python-wheel --interpreter "$venv/bin/python"
+"$venv/bin/pip" install -q --disable-pip-version-check --force-reinstall --no-deps target/python-wheel/lieflow-*.whl
 LIEFLOW_BIN="$PWD/target/release/lieflow" "$venv/bin/python" -m pytest -q python/tests
 # The example that plots (a notebook-style script).
 "$venv/bin/python" python/examples/pendulum_plot.py target/pendulum.png
