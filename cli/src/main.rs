@@ -8,6 +8,7 @@
 mod check;
 mod csv_rows;
 mod distributed;
+mod fmu;
 mod interrupt;
 mod number;
 mod plot;
@@ -19,6 +20,7 @@ mod run;
 mod stress;
 mod sweep;
 mod sweep_plot;
+mod zip;
 
 use clap::{Parser, Subcommand};
 use lieflow::scene::{DEFAULT_SCENE, Scene, SceneError};
@@ -65,6 +67,10 @@ enum Command {
     /// times, and an SVG of an output against a parameter; the last line of stdout is a JSON
     /// summary. A failing member is a row.
     Sweep(sweep::SweepArgs),
+    /// Export a scene as an FMI 3.0 co-simulation FMU (its held inputs and declared outputs as
+    /// variables, the scene's dt as the fixed internal step); the last line of stdout is a JSON
+    /// summary.
+    Fmu(fmu::FmuArgs),
 }
 
 fn main() -> ExitCode {
@@ -80,6 +86,7 @@ fn main() -> ExitCode {
         Command::Precision(args) => precision::precision(&args),
         Command::Stress(args) => stress::stress(&args),
         Command::Sweep(args) => sweep::sweep(&args),
+        Command::Fmu(args) => fmu::fmu(&args),
     }
 }
 

@@ -1,0 +1,62 @@
+//! The FMU's variables and their value references, derived from a compiled scene the same way
+//! in the library (at instantiation) and in `lieflow fmu` (for `modelDescription.xml`).
+
+use lieflow::scene::Simulation;
+
+/// Value reference 0 is the time; inputs follow from 1, outputs after them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variables {
+    /// The held inputs (the ones an importer sets), in declaration order.
+    pub inputs: Vec<String>,
+    /// Their values at the start.
+    pub input_starts: Vec<f64>,
+    /// The declared outputs, in declaration order.
+    pub outputs: Vec<String>,
+}
+
+/// The variables of `sim`: its held inputs (an input whose value can be set — a signal that is
+/// a function of time stays inside the scene) and its outputs.
+pub fn variables(sim: &mut dyn Simulation) -> Variables {
+    let mut inputs = Vec::new();
+    let mut input_starts = Vec::new();
+    for name in sim.input_names() {
+        let value = sim.input(&name).unwrap_or(0.0);
+        // Setting the value it has changes nothing and tells a held input from a signal.
+        if sim.set_input(&name, value).is_ok() {
+            inputs.push(name);
+            input_starts.push(value);
+        }
+    }
+    Variables {
+        inputs,
+        input_starts,
+        outputs: sim.output_names(),
+    }
+}
+
+impl Variables {
+    /// The value reference of input `i`.
+    pub fn input_vr(&self, i: usize) -> u32 {
+        1 + i as u32
+    }
+    /// The value reference of output `i`.
+    pub fn output_vr(&self, i: usize) -> u32 {
+        1 + (self.inputs.len() + i) as u32
+    }
+    /// The input behind `vr`.
+    pub fn input(&self, vr: u32) -> Option<&str> {
+        let i = (vr as usize).checked_sub(1)?;
+        self.inputs.get(i).map(String::as_str)
+    }
+    /// The Float64 value of `vr`: the time, an input, or an output (`outputs` evaluated now).
+    pub fn value(&self, vr: u32, sim: &dyn Simulation, outputs: &[f64]) -> Option<f64> {
+        if vr == 0 {
+            return Some(sim.time());
+        }
+        if let Some(name) = self.input(vr) {
+            return sim.input(name);
+        }
+        let i = (vr as usize).checked_sub(1 + self.inputs.len())?;
+        outputs.get(i).copied()
+    }
+}

@@ -1,0 +1,90 @@
+"""The FMU `lieflow fmu` exports, checked by a real importer: FMPy validates it and simulates it
+with its own co-simulation master, driving the held input from a table, and its outputs equal
+the same scene stepped through the package at the same communication points to 1e-12."""
+
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import lieflow
+
+fmpy = pytest.importorskip("fmpy")
+from fmpy.validation import validate_fmu  # noqa: E402
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SCENE = ROOT / "tests" / "data" / "fmu_pendulum.toml"
+BIN = pathlib.Path(os.environ.get("LIEFLOW_BIN", ROOT / "target" / "release" / "lieflow"))
+
+# A force of 0 until t = 0.5, then 1 until t = 1, then -0.5 (steps as repeated times).
+TABLE = np.array(
+    [(0.0, 0.0), (0.5, 0.0), (0.5, 1.0), (1.0, 1.0), (1.0, -0.5), (2.0, -0.5)],
+    dtype=[("time", np.float64), ("push", np.float64)],
+)
+
+
+def push(t):
+    return 0.0 if t < 0.5 else (1.0 if t < 1.0 else -0.5)
+
+
+@pytest.fixture(scope="module")
+def fmu(tmp_path_factory):
+    if not BIN.exists():
+        pytest.skip(f"the command is not built at {BIN}")
+    path = tmp_path_factory.mktemp("fmu") / "pendulum.fmu"
+    out = subprocess.run([str(BIN), "fmu", str(SCENE), "-o", str(path)],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    return path
+
+
+def test_fmpy_validates_the_fmu_without_a_problem(fmu):
+    assert validate_fmu(str(fmu)) == []
+    md = fmpy.read_model_description(str(fmu))
+    assert md.fmiVersion == "3.0"
+    assert float(md.coSimulation.fixedInternalStepSize) == 0.01
+    names = {v.name: v.causality for v in md.modelVariables}
+    assert names == {"time": "independent", "push": "input", "bob.x": "output", "bob.vy": "output"}
+
+
+@pytest.mark.parametrize("step", [0.03, 0.05])
+def test_fmpy_s_master_reproduces_the_scene_stepped_through_the_package(fmu, step):
+    # 0.03 is not a multiple of the internal step 0.01: the FMU lands on each communication
+    # point with a shorter last step. 0.05 is.
+    result = fmpy.simulate_fmu(str(fmu), input=TABLE, output=["bob.x", "bob.vy"], stop_time=2.0,
+                               step_size=step, output_interval=step, validate=True)
+    times = result["time"]
+    assert times[-1] == pytest.approx(2.0)
+    sim = lieflow.load(SCENE)
+    for k in range(len(times) - 1):
+        out = sim.outputs()
+        assert out["bob.x"] == pytest.approx(result["bob.x"][k], abs=1e-12)
+        assert out["bob.vy"] == pytest.approx(result["bob.vy"][k], abs=1e-12)
+        sim.set_input("push", push(times[k]))
+        sim.advance_to(times[k + 1])
+    out = sim.outputs()
+    assert out["bob.x"] == pytest.approx(result["bob.x"][-1], abs=1e-12)
+    # The push moved the bob: the input reached the FMU.
+    assert abs(result["bob.x"]).max() > 1e-3
+
+
+def test_the_fmu_of_a_scene_without_held_inputs_runs_like_the_command(tmp_path):
+    if not BIN.exists():
+        pytest.skip("the command is not built")
+    path = tmp_path / "damped.fmu"
+    subprocess.run([str(BIN), "fmu", str(ROOT / "scenes" / "forced_pendulum.toml"), "-o", str(path)],
+                   check=True, capture_output=True)
+    assert validate_fmu(str(path)) == []
+
+
+def test_without_input_the_fmu_ends_where_lieflow_run_ends(fmu):
+    import json
+
+    result = fmpy.simulate_fmu(str(fmu), output=["bob.x"], stop_time=2.0, step_size=0.01,
+                               output_interval=0.01)
+    out = subprocess.run([str(BIN), "run", str(SCENE)], capture_output=True, text=True, check=True)
+    summary = json.loads(out.stdout.strip().splitlines()[-1])
+    assert result["time"][-1] == pytest.approx(summary["t"])
+    assert result["bob.x"][-1] == pytest.approx(summary["x"][0], abs=1e-12)
