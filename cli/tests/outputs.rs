@@ -178,3 +178,17 @@ fn plot_targets_are_checked_before_the_run() {
         stderr(&o)
     );
 }
+
+#[test]
+fn fmu_refuses_a_file_that_is_not_an_fmu_and_a_bad_scene() {
+    let o = lieflow(&["fmu", &repo("tests/data/fmu_pendulum.toml"), "-o", "pendulum.zip"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("an FMU's file name ends in .fmu"), "{}", stderr(&o));
+    let bad = pendulum_with("bad_fmu.toml", "mass = 1.0", "mass = -1.0");
+    let o = lieflow(&["fmu", &bad, "-o", scratch("bad.fmu").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("`bodies[0].mass`"), "{}", stderr(&o));
+    assert!(!scratch("bad.fmu").exists());
+    // Help names the subcommand.
+    assert!(stdout(&lieflow(&["--help"])).contains("fmu"));
+}
