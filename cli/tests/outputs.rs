@@ -181,9 +181,18 @@ fn plot_targets_are_checked_before_the_run() {
 
 #[test]
 fn fmu_refuses_a_file_that_is_not_an_fmu_and_a_bad_scene() {
-    let o = lieflow(&["fmu", &repo("tests/data/fmu_pendulum.toml"), "-o", "pendulum.zip"]);
+    let o = lieflow(&[
+        "fmu",
+        &repo("tests/data/fmu_pendulum.toml"),
+        "-o",
+        "pendulum.zip",
+    ]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("an FMU's file name ends in .fmu"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("an FMU's file name ends in .fmu"),
+        "{}",
+        stderr(&o)
+    );
     let bad = pendulum_with("bad_fmu.toml", "mass = 1.0", "mass = -1.0");
     let o = lieflow(&["fmu", &bad, "-o", scratch("bad.fmu").to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
