@@ -88,3 +88,36 @@ def test_without_input_the_fmu_ends_where_lieflow_run_ends(fmu):
     summary = json.loads(out.stdout.strip().splitlines()[-1])
     assert result["time"][-1] == pytest.approx(summary["t"])
     assert result["bob.x"][-1] == pytest.approx(summary["x"][0], abs=1e-12)
+
+
+def test_fmu_states_restore_the_continuation_bit_for_bit(fmu, tmp_path):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi3 import FMU3Slave
+
+    md = read_model_description(str(fmu))
+    vrs = {v.name: v.valueReference for v in md.modelVariables}
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=extract(str(fmu), str(tmp_path / "unzipped")),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="state")
+    slave.instantiate()
+    slave.enterInitializationMode(startTime=0.0)
+    slave.exitInitializationMode()
+    t, h = 0.0, 0.03
+    for _ in range(10):
+        slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+        t += h
+    state = slave.getFMUState()
+    slave.setFloat64([vrs["push"]], [0.7])
+    runs = []
+    for _ in range(2):
+        u = t
+        for _ in range(10):
+            slave.doStep(currentCommunicationPoint=u, communicationStepSize=h)
+            u += h
+        runs.append(slave.getFloat64([vrs["bob.x"], vrs["bob.vy"]]))
+        slave.setFMUState(state)
+        slave.setFloat64([vrs["push"]], [0.7])
+    assert runs[0] == runs[1]
+    assert slave.getFloat64([vrs["time"]])[0] == pytest.approx(t)
+    slave.freeFMUState(state)
+    slave.terminate()
+    slave.freeInstance()
