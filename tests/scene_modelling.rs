@@ -267,3 +267,41 @@ fn a_dashpot_enters_the_implicit_schemes_through_r() {
     assert!((free.x[0] - 2.0).abs() < 1e-12, "{}", free.x[0]);
     assert!(free.dissipated.is_none());
 }
+
+#[test]
+fn parameters_name_numbers_of_the_scene_and_a_bad_path_is_refused_where_it_is_written() {
+    let text = dashpot_pair(1.5, 0.01, "auto").replace(
+        "[integrator]",
+        "[[parameters]]\nname = \"c\"\npath = \"effects[0].coefficient\"\n[[parameters]]\nname = \"m\"\npath = \"bodies[1].mass\"\n[integrator]",
+    );
+    let scene = parse(&text);
+    let values = scene.parameter_values().unwrap();
+    assert_eq!(
+        values,
+        [
+            ("c".to_owned(), "effects[0].coefficient".to_owned(), 1.5),
+            ("m".to_owned(), "bodies[1].mass".to_owned(), 3.0)
+        ]
+    );
+    // The scene with a parameter set is the scene with that number.
+    let changed = scene.with_value("effects[0].coefficient", 0.5).unwrap();
+    assert_eq!(changed.parameter_values().unwrap()[0].2, 0.5);
+    // Fields set one after another all hold (an FMU sets its parameters so).
+    let both = changed.with_value("bodies[1].mass", 4.0).unwrap();
+    let values: Vec<f64> = both
+        .parameter_values()
+        .unwrap()
+        .iter()
+        .map(|p| p.2)
+        .collect();
+    assert_eq!(values, [0.5, 4.0]);
+    assert_eq!(both.file.bodies[1].mass, 4.0);
+    let bad = text.replace("effects[0].coefficient", "effects[3].coefficient");
+    let e = parse(&bad).compile().err().unwrap();
+    assert_eq!(e.path.to_string(), "parameters[0].path");
+    assert!(e.message.contains("element [3]"), "{e}");
+    assert!(e.location.is_some(), "located in the text");
+    let twice = text.replace("name = \"m\"", "name = \"c\"");
+    let e = parse(&twice).compile().err().unwrap();
+    assert!(e.message.contains("used twice"), "{e}");
+}

@@ -61,6 +61,14 @@ pub(crate) fn model_description(
     );
     x += "  <ModelVariables>\n";
     x += "    <Float64 name=\"time\" valueReference=\"0\" causality=\"independent\" variability=\"continuous\" description=\"simulation time\"/>\n";
+    for (i, (name, path, start)) in vars.parameters.iter().enumerate() {
+        x += &format!(
+            "    <Float64 name=\"{}\" valueReference=\"{}\" causality=\"parameter\" variability=\"fixed\" start=\"{start:?}\" description=\"the scene's {}\"/>\n",
+            attr(name),
+            vars.parameter_vr(i),
+            attr(path)
+        );
+    }
     for (i, (input, start)) in vars.inputs.iter().zip(&vars.input_starts).enumerate() {
         x += &format!(
             "    <Float64 name=\"{}\" valueReference=\"{}\" causality=\"input\" variability=\"continuous\" start=\"{start:?}\" description=\"held input (zero-order hold over a communication step)\"/>\n",
@@ -146,7 +154,10 @@ pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let vars = variables(compiled.simulation.as_mut());
+    let vars = match variables(&scene, compiled.simulation.as_mut()) {
+        Ok(v) => v,
+        Err(e) => return bad_scene(&e),
+    };
     let (dt, t_end) = (scene.file.integrator.dt, scene.file.integrator.t_end);
     let name = compiled.assembly.name.clone();
     let xml = model_description(&name, &token(&text), dt, t_end, &vars);
@@ -173,8 +184,17 @@ pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
         return ExitCode::from(1);
     }
     println!(
-        "{name}: FMI 3.0 co-simulation FMU {} (inputs: {}; outputs: {}; fixed internal step {dt})",
+        "{name}: FMI 3.0 co-simulation FMU {} (parameters: {}; inputs: {}; outputs: {}; fixed internal step {dt})",
         args.output.display(),
+        if vars.parameters.is_empty() {
+            "none".to_owned()
+        } else {
+            vars.parameters
+                .iter()
+                .map(|p| p.0.clone())
+                .collect::<Vec<_>>()
+                .join(", ")
+        },
         if vars.inputs.is_empty() {
             "none".to_owned()
         } else {
@@ -193,6 +213,7 @@ pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
             "fmu": args.output.display().to_string(),
             "scene": name,
             "fmi_version": "3.0",
+            "parameters": vars.parameters.iter().map(|p| &p.0).collect::<Vec<_>>(),
             "inputs": vars.inputs,
             "outputs": vars.outputs,
             "fixed_internal_step": dt,

@@ -2,7 +2,8 @@
 //! `lieflow fmu` exports (modelIdentifier `lieflow_fmu`).
 //!
 //! An instance reads `resources/scene.toml` from the FMU's resource path and compiles it. Value
-//! references: 0 is the time, then the scene's held inputs in declaration order, then its
+//! references: 0 is the time, then the scene's `[[parameters]]` (set before initialization
+//! ends: the scene is recompiled with them), then its held inputs in declaration order, then its
 //! declared outputs ([`variables`], the same list `lieflow fmu` writes into
 //! `modelDescription.xml`). `fmi3DoStep` advances the scene to the communication point exactly
 //! (`Simulation::advance_to`: steps of the scene's `dt`, the fixed internal step, and a shorter
@@ -39,9 +40,16 @@ pub type LogMessage = Option<
     ),
 >;
 
-/// One FMU instance: the compiled scene and what the importer gave it.
+/// One FMU instance: the scene, its compiled simulation and what the importer gave it.
 pub struct Instance {
+    scene: Scene,
     sim: Box<dyn Simulation>,
+    /// The parameters' values as set (the scene's until the importer sets them).
+    parameters: Vec<f64>,
+    /// A parameter was set: the scene is recompiled when initialization ends.
+    rebuild: bool,
+    /// Initialization mode ended: parameters are fixed.
+    initialized: bool,
     initial: SimulationCheckpoint,
     vars: Variables,
     outputs: Vec<f64>,
@@ -81,11 +89,34 @@ pub extern "C" fn fmi3SetDebugLogging(
     OK
 }
 
-/// Compiles `resources/scene.toml` under `resource_path`.
-fn compile(resource_path: &str) -> Result<Box<dyn Simulation>, String> {
+/// Reads and compiles `resources/scene.toml` under `resource_path`.
+fn compile(resource_path: &str) -> Result<(Scene, Box<dyn Simulation>), String> {
     let path = PathBuf::from(resource_path).join("scene.toml");
     let scene = Scene::from_path(&path).map_err(|e| e.to_string())?;
-    Ok(scene.compile().map_err(|e| e.to_string())?.simulation)
+    let sim = scene.compile().map_err(|e| e.to_string())?.simulation;
+    Ok((scene, sim))
+}
+
+impl Instance {
+    /// Recompiles the scene with the parameters as set, keeping the inputs' values.
+    fn apply_parameters(&mut self) -> Result<(), String> {
+        let mut scene = self
+            .scene
+            .with_value(&self.vars.parameters[0].1, self.parameters[0])
+            .map_err(|e| e.to_string())?;
+        for ((_, path, _), &v) in self.vars.parameters.iter().zip(&self.parameters).skip(1) {
+            scene = scene.with_value(path, v).map_err(|e| e.to_string())?;
+        }
+        let mut sim = scene.compile().map_err(|e| e.to_string())?.simulation;
+        for name in &self.vars.inputs {
+            if let Some(v) = self.sim.input(name) {
+                sim.set_input(name, v)?;
+            }
+        }
+        self.sim = sim;
+        self.initial = self.sim.save();
+        Ok(())
+    }
 }
 
 #[unsafe(no_mangle)]
@@ -126,16 +157,26 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
     let path = unsafe { CStr::from_ptr(resource_path) }
         .to_string_lossy()
         .into_owned();
-    let mut sim = match compile(&path) {
+    let (scene, mut sim) = match compile(&path) {
         Ok(s) => s,
         Err(e) => {
             say(&format!("the scene does not compile: {e}"));
             return std::ptr::null_mut();
         }
     };
-    let vars = variables(sim.as_mut());
+    let vars = match variables(&scene, sim.as_mut()) {
+        Ok(v) => v,
+        Err(e) => {
+            say(&format!("the scene's parameters: {e}"));
+            return std::ptr::null_mut();
+        }
+    };
     let initial = sim.save();
     Box::into_raw(Box::new(Instance {
+        parameters: vars.parameters.iter().map(|p| p.2).collect(),
+        rebuild: false,
+        initialized: false,
+        scene,
         sim,
         initial,
         vars,
@@ -198,8 +239,23 @@ macro_rules! nothing_to_do {
         }
     )+};
 }
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn fmi3ExitInitializationMode(instance: *mut Instance) -> Status {
+    // SAFETY: see `instance`.
+    let Some(inst) = (unsafe { self::instance(instance) }) else {
+        return ERROR;
+    };
+    inst.initialized = true;
+    if std::mem::take(&mut inst.rebuild)
+        && let Err(e) = inst.apply_parameters()
+    {
+        inst.log(ERROR, &format!("the scene with the parameters set: {e}"));
+        return ERROR;
+    }
+    OK
+}
+
 nothing_to_do!(
-    fmi3ExitInitializationMode,
     fmi3EnterEventMode,
     fmi3EnterStepMode,
     fmi3EnterConfigurationMode,
@@ -213,6 +269,7 @@ pub unsafe extern "C" fn fmi3Reset(instance: *mut Instance) -> Status {
     let Some(inst) = (unsafe { self::instance(instance) }) else {
         return ERROR;
     };
+    inst.initialized = false;
     match inst.sim.restore(&inst.initial) {
         Ok(()) => OK,
         Err(e) => {
@@ -248,7 +305,10 @@ pub unsafe extern "C" fn fmi3GetFloat64(
     };
     inst.sim.outputs(&mut inst.outputs);
     for (vr, o) in vrs.iter().zip(out) {
-        match inst.vars.value(*vr, inst.sim.as_ref(), &inst.outputs) {
+        match inst
+            .vars
+            .value(*vr, inst.sim.as_ref(), &inst.parameters, &inst.outputs)
+        {
             Some(v) => *o = v,
             None => {
                 inst.log(
@@ -287,6 +347,23 @@ pub unsafe extern "C" fn fmi3SetFloat64(
         )
     };
     for (vr, v) in vrs.iter().zip(vals) {
+        if let Some(i) = inst.vars.parameter(*vr) {
+            if inst.initialized {
+                inst.log(
+                    ERROR,
+                    &format!(
+                        "parameter '{}' is fixed after initialization",
+                        inst.vars.parameters[i].0
+                    ),
+                );
+                return ERROR;
+            }
+            if inst.parameters[i] != *v {
+                inst.parameters[i] = *v;
+                inst.rebuild = true;
+            }
+            continue;
+        }
         let Some(name) = inst.vars.input(*vr) else {
             inst.log(ERROR, &format!("value reference {vr} is not an input"));
             return ERROR;

@@ -1,11 +1,14 @@
 //! The FMU's variables and their value references, derived from a compiled scene the same way
 //! in the library (at instantiation) and in `lieflow fmu` (for `modelDescription.xml`).
 
-use lieflow::scene::Simulation;
+use lieflow::scene::{Scene, SceneError, Simulation};
 
-/// Value reference 0 is the time; inputs follow from 1, outputs after them.
+/// Value reference 0 is the time; the parameters follow from 1, then the inputs, then the
+/// outputs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Variables {
+    /// The scene's `[[parameters]]`: `(name, path, value in the scene)`.
+    pub parameters: Vec<(String, String, f64)>,
     /// The held inputs (the ones an importer sets), in declaration order.
     pub inputs: Vec<String>,
     /// Their values at the start.
@@ -14,9 +17,13 @@ pub struct Variables {
     pub outputs: Vec<String>,
 }
 
-/// The variables of `sim`: its held inputs (an input whose value can be set — a signal that is
-/// a function of time stays inside the scene) and its outputs.
-pub fn variables(sim: &mut dyn Simulation) -> Variables {
+/// The variables of `scene` compiled into `sim`: its parameters, its held inputs (an input whose
+/// value can be set — a signal that is a function of time stays inside the scene) and its
+/// outputs.
+///
+/// # Errors
+/// A parameter whose path names no number of the scene.
+pub fn variables(scene: &Scene, sim: &mut dyn Simulation) -> Result<Variables, SceneError> {
     let mut inputs = Vec::new();
     let mut input_starts = Vec::new();
     for name in sim.input_names() {
@@ -27,36 +34,56 @@ pub fn variables(sim: &mut dyn Simulation) -> Variables {
             input_starts.push(value);
         }
     }
-    Variables {
+    Ok(Variables {
+        parameters: scene.parameter_values()?,
         inputs,
         input_starts,
         outputs: sim.output_names(),
-    }
+    })
 }
 
 impl Variables {
+    /// The value reference of parameter `i`.
+    pub fn parameter_vr(&self, i: usize) -> u32 {
+        1 + i as u32
+    }
     /// The value reference of input `i`.
     pub fn input_vr(&self, i: usize) -> u32 {
-        1 + i as u32
+        1 + (self.parameters.len() + i) as u32
     }
     /// The value reference of output `i`.
     pub fn output_vr(&self, i: usize) -> u32 {
-        1 + (self.inputs.len() + i) as u32
+        1 + (self.parameters.len() + self.inputs.len() + i) as u32
+    }
+    /// The index of the parameter behind `vr`.
+    pub fn parameter(&self, vr: u32) -> Option<usize> {
+        let i = (vr as usize).checked_sub(1)?;
+        (i < self.parameters.len()).then_some(i)
     }
     /// The input behind `vr`.
     pub fn input(&self, vr: u32) -> Option<&str> {
-        let i = (vr as usize).checked_sub(1)?;
+        let i = (vr as usize).checked_sub(1 + self.parameters.len())?;
         self.inputs.get(i).map(String::as_str)
     }
-    /// The Float64 value of `vr`: the time, an input, or an output (`outputs` evaluated now).
-    pub fn value(&self, vr: u32, sim: &dyn Simulation, outputs: &[f64]) -> Option<f64> {
+    /// The Float64 value of `vr`: the time, a parameter (`parameters`, as set), an input, or an
+    /// output (`outputs` evaluated now).
+    pub fn value(
+        &self,
+        vr: u32,
+        sim: &dyn Simulation,
+        parameters: &[f64],
+        outputs: &[f64],
+    ) -> Option<f64> {
         if vr == 0 {
             return Some(sim.time());
+        }
+        if let Some(i) = self.parameter(vr) {
+            return parameters.get(i).copied();
         }
         if let Some(name) = self.input(vr) {
             return sim.input(name);
         }
-        let i = (vr as usize).checked_sub(1 + self.inputs.len())?;
+        let i = (vr as usize).checked_sub(1 + self.parameters.len() + self.inputs.len())?;
         outputs.get(i).copied()
     }
 }

@@ -46,7 +46,10 @@ def test_fmpy_validates_the_fmu_without_a_problem(fmu):
     assert md.fmiVersion == "3.0"
     assert float(md.coSimulation.fixedInternalStepSize) == 0.01
     names = {v.name: v.causality for v in md.modelVariables}
-    assert names == {"time": "independent", "push": "input", "bob.x": "output", "bob.vy": "output"}
+    assert names == {"time": "independent", "damping": "parameter", "push": "input",
+                     "bob.x": "output", "bob.vy": "output"}
+    damping = next(v for v in md.modelVariables if v.name == "damping")
+    assert float(damping.start) == 0.2 and damping.variability == "fixed"
 
 
 @pytest.mark.parametrize("step", [0.03, 0.05])
@@ -121,3 +124,26 @@ def test_fmu_states_restore_the_continuation_bit_for_bit(fmu, tmp_path):
     slave.freeFMUState(state)
     slave.terminate()
     slave.freeInstance()
+
+
+def replay(sim, times):
+    """The outputs of `sim` at `times`, its held force set from TABLE at each of them."""
+    rows = []
+    for k, t in enumerate(times):
+        rows.append(sim.outputs()["bob.x"])
+        if k + 1 < len(times):
+            sim.set_input("push", push(t))
+            sim.advance_to(times[k + 1])
+    return np.array(rows)
+
+
+def test_a_parameter_set_by_the_importer_is_the_scene_with_that_value(fmu):
+    result = fmpy.simulate_fmu(str(fmu), input=TABLE, start_values={"damping": 1.5},
+                               output=["bob.x"], stop_time=2.0, step_size=0.05,
+                               output_interval=0.05)
+    stiffer = lieflow.loads(SCENE.read_text().replace("coefficient = 0.2", "coefficient = 1.5"))
+    expected = replay(stiffer, result["time"])
+    assert np.max(np.abs(result["bob.x"] - expected)) <= 1e-12
+    # … and not the scene's own damping.
+    plain = replay(lieflow.load(SCENE), result["time"])
+    assert np.max(np.abs(result["bob.x"] - plain)) > 1e-3

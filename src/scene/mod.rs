@@ -125,6 +125,8 @@ pub struct Scene {
     pub file: SceneFile,
     /// `(file name, text)` when parsed from text.
     source: Option<(String, String)>,
+    /// The fields set since ([`Scene::with_value`]), in order: the file is the text with them.
+    overrides: Vec<(String, f64)>,
 }
 
 impl Scene {
@@ -135,6 +137,7 @@ impl Scene {
         Ok(Self {
             file: parsed,
             source: Some((file.to_owned(), text.to_owned())),
+            overrides: Vec::new(),
         })
     }
 
@@ -159,11 +162,16 @@ impl Scene {
     /// A scene from an already parsed (or programmatically built) file; its errors have paths
     /// but no line numbers.
     pub fn from_file(file: SceneFile) -> Self {
-        Self { file, source: None }
+        Self {
+            file,
+            source: None,
+            overrides: Vec::new(),
+        }
     }
 
     /// The same scene with the field at `path` (`effects[1].coefficient`, `integrator.dt`)
-    /// set to `value`; errors of the new scene are still located in the original text.
+    /// set to `value` (and every field set before it); errors of the new scene are still located
+    /// in the original text.
     ///
     /// # Errors
     /// A scene without source text (built from a [`SceneFile`]), a path that names no field,
@@ -176,9 +184,9 @@ impl Scene {
                 "a scene built from a SceneFile has no text to change a parameter in",
             ));
         };
-        let mut table: toml::Table =
-            toml::from_str(text).map_err(|e| SceneError::from_toml_error(&e, name, text))?;
-        path::set_path(&mut table, path, value)?;
+        let mut overrides = self.overrides.clone();
+        overrides.push((path.to_owned(), value));
+        let table = Self::table_with(name, text, &overrides)?;
         let file: SceneFile =
             toml::Value::Table(table)
                 .try_into()
@@ -192,14 +200,71 @@ impl Scene {
         Ok(Self {
             file,
             source: self.source.clone(),
+            overrides,
         })
+    }
+
+    /// The text's TOML table with the `overrides` set in order.
+    fn table_with(
+        name: &str,
+        text: &str,
+        overrides: &[(String, f64)],
+    ) -> Result<toml::Table, SceneError> {
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| SceneError::from_toml_error(&e, name, text))?;
+        for (path, value) in overrides {
+            path::set_path(&mut table, path, *value)?;
+        }
+        Ok(table)
+    }
+
+    /// The declared `[[parameters]]` with their values in this scene: `(name, path, value)`.
+    ///
+    /// # Errors
+    /// A scene without source text, a path that names no number, a name used twice.
+    pub fn parameter_values(&self) -> Result<Vec<(String, String, f64)>, SceneError> {
+        if self.file.parameters.is_empty() {
+            return Ok(Vec::new());
+        }
+        let Some((name, text)) = &self.source else {
+            return Err(SceneError::new(
+                SceneErrorKind::Unsupported,
+                FieldPath::root(),
+                "a scene built from a SceneFile has no text to read its parameters from",
+            ));
+        };
+        let table = Self::table_with(name, text, &self.overrides)?;
+        let mut out: Vec<(String, String, f64)> = Vec::new();
+        for (i, p) in self.file.parameters.iter().enumerate() {
+            let at = FieldPath::root().key("parameters").index(i);
+            if out.iter().any(|(n, _, _)| *n == p.name) {
+                return Err(SceneError::new(
+                    SceneErrorKind::Value,
+                    at.key("name"),
+                    format!("the parameter name '{}' is used twice", p.name),
+                ));
+            }
+            let value = path::value_at(&table, &p.path).map_err(|e| {
+                SceneError::new(SceneErrorKind::Reference, at.key("path"), e.message)
+            })?;
+            out.push((p.name.clone(), p.path.clone(), value));
+        }
+        Ok(out)
     }
 
     /// Compiles the scene (see the module docs); errors are located in the source text.
     pub fn compile(&self) -> Result<Compiled, SceneError> {
-        compile(&self.file).map_err(|e| match &self.source {
-            Some((name, text)) => e.locate(name, text),
-            None => e,
-        })
+        let checked = if self.source.is_some() {
+            // The parameters name numbers of the text (a scene from a file has no text).
+            self.parameter_values().map(drop)
+        } else {
+            Ok(())
+        };
+        checked
+            .and_then(|()| compile(&self.file))
+            .map_err(|e| match &self.source {
+                Some((name, text)) => e.locate(name, text),
+                None => e,
+            })
     }
 }

@@ -122,3 +122,35 @@ pub fn set_path(table: &mut toml::Table, path: &str, value: f64) -> Result<(), S
     }
     Ok(())
 }
+
+/// The number at `path` in `table` (an integer or a float field).
+///
+/// # Errors
+/// A path that does not parse, names no field, or names one that is not a number.
+pub fn value_at(table: &toml::Table, path: &str) -> Result<f64, SceneError> {
+    let missing = |what: String| bad(format!("parameter path '{path}': the scene has no {what}"));
+    let mut cur: Option<&toml::Value> = None;
+    for seg in parse_path(path)? {
+        cur = Some(match (seg, cur) {
+            (Seg::Key(k), None) => table.get(k).ok_or_else(|| missing(format!("'{k}'")))?,
+            (Seg::Key(k), Some(v)) => v
+                .as_table()
+                .and_then(|t| t.get(k))
+                .ok_or_else(|| missing(format!("'{k}'")))?,
+            (Seg::Index(i), Some(v)) => v
+                .as_array()
+                .and_then(|a| a.get(i))
+                .ok_or_else(|| missing(format!("element [{i}]")))?,
+            (Seg::Index(_), None) => {
+                return Err(bad(format!(
+                    "parameter path '{path}' must start with a key"
+                )));
+            }
+        });
+    }
+    match cur {
+        Some(toml::Value::Float(x)) => Ok(*x),
+        Some(toml::Value::Integer(i)) => Ok(*i as f64),
+        _ => Err(bad(format!("parameter path '{path}' names no number"))),
+    }
+}

@@ -56,6 +56,10 @@ pub struct SceneFile {
     /// Crossings that stop the run or are recorded.
     #[serde(default)]
     pub events: Vec<EventSpec>,
+    /// Named numbers of the scene an importer may set before a run (an FMU's parameters), each a
+    /// field by path (`effects[1].coefficient`).
+    #[serde(default)]
+    pub parameters: Vec<ParameterSpec>,
     /// The scheme, step and horizon.
     pub integrator: IntegratorSpec,
     /// Switches that turn declared parts off without deleting them.
@@ -246,6 +250,19 @@ pub enum ConstraintSpec {
         #[serde(default)]
         offset: Option<f64>,
     },
+}
+
+/// A scene parameter: a name for the number at `path`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterSpec {
+    /// Its name (an FMU variable's name).
+    pub name: String,
+    /// The field it sets, by path: keys and `[indices]`.
+    pub path: String,
+    /// What it is, in words.
+    #[serde(default)]
+    pub description: Option<String>,
 }
 
 impl ConstraintSpec {
