@@ -29,6 +29,24 @@ const X_LABELS: u32 = 35;
 const Y_LABELS: u32 = 80;
 const CAPTION: u32 = 26;
 
+/// Checks, before a run, that the plot can be written to `path`: an `.svg` name (the plot is
+/// SVG; a `.png` would hold SVG bytes) in a directory that takes the file. Creates the file
+/// (the run overwrites it), so that an unwritable path fails now, not after the run.
+pub fn check_target(path: &Path) -> Result<(), String> {
+    let svg = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    if !svg {
+        return Err(format!(
+            "{}: the plot is SVG; give a file name ending in .svg",
+            path.display()
+        ));
+    }
+    std::fs::File::create(path)
+        .map(drop)
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
 /// Decimated samples of a run.
 pub struct Series {
     every: usize,

@@ -1,23 +1,5 @@
-//! The plot's file checked before a run, and axis ranges for the run's plots: padded linear ranges, log ranges of at least two decades
+//! Axis ranges for the run's plots: padded linear ranges, log ranges of at least two decades
 //! (so that an axis carries more than one label), and ranges widened to equal aspect.
-
-/// Checks, before a run, that the plot can be written to `path`: an `.svg` name (the plot is
-/// SVG; a `.png` would hold SVG bytes) in a directory that takes the file. Creates the file
-/// (the run overwrites it), so that an unwritable path fails now, not after the run.
-pub fn check_target(path: &std::path::Path) -> Result<(), String> {
-    let svg = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
-    if !svg {
-        return Err(format!(
-            "{}: the plot is SVG; give a file name ending in .svg",
-            path.display()
-        ));
-    }
-    std::fs::File::create(path)
-        .map(drop)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
-}
 
 /// A range around the values with a 5% margin (never empty).
 pub fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {

@@ -131,7 +131,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         diagnostics.push(Diagnostic::Profile);
     }
     if let Some(p) = &args.plot
-        && let Err(e) = crate::plot_axes::check_target(p)
+        && let Err(e) = plot::check_target(p)
     {
         eprintln!("error: --plot: {e}");
         return ExitCode::from(2);

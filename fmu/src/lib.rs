@@ -100,11 +100,8 @@ fn compile(resource_path: &str) -> Result<(Scene, Box<dyn Simulation>), String> 
 impl Instance {
     /// Recompiles the scene with the parameters as set, keeping the inputs' values.
     fn apply_parameters(&mut self) -> Result<(), String> {
-        let mut scene = self
-            .scene
-            .with_value(&self.vars.parameters[0].1, self.parameters[0])
-            .map_err(|e| e.to_string())?;
-        for ((_, path, _), &v) in self.vars.parameters.iter().zip(&self.parameters).skip(1) {
+        let mut scene = self.scene.clone();
+        for ((_, path, _), &v) in self.vars.parameters.iter().zip(&self.parameters) {
             scene = scene.with_value(path, v).map_err(|e| e.to_string())?;
         }
         let mut sim = scene.compile().map_err(|e| e.to_string())?.simulation;
@@ -279,6 +276,28 @@ pub unsafe extern "C" fn fmi3Reset(instance: *mut Instance) -> Status {
     }
 }
 
+/// The importer's value references as a slice, after checking the call: as many values as
+/// references, neither array null unless both are empty (a null pointer is no slice, even of
+/// length zero). `None` for a call that breaks that.
+unsafe fn references<'a>(
+    value_references: *const u32,
+    n_value_references: usize,
+    values_null: bool,
+    n_values: usize,
+) -> Option<&'a [u32]> {
+    if n_values != n_value_references {
+        return None;
+    }
+    if n_values == 0 {
+        return Some(&[]);
+    }
+    if value_references.is_null() || values_null {
+        return None;
+    }
+    // SAFETY: a non-null array of `n_value_references` references from the importer.
+    Some(unsafe { std::slice::from_raw_parts(value_references, n_value_references) })
+}
+
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn fmi3GetFloat64(
     instance: *mut Instance,
@@ -291,25 +310,25 @@ pub unsafe extern "C" fn fmi3GetFloat64(
     let Some(inst) = (unsafe { self::instance(instance) }) else {
         return ERROR;
     };
-    if n_values != n_value_references
-        || (n_values > 0 && (value_references.is_null() || values.is_null()))
-    {
-        return ERROR;
-    }
     // SAFETY: the importer's arrays of the lengths it gave.
-    let (vrs, out) = unsafe {
-        (
-            std::slice::from_raw_parts(value_references, n_value_references),
-            std::slice::from_raw_parts_mut(values, n_values),
+    let Some(vrs) = (unsafe {
+        references(
+            value_references,
+            n_value_references,
+            values.is_null(),
+            n_values,
         )
+    }) else {
+        return ERROR;
     };
     inst.sim.outputs(&mut inst.outputs);
-    for (vr, o) in vrs.iter().zip(out) {
+    for (k, vr) in vrs.iter().enumerate() {
         match inst
             .vars
             .value(*vr, inst.sim.as_ref(), &inst.parameters, &inst.outputs)
         {
-            Some(v) => *o = v,
+            // SAFETY: `values` holds `n_values = vrs.len()` numbers (checked by `references`).
+            Some(v) => unsafe { *values.add(k) = v },
             None => {
                 inst.log(
                     ERROR,
@@ -334,19 +353,20 @@ pub unsafe extern "C" fn fmi3SetFloat64(
     let Some(inst) = (unsafe { self::instance(instance) }) else {
         return ERROR;
     };
-    if n_values != n_value_references
-        || (n_values > 0 && (value_references.is_null() || values.is_null()))
-    {
-        return ERROR;
-    }
     // SAFETY: the importer's arrays of the lengths it gave.
-    let (vrs, vals) = unsafe {
-        (
-            std::slice::from_raw_parts(value_references, n_value_references),
-            std::slice::from_raw_parts(values, n_values),
+    let Some(vrs) = (unsafe {
+        references(
+            value_references,
+            n_value_references,
+            values.is_null(),
+            n_values,
         )
+    }) else {
+        return ERROR;
     };
-    for (vr, v) in vrs.iter().zip(vals) {
+    for (k, vr) in vrs.iter().enumerate() {
+        // SAFETY: `values` holds `n_values = vrs.len()` numbers (checked by `references`).
+        let v = unsafe { *values.add(k) };
         if let Some(i) = inst.vars.parameter(*vr) {
             if inst.initialized {
                 inst.log(
@@ -358,8 +378,8 @@ pub unsafe extern "C" fn fmi3SetFloat64(
                 );
                 return ERROR;
             }
-            if inst.parameters[i] != *v {
-                inst.parameters[i] = *v;
+            if inst.parameters[i] != v {
+                inst.parameters[i] = v;
                 inst.rebuild = true;
             }
             continue;
@@ -368,7 +388,7 @@ pub unsafe extern "C" fn fmi3SetFloat64(
             inst.log(ERROR, &format!("value reference {vr} is not an input"));
             return ERROR;
         };
-        if let Err(e) = inst.sim.set_input(name, *v) {
+        if let Err(e) = inst.sim.set_input(name, v) {
             inst.log(ERROR, &e);
             return ERROR;
         }

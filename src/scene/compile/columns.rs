@@ -33,16 +33,26 @@ pub(super) fn multiplier_names(
 ) -> Vec<String> {
     let name = |b: usize| bodies.list[b].name.as_str();
     let root = FieldPath::root().key("constraints");
-    // How many terms each named declaration produced: a name alone when it made one term,
-    // the name and the body when it made several.
+    // The named declarations and how many terms each produced (one pass over the terms): a
+    // name alone when it made one term, the name and the body when it made several.
+    let mut named: Vec<(FieldPath, &String, usize)> = file
+        .constraints
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| Some((root.index(i), c.name()?, 0)))
+        .collect();
+    if !named.is_empty() {
+        for term in &model.constraints {
+            if let Some(entry) = named.iter_mut().find(|e| e.0 == term.path) {
+                entry.2 += 1;
+            }
+        }
+    }
     let declared_name = |path: &FieldPath| {
-        file.constraints.iter().enumerate().find_map(|(i, c)| {
-            let n = c.name()?;
-            (root.index(i) == *path).then(|| {
-                let terms = model.constraints.iter().filter(|t| t.path == *path).count();
-                (n.clone(), terms > 1)
-            })
-        })
+        named
+            .iter()
+            .find(|e| e.0 == *path)
+            .map(|e| (e.1.clone(), e.2 > 1))
     };
     let mut out = Vec::with_capacity(model.m);
     for term in &model.constraints {
