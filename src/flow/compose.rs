@@ -77,6 +77,9 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Then<V, A, B> {
     fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
         self.b.multipliers().or_else(|| self.a.multipliers())
     }
+    fn is_kick(&self) -> bool {
+        self.a.is_kick() && self.b.is_kick()
+    }
 }
 
 /// Strang splitting `a(h/2) ∘ b(h) ∘ a(h/2)`: order 2 and symmetric when `a` and `b` are
@@ -86,6 +89,8 @@ pub struct Strang<V: Vector, A, B> {
     a: A,
     b: B,
     backup: Backup<V>,
+    /// `D a(h/2) v` between the two tangent maps of the lead (only when `a` is a kick).
+    tangent: Option<V>,
 }
 
 impl<V: Vector, A, B> Strang<V, A, B> {
@@ -95,6 +100,7 @@ impl<V: Vector, A, B> Strang<V, A, B> {
             a,
             b,
             backup: Backup::default(),
+            tangent: None,
         }
     }
 }
@@ -148,6 +154,9 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
     }
     fn prepare(&mut self, x: &V) {
         self.backup.prepare(x);
+        if self.a.is_kick() && self.tangent.as_ref().is_none_or(|t| t.len() != x.len()) {
+            self.tangent = Some(x.zeros_like());
+        }
         self.a.prepare(x);
         self.b.prepare(x);
     }
@@ -156,6 +165,58 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
     }
     fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
         self.b.multipliers().or_else(|| self.a.multipliers())
+    }
+    fn is_kick(&self) -> bool {
+        self.a.is_kick() && self.b.is_kick()
+    }
+    /// With `a` a [kick](Flow::is_kick) the lead is `b(h) ∘ a(h/2)` and the tail the second
+    /// `a(h/2)`; otherwise the whole step, as the default.
+    #[inline]
+    fn step_lead(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        if !self.a.is_kick() {
+            return self.step_at(ledger, h, x);
+        }
+        let half = h * V::Real::lit(0.5);
+        let guard = self.b.is_fallible();
+        let start = *ledger;
+        self.backup
+            .run(guard, x, |x| {
+                self.a.step_at(ledger, half, x)?;
+                self.b.step_at(ledger, h, x)
+            })
+            .inspect_err(|_| *ledger = start)
+    }
+    #[inline]
+    fn step_tail(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        if !self.a.is_kick() {
+            return Ok(());
+        }
+        let guard = self.a.is_fallible();
+        let start = *ledger;
+        self.backup
+            .run(guard, x, |x| {
+                self.a.step_at(ledger, h * V::Real::lit(0.5), x)
+            })
+            .inspect_err(|_| *ledger = start)
+    }
+    /// `D b(h) · D a(h/2) v`, each at the point of its last step (the lead's), when `a` is a
+    /// kick and both apply their tangent maps ([`Flow::tangent_apply`]).
+    fn lead_tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        if !self.a.is_kick() {
+            return false;
+        }
+        let scratch = self.tangent.get_or_insert_with(|| v.zeros_like());
+        self.a.tangent_apply(v, scratch) && self.b.tangent_apply(scratch, out)
     }
 }
 
@@ -270,6 +331,9 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Composition<V, F> {
     }
     fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
         self.inner.multipliers()
+    }
+    fn is_kick(&self) -> bool {
+        self.inner.is_kick()
     }
 }
 

@@ -12,9 +12,18 @@ pub struct FnFlow<F> {
     order: u32,
     symmetric: bool,
     dissipative: bool,
+    kick: bool,
 }
 
 impl<F> FnFlow<F> {
+    /// Marks the flow as a kick: it moves only momenta (no coordinate a constraint reads), so
+    /// that a projection around `kick(h/2) ∘ drift(h) ∘ kick(h/2)` applies the trailing kick
+    /// once per step instead of once per Newton iteration. See [`Flow::is_kick`].
+    pub fn kick(mut self) -> Self {
+        self.kick = true;
+        self
+    }
+
     /// Marks the flow as dissipative (for instance the exact damping flow `p ← e^{−ch} p`), so
     /// that compositions with backward sub-steps refuse it. See [`Flow::dissipates`].
     pub fn dissipative(self) -> Self {
@@ -38,6 +47,7 @@ pub fn from_fn<F>(f: F) -> FnFlow<F> {
         order: EXACT,
         symmetric: true,
         dissipative: false,
+        kick: false,
     }
 }
 
@@ -48,6 +58,7 @@ pub fn from_fn_with_order<F>(f: F, order: u32, symmetric: bool) -> FnFlow<F> {
         order,
         symmetric,
         dissipative: false,
+        kick: false,
     }
 }
 
@@ -68,6 +79,9 @@ impl<V: Vector, F: FnMut(V::Real, &mut V)> Flow<V> for FnFlow<F> {
     }
     fn dissipates(&self) -> bool {
         self.dissipative
+    }
+    fn is_kick(&self) -> bool {
+        self.kick
     }
 }
 

@@ -135,6 +135,46 @@ pub trait Flow<V: Vector> {
         let _ = (v, out);
         false
     }
+    /// `true` when the flow is a *kick*: it moves no coordinate a holonomic constraint reads
+    /// (a mechanical model's positions), only the others (the momenta: a potential's force, an
+    /// input force, a dashpot), so `g(Φ_h(x)) = g(x)` exactly. Default `false`. A [`Strang`]
+    /// splitting whose outer flow is a kick offers its trailing half-kick as a tail (see
+    /// [`step_lead`](Self::step_lead)).
+    fn is_kick(&self) -> bool {
+        false
+    }
+    /// The step split as `Φ_h = T_h ∘ L_h` with a tail `T_h` that is a [kick](Self::is_kick):
+    /// `step_lead` applies `L_h`, [`step_tail`](Self::step_tail) then `T_h`; together they are
+    /// [`step_at`](Self::step_at). A projection solves for `λ_k` from `g(L_h(x̂)) = 0` alone —
+    /// the tail cannot change `g` — and applies the tail once, after the solve: for
+    /// `kick ∘ drift ∘ kick` the trailing kick's force is evaluated once per step instead of
+    /// once per Newton iteration. The default has no tail (`L_h = Φ_h`, `T_h = id`). Same
+    /// contract as `step_at`.
+    fn step_lead(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        self.step_at(ledger, h, x)
+    }
+    /// The tail `T_h` of the last [`step_lead`](Self::step_lead), from the state and ledger it
+    /// left. Default: the identity.
+    fn step_tail(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        let _ = (ledger, h, x);
+        Ok(())
+    }
+    /// `out = DL_h v`, the tangent map of the last [`step_lead`](Self::step_lead) at its
+    /// starting point, as [`tangent_apply`](Self::tangent_apply) is for the whole step.
+    /// Default: the whole step's (the default lead is the whole step).
+    fn lead_tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        self.tangent_apply(v, out)
+    }
     /// Advances `x` by one step of size `h` that starts at time `ledger.t`, advancing the
     /// extended coordinates the flow owns (see [`Ledger`]): a flow of a time-dependent part
     /// (an input) reads `ledger.t`, advances it by `h` and adds the energy it supplied; an
@@ -250,6 +290,28 @@ macro_rules! forward_flow {
             }
             fn step_table_is_atomic(&self) -> bool {
                 (**self).step_table_is_atomic()
+            }
+            fn is_kick(&self) -> bool {
+                (**self).is_kick()
+            }
+            fn step_lead(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                h: V::Real,
+                x: &mut V,
+            ) -> Result<(), StepError> {
+                (**self).step_lead(ledger, h, x)
+            }
+            fn step_tail(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                h: V::Real,
+                x: &mut V,
+            ) -> Result<(), StepError> {
+                (**self).step_tail(ledger, h, x)
+            }
+            fn lead_tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+                (**self).lead_tangent_apply(v, out)
             }
         }
     )*};

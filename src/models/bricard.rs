@@ -300,6 +300,7 @@ impl Bricard {
                 p[3 * i + 1] -= h * GRAVITY;
             }
         })
+        .kick()
     }
 
     /// RATTLE's options: the degenerate, decoupled case (position constraints, canonical `M`),

@@ -135,6 +135,7 @@ impl NFourBar {
                 p[2 * i + 1] -= h * w * GRAVITY;
             }
         })
+        .kick()
     }
 
     /// The benchmark's start as used here: cranks vertical (`Bᵢ = (i, 1)`) and every tip moving

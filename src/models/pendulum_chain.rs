@@ -179,6 +179,7 @@ impl<T: Real> PendulumChain<T> {
                 p[i * d + d - 1] = p[i * d + d - 1] - h * w;
             }
         })
+        .kick()
     }
 
     /// The exact flow of the kinetic energy: `qᵢ += h pᵢ/mᵢ`.

@@ -154,6 +154,7 @@ impl<T: Real> SphereParticles<T> {
                 }
             }
         })
+        .kick()
     }
 
     /// The exact flow of the kinetic energy: `qᵢ += h pᵢ/mᵢ`.

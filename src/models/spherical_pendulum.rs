@@ -65,6 +65,7 @@ impl<T: Real> SphericalPendulum<T> {
             let x = x.as_mut_slice();
             x[5] = x[5] - h * f;
         })
+        .kick()
     }
 
     /// The exact flow of the kinetic energy: `q += h p / m`.

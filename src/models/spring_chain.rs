@@ -67,6 +67,7 @@ impl<T: Real> SpringChain<T> {
                 p[i] = p[i] - h * k * (left - right);
             }
         })
+        .kick()
     }
 
     /// The exact flow of the kinetic energy: `q += h p`.

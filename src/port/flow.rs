@@ -28,6 +28,7 @@ pub struct InputFlow<V: Vector, B, H = ()> {
     w: Vec<V::Real>,
     hamiltonian: H,
     before: Option<V>,
+    kick: bool,
 }
 
 impl<V: Vector, B: InputMap<V>> InputFlow<V, B, ()> {
@@ -56,6 +57,7 @@ impl<V: Vector, B: InputMap<V>> InputFlow<V, B, ()> {
             w: vec![V::Real::zero(); k],
             hamiltonian: (),
             before: None,
+            kick: false,
         })
     }
 
@@ -67,11 +69,19 @@ impl<V: Vector, B: InputMap<V>> InputFlow<V, B, ()> {
             w: self.w,
             hamiltonian: Supplying(hamiltonian),
             before: None,
+            kick: self.kick,
         }
     }
 }
 
 impl<V: Vector, B, H> InputFlow<V, B, H> {
+    /// Declares the inputs forces: `B(x)` moves only momenta (no coordinate a constraint
+    /// reads), so the flow is a kick ([`Flow::is_kick`]) and a projection around a splitting
+    /// that ends with it applies it once per step.
+    pub fn kick(mut self) -> Self {
+        self.kick = true;
+        self
+    }
     /// The input map.
     pub fn map(&self) -> &B {
         &self.map
@@ -167,6 +177,9 @@ where
     }
     fn is_fallible(&self) -> bool {
         false
+    }
+    fn is_kick(&self) -> bool {
+        self.kick
     }
     fn prepare(&mut self, x: &V) {
         if H::ACCOUNTS && self.before.as_ref().is_none_or(|b| b.len() != x.len()) {

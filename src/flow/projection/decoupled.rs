@@ -206,10 +206,15 @@ where
         tally: &mut FlowStats,
     ) -> Result<(), StepError> {
         if K == 0 {
-            self.solve(Mode::LambdaK, h, base, STAGE_LAMBDA_K)
+            self.solve(Mode::LambdaK, h, base, STAGE_LAMBDA_K)?;
         } else {
-            self.solve_small::<K>(false, h, base, tally)
+            self.solve_small::<K>(false, h, base, tally)?;
         }
+        // The system was solved on the inner flow's lead; its tail (a trailing kick, which
+        // leaves g as it is) completes y once. The decoupling guard checks that it did.
+        let w = &mut self.w;
+        w.y_valid = false;
+        self.inner.step_tail(&mut w.ledger_y, h, &mut w.y)
     }
 
     /// The `λ_{k+1}` system from `y`: on the small path for `K = m`, the general one for `K = 0`

@@ -118,8 +118,9 @@ pub(crate) fn shift<V: Vector, const K: usize>(out: &mut V, x: &V, z: &[V::Real]
     }
 }
 
-/// `λ_k ↦ g(Φ_h(x + Σ λ_j d_j))`, `d_j = (h/2) M Gᵀ e_j`, with the columns `G(y) w_j` (small
-/// path).
+/// `λ_k ↦ g(L_h(x + Σ λ_j d_j))`, `d_j = (h/2) M Gᵀ e_j`, with the columns `G(y) w_j` (small
+/// path); `L_h` is the inner flow's lead ([`Flow::step_lead`]: all of it, or all but a
+/// trailing kick, which cannot change `g`).
 pub(super) struct FirstHalf<'a, V: Vector, F, C, const K: usize> {
     pub(crate) h: V::Real,
     pub(crate) x: &'a V,
@@ -159,14 +160,14 @@ where
             let mut y = self.x.clone();
             shift(&mut y, self.x, z, self.d);
             let mut ledger = self.ledger_in;
-            self.inner.step_at(&mut ledger, self.h, &mut y)?;
+            self.inner.step_lead(&mut ledger, self.h, &mut y)?;
             *self.ledger_y = ledger;
             self.constraint.residual(&y, f);
             *self.y = y;
         } else {
             shift(self.y, self.x, z, self.d);
             let mut ledger = self.ledger_in;
-            self.inner.step_at(&mut ledger, self.h, self.y)?;
+            self.inner.step_lead(&mut ledger, self.h, self.y)?;
             *self.ledger_y = ledger;
             self.constraint.residual(&*self.y, f);
         }
@@ -183,7 +184,7 @@ where
     /// the last evaluation) gives the exact column `G(y) DΦ_h d_j` instead.
     #[inline(always)]
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
-        if self.inner.tangent_apply(&self.d[j], self.scratch) {
+        if self.inner.lead_tangent_apply(&self.d[j], self.scratch) {
             self.constraint
                 .jacobian_apply(&*self.y, &*self.scratch, out);
             return true;

@@ -77,7 +77,13 @@ where
             self.t2.as_slice(),
         );
         let mut ledger = self.ledger_in;
-        self.inner.step_at(&mut ledger, self.h, self.y)?;
+        // The λ_k system reads g(y), which a trailing kick cannot change: the inner flow's
+        // lead alone (its tail follows the solve); the implicit end points need all of y.
+        if self.mode == Mode::LambdaK {
+            self.inner.step_lead(&mut ledger, self.h, self.y)?;
+        } else {
+            self.inner.step_at(&mut ledger, self.h, self.y)?;
+        }
         *self.ledger_y = ledger;
         // An element loop: `copy_from_slice` of a run-time length is a `memcpy` call, which
         // costs more than the copy for a handful of multipliers.
@@ -202,9 +208,9 @@ where
         let (sys, x) = (self.system, self.x);
         if mode == Mode::LambdaK {
             sys.constraint_force(x, e, self.t1, self.t2);
-            // An inner flow that applies its own tangent map (at `y`'s evaluation, the last
-            // one) gives the exact group `G(y) DΦ_h (h/2) M Gᵀ e`.
-            if !self.inner.tangent_apply(&*self.t2, self.hess_v) {
+            // An inner flow that applies its own tangent map (of the lead at `y`'s
+            // evaluation, the last one) gives the exact group `G(y) DΦ_h (h/2) M Gᵀ e`.
+            if !self.inner.lead_tangent_apply(&*self.t2, self.hess_v) {
                 // With dissipation the inner flow's tangent is not `I + h M ∇²H`: the exact
                 // damping flow moves positions by `(1 − e^{−ch/m}) p / c`, not `h p / m`, so
                 // the closed form is off by a factor up to `c h / m` and Newton would crawl.

@@ -7,14 +7,13 @@ use crate::error::SetupError;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
     ImplicitMidpoint, PetrovGalerkin, Projected, ProjectedMidpoint, ProjectionOptions, Scheme,
-    from_fn,
 };
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NewtonOptions, SMALL_MAX};
 use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::model::{ConstraintKind, DashpotFlow, FreeFlight, KickCache, SceneModel};
+use crate::scene::model::{ConstraintKind, DashpotFlow, FreeFlight, Kick, SceneModel};
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
 use crate::system::{Case, System};
@@ -389,11 +388,7 @@ pub fn splitting_flow<V: Vector + 'static>(
     backward: bool,
     eps: V::Real,
 ) -> std::result::Result<Splitting<V>, SetupError> {
-    let mut cache = KickCache::default();
-    let kick = {
-        let model = model.clone();
-        from_fn(move |t: V::Real, x: &mut V| model.kick_cached(t, x.as_mut_slice(), &mut cache))
-    };
+    let kick = Kick::new(model.clone());
     // The exact free flight (booking the energy a damping removes, exactly, per sub-step).
     let drift = FreeFlight::new(model.clone());
     if let Some(dashpots) = DashpotFlow::new(model.clone()) {
@@ -430,7 +425,9 @@ where
     match model.inputs.as_ref() {
         None => assemble(model, x0, raise, backward, eps, kick, drift),
         Some(inputs) => {
+            // The inputs are forces on the bodies: a kick, like the potential's.
             let input = InputFlow::try_new(inputs.map.clone(), inputs.signals.clone())?
+                .kick()
                 .supplying(model.clone());
             assemble(model, x0, raise, backward, eps, kick.strang(input), drift)
         }

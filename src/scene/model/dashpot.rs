@@ -81,12 +81,15 @@ impl<T: Real> Dashpots<T> {
 /// The exact flows of a scene's dashpots in a symmetric sequence (see the module docs).
 pub struct DashpotFlow<T> {
     model: Arc<SceneModel<T>>,
+    /// The length of the last step (for its tangent map).
+    last: Option<T>,
 }
 
-impl<T> Clone for DashpotFlow<T> {
+impl<T: Copy> Clone for DashpotFlow<T> {
     fn clone(&self) -> Self {
         Self {
             model: self.model.clone(),
+            last: self.last,
         }
     }
 }
@@ -95,16 +98,24 @@ impl<T: Real> DashpotFlow<T> {
     /// The dashpots of `model`, or `None` when it has none.
     pub fn new(model: Arc<SceneModel<T>>) -> Option<Self> {
         model.dashpots.as_ref()?;
-        Some(Self { model })
+        Some(Self { model, last: None })
     }
 
     /// Advances the momenta of `x` by `h`; returns the energy removed.
-    fn advance(&self, h: T, x: &mut [T]) -> T {
+    fn advance(&mut self, h: T, x: &mut [T]) -> T {
+        if let Some(dashpots) = &self.model.dashpots {
+            dashpots.counter.hit();
+        }
+        self.last = Some(h);
+        self.advance_uncounted(h, x)
+    }
+
+    /// [`advance`](Self::advance) without counting an evaluation.
+    fn advance_uncounted(&self, h: T, x: &mut [T]) -> T {
         let model = &*self.model;
         let Some(dashpots) = &model.dashpots else {
             return T::zero();
         };
-        dashpots.counter.hit();
         let d = model.dim;
         let nq = x.len() / 2;
         let p = &mut x[nq..];
@@ -151,6 +162,20 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for DashpotFlow<T> {
         false
     }
     fn dissipates(&self) -> bool {
+        true
+    }
+    /// Dashpots move momenta only.
+    fn is_kick(&self) -> bool {
+        true
+    }
+    /// The flow is linear in the momenta and does not read the positions: `DΦ v` is the flow
+    /// of `v` itself (its energy account aside).
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        let Some(h) = self.last else {
+            return false;
+        };
+        out.copy_from(v);
+        self.advance_uncounted(h, out.as_mut_slice());
         true
     }
 }

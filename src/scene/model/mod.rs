@@ -33,7 +33,7 @@ pub use dashpot::DashpotFlow;
 pub(crate) use dashpot::Dashpots;
 use flight::Flight;
 pub use flight::{FlightCache, FreeFlight};
-pub use potential::KickCache;
+pub use potential::{Kick, KickCache};
 pub(crate) use terms::{ConstraintKind, ConstraintTerm, StructureTerm};
 
 use crate::real::Real;

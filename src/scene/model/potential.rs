@@ -3,8 +3,12 @@
 //! `p ← p − t ∇V(q)`.
 
 use super::SceneModel;
+use crate::error::StepError;
+use crate::flow::{EXACT, Flow};
 use crate::real::Real;
 use crate::scene::effects::EffectKind;
+use crate::vector::Vector;
+use std::sync::Arc;
 
 impl<T: Real> SceneModel<T> {
     /// `V(q)`, the sum of the potential terms.
@@ -98,4 +102,54 @@ pub struct KickCache<T> {
     grad: Vec<T>,
     valid: bool,
     enabled: bool,
+}
+
+/// The kick of a scene's potential terms as a [`Flow`] (see [`SceneModel::kick_cached`]):
+/// exact, symmetric, a [kick](Flow::is_kick) (it moves momenta only), with its tangent map on
+/// directions that move momenta only (the identity: the force reads positions alone), which
+/// are the directions of a scene's constraint forces.
+#[derive(Debug)]
+pub struct Kick<T: Real> {
+    model: Arc<SceneModel<T>>,
+    cache: KickCache<T>,
+}
+
+impl<T: Real> Kick<T> {
+    /// The kick of `model`'s potential terms.
+    pub fn new(model: Arc<SceneModel<T>>) -> Self {
+        Self {
+            model,
+            cache: KickCache::default(),
+        }
+    }
+}
+
+impl<T: Real, V: Vector<Real = T>> Flow<V> for Kick<T> {
+    #[inline]
+    fn step(&mut self, h: T, x: &mut V) -> Result<(), StepError> {
+        self.model.kick_cached(h, x.as_mut_slice(), &mut self.cache);
+        Ok(())
+    }
+    fn order(&self) -> u32 {
+        EXACT
+    }
+    fn is_symmetric(&self) -> bool {
+        true
+    }
+    fn is_fallible(&self) -> bool {
+        false
+    }
+    fn is_kick(&self) -> bool {
+        true
+    }
+    /// `DΦ v = v − t (0, ∇²V v_q)`: the identity for `v` with no position part; `false` for
+    /// any other `v` (the Hessian is not formed here).
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        let nq = self.model.dim * self.model.masses.len();
+        if v.as_slice()[..nq].iter().any(|&c| c != T::lit(0.0)) {
+            return false;
+        }
+        out.copy_from(v);
+        true
+    }
 }
