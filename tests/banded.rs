@@ -148,7 +148,7 @@ fn banded_lu_errors_are_typed() {
 }
 
 #[test]
-fn auto_picks_the_band_solver_for_narrow_bands_only() {
+fn auto_picks_the_band_solver_for_narrow_bands_and_diagonals() {
     let auto = |k, structure| AutoLu::<f64>::auto_kind(k, structure);
     let band = |lower, upper| Structure::Banded {
         lower,
@@ -163,6 +163,9 @@ fn auto_picks_the_band_solver_for_narrow_bands_only() {
     // Small systems: the stack or dense solver.
     assert_eq!(auto(8, band(1, 1)), SolverKind::Stack);
     assert_eq!(auto(50, band(1, 1)), SolverKind::Dense);
+    // A diagonal at any size above the stack's: k divisions, not a dense LU.
+    assert_eq!(auto(10, band(0, 0)), SolverKind::Banded);
+    assert_eq!(auto(9, band(0, 0)), SolverKind::Banded);
     let pattern = [(0, 0), (1, 0), (0, 1), (5, 2)];
     assert_eq!(
         Structure::of_pattern(&pattern),

@@ -54,9 +54,13 @@ fn a_projected_step_evaluates_the_pair_force_once() {
     // lead only, whose leading kick is at the positions the last trailing kick saw.
     for dt in [0.01, 0.25] {
         let (evaluations, steps) = pair_evaluations(&shell(dt, 5.0, 2));
-        // One per step, the first step's leading kick, and the compile's check of the initial
-        // state (its hidden constraint reads ∇H).
-        assert_eq!(evaluations, steps as u64 + 2, "dt = {dt}");
+        // One per step, and the first step's leading kick (the compile's checks of the
+        // initial state may add one).
+        let steps = steps as u64;
+        assert!(
+            (steps + 1..=steps + 2).contains(&evaluations),
+            "dt = {dt}: {evaluations} pair evaluations in {steps} steps"
+        );
     }
     // Extrapolated to order 8 (rows of 1, 2, 3, 4 steps from the same start): one per sub-step
     // and one for each row's first kick, at the start's positions.

@@ -29,6 +29,8 @@ pub enum SolverChoice {
 ///
 /// With [`SolverChoice::Auto`]:
 /// - `k ≤ STACK_MAX` (8): [`StackLu`] — for a handful of unknowns the cost is overhead, not flops;
+/// - a diagonal structure (independent unknowns, such as particles each on its own sphere):
+///   [`BandedLu`] with no off-diagonal, `k` divisions;
 /// - a banded structure with `k > SPARSE_MIN_DIM` (64) and at most [`BANDED_MAX`] (8)
 ///   diagonals on either side: [`BandedLu`] — `O(k)` work with no symbolic phase and no
 ///   indirection, the cheapest for chains and other topologies of small bandwidth;
@@ -66,6 +68,10 @@ impl<T: Real + faer::traits::RealField + nalgebra::Scalar> AutoLu<T> {
     pub fn auto_kind(k: usize, structure: Structure) -> SolverKind {
         match structure {
             _ if k <= STACK_MAX => SolverKind::Stack,
+            // A diagonal: k divisions, whatever k (dense LU would cost 2k³/3 and its overhead).
+            Structure::Banded {
+                lower: 0, upper: 0, ..
+            } => SolverKind::Banded,
             Structure::Banded { lower, upper, .. }
                 if k > SPARSE_MIN_DIM && lower <= BANDED_MAX && upper <= BANDED_MAX =>
             {

@@ -56,7 +56,11 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
         let out = out.as_mut_slice();
         let (oq, op) = out.split_at_mut(nq);
         oq.fill(T::lit(0.0));
-        self.potential_hessian_apply_add(q, &v[..nq], oq);
+        // ∇²V reads the position part only: a direction that moves momenta alone (every
+        // constraint force of a scene) skips it, exactly.
+        if v[..nq].iter().any(|&c| c != T::lit(0.0)) {
+            self.potential_hessian_apply_add(q, &v[..nq], oq);
+        }
         let d = self.dim;
         for (b, w) in self.inv_masses.iter().enumerate() {
             for k in 0..d {
