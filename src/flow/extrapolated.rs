@@ -58,6 +58,9 @@ pub struct Extrapolated<V: Vector, F> {
     /// `Σ_{j<l} w_j T_j`.
     acc: Option<V>,
     sub_steps: u64,
+    /// The base flow's memory at the start of the step ([`Flow::save_memory`]), restored
+    /// before every row after the first.
+    memory: Vec<V::Real>,
 }
 
 impl<V: Vector, F: Flow<V>> Extrapolated<V, F> {
@@ -107,6 +110,7 @@ impl<V: Vector, F: Flow<V>> Extrapolated<V, F> {
             row: None,
             acc: None,
             sub_steps: 0,
+            memory: Vec::new(),
         })
     }
 
@@ -237,6 +241,13 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Extrapolated<V, F> {
             unreachable!("prepared above");
         };
         start.copy_from(x);
+        // Every row starts from the same state, and from the same memory of the base flow
+        // (its warm starts): a row's first multipliers are predicted from the steps before
+        // `t`, not from the previous row's end at `t + h`, and a projection rebuilds its kept
+        // Newton matrix for the row's step size instead of rescaling one built for another.
+        // (The capacity is kept: no allocation after the first step.)
+        self.memory.clear();
+        self.base.save_memory(&mut self.memory);
         ops::fill_zero(acc.as_mut_slice());
         let l0 = *ledger;
         let (mut dt, mut ds, mut dd) = (V::Real::zero(), V::Real::zero(), V::Real::zero());
@@ -247,6 +258,10 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Extrapolated<V, F> {
             let w = self.weights[j];
             let sub = h / V::Real::lit(n as f64);
             let mut lj = l0;
+            if j > 0 {
+                let mut from = self.memory.as_slice();
+                self.base.restore_memory(&mut from);
+            }
             let target: &mut V = if j == last { &mut *x } else { &mut *row };
             if j != last {
                 target.copy_from(start);
@@ -266,6 +281,8 @@ impl<V: Vector, F: Flow<V>> Flow<V> for Extrapolated<V, F> {
         if let Err(e) = result {
             x.copy_from(start);
             *ledger = l0;
+            let mut from = self.memory.as_slice();
+            self.base.restore_memory(&mut from);
             return Err(e);
         }
         // x = w_l T_l + Σ_{j<l} w_j T_j.
