@@ -61,7 +61,7 @@ pub(crate) struct PrecisionArgs {
 
 pub(crate) fn precision(args: &PrecisionArgs) -> ExitCode {
     use lieflow_lab::precision::{
-        PrecisionPlan, fitted_slopes, fitting_window, reference, work_precision, write_csv,
+        PrecisionPlan, fitted_slopes, fitting_window, reference, work_precision_until, write_csv,
     };
     let loaded = match &args.scene {
         Some(p) => load(Some(p)),
@@ -119,6 +119,12 @@ pub(crate) fn precision(args: &PrecisionArgs) -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    // From here on the first Ctrl-C stops the set after the run in progress, and what was
+    // measured is kept: the table, the fitted orders, the CSV and figures, the summary (exit
+    // 130). Before, while the reference is computed, Ctrl-C ends the command: there is nothing
+    // to keep yet.
+    crate::interrupt::catch_interrupt();
+    let interrupted = &crate::interrupt::INTERRUPTED;
     println!(
         "{name}: T = {}, reference: {} (its error ~ {})",
         reference.t,
@@ -136,42 +142,55 @@ pub(crate) fn precision(args: &PrecisionArgs) -> ExitCode {
     let mut rows_done = 0usize;
     let started = std::time::Instant::now();
     let quiet_bar = bar.is_hidden();
-    let rows = work_precision(&scene, &plan, &reference, &mut |r| {
-        rows_done += 1;
-        bar.set_message(format!("{rows_done} runs"));
-        if quiet_bar {
-            // No terminal for the spinner: a line of progress per run on stderr.
-            eprintln!(
-                "  [{rows_done} runs, {:.1} s] {} {}",
-                started.elapsed().as_secs_f64(),
-                r.method,
-                r.dt.or(r.tol)
-                    .map_or_else(String::new, |v| format!("{v:e}"))
-            );
-        }
-        bar.suspend(|| {
-            println!(
-                "{:<28} {:>10} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>10}  {}{}",
-                r.method,
-                f(r.dt),
-                f(r.tol),
-                f(r.error),
-                f(r.max_abs_g),
-                f(r.max_abs_phi),
-                f(r.energy_error),
-                r.evaluations,
-                f(r.time_min),
-                f(r.time_median),
-                r.status,
-                if r.message.is_empty() {
-                    String::new()
-                } else {
-                    format!(": {}", r.message)
-                }
-            )
-        });
-    });
+    let rows = work_precision_until(
+        &scene,
+        &plan,
+        &reference,
+        &mut |r| {
+            rows_done += 1;
+            bar.set_message(format!("{rows_done} runs"));
+            if quiet_bar {
+                // No terminal for the spinner: a line of progress per run on stderr.
+                eprintln!(
+                    "  [{rows_done} runs, {:.1} s] {} {}",
+                    started.elapsed().as_secs_f64(),
+                    r.method,
+                    r.dt.or(r.tol)
+                        .map_or_else(String::new, |v| format!("{v:e}"))
+                );
+            }
+            bar.suspend(|| {
+                println!(
+                    "{:<28} {:>10} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>10}  {}{}",
+                    r.method,
+                    f(r.dt),
+                    f(r.tol),
+                    f(r.error),
+                    f(r.max_abs_g),
+                    f(r.max_abs_phi),
+                    f(r.energy_error),
+                    r.evaluations,
+                    f(r.time_min),
+                    f(r.time_median),
+                    r.status,
+                    if r.message.is_empty() {
+                        String::new()
+                    } else {
+                        format!(": {}", r.message)
+                    }
+                )
+            });
+        },
+        interrupted,
+    );
     bar.finish_and_clear();
+    let stopped = interrupted.load(std::sync::atomic::Ordering::SeqCst);
+    if stopped {
+        eprintln!(
+            "interrupted: {} runs measured; writing what they measured",
+            rows.len()
+        );
+    }
     let h_min = plan.dts.iter().copied().fold(f64::INFINITY, f64::min);
     let (floor, ceiling) = fitting_window(&reference, h_min);
     let slopes = fitted_slopes(&rows, floor, ceiling);
@@ -260,8 +279,12 @@ pub(crate) fn precision(args: &PrecisionArgs) -> ExitCode {
         "failed": failed,
         "fitted_orders": fitted,
         "outputs": outputs,
+        "interrupted": stopped,
     });
     println!("{json}");
+    if stopped {
+        return ExitCode::from(crate::interrupt::EXIT_INTERRUPTED);
+    }
     code
 }
 

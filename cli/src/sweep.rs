@@ -52,7 +52,7 @@ pub(crate) fn member_ids(specs: &[String], len: usize) -> Result<Vec<usize>, Str
 }
 
 pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
-    use lieflow_lab::sweep::{OUTPUTS, Sweep, run_all, to_jsonl};
+    use lieflow_lab::sweep::{OUTPUTS, Sweep, run_all_until, to_jsonl};
     let sweep = match Sweep::from_path(&args.sweep) {
         Ok(s) => s,
         Err(e) => return bad_scene(&e),
@@ -90,11 +90,22 @@ pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
         None
     };
     let start = std::time::Instant::now();
-    let rows = match run_all(&sweep, &members, args.threads, &|| {
-        if let Some(b) = &bar {
-            b.inc(1);
-        }
-    }) {
+    // The first Ctrl-C starts no further member; the members that ran are written and
+    // summarized (exit 130).
+    crate::interrupt::catch_interrupt();
+    let interrupted = &crate::interrupt::INTERRUPTED;
+    let planned = members.len();
+    let rows = match run_all_until(
+        &sweep,
+        &members,
+        args.threads,
+        &|| {
+            if let Some(b) = &bar {
+                b.inc(1);
+            }
+        },
+        interrupted,
+    ) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
@@ -103,6 +114,13 @@ pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
     };
     if let Some(b) = &bar {
         b.finish_and_clear();
+    }
+    let stopped = interrupted.load(std::sync::atomic::Ordering::SeqCst);
+    if stopped {
+        eprintln!(
+            "interrupted: {} of {planned} members ran; writing them",
+            rows.len()
+        );
     }
     let rows = match ranks.gather(rows) {
         Ok(Some(rows)) => rows,
@@ -213,8 +231,12 @@ pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
             "members_per_second": member_rows.len() as f64 / seconds,
             "out": args.out.display().to_string(),
             "plot": plot,
+            "interrupted": stopped,
         })
     );
+    if stopped {
+        return ExitCode::from(crate::interrupt::EXIT_INTERRUPTED);
+    }
     if failed > 0 && failed == member_rows.len() {
         // Every member failed: the rows say why, but nothing was swept.
         eprintln!("error: every member failed (the first failures are listed above)");

@@ -135,11 +135,13 @@ fn solve_dop853<P: PeerProblem + ?Sized>(
     Ok(tracked.finish(stats.accepted, stats.evaluations, 0, factorizations))
 }
 
-/// The peers' rows for a scene (nothing for built-in models other than the paper's).
+/// The peers' rows for a scene (nothing for built-in models other than the paper's); no run
+/// starts once `stopped()` holds.
 pub(crate) fn peer_rows(
     scene: &Scene,
     plan: &PrecisionPlan,
     reference: &Reference,
+    stopped: &dyn Fn() -> bool,
 ) -> Vec<PrecisionRow> {
     let t_end = scene.file.integrator.t_end;
     let problem: Box<dyn PeerProblem>;
@@ -188,6 +190,9 @@ pub(crate) fn peer_rows(
         (Peer::Radau5, "Radau5 (index-3 DAE)"),
     ] {
         for &tol in &plan.tolerances {
+            if stopped() {
+                return rows;
+            }
             if peer == Peer::Radau5 && !RADAU_DIMS.contains(&(problem.n() + problem.m())) {
                 rows.push(PrecisionRow::failed(
                     name,

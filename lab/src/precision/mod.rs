@@ -12,6 +12,7 @@
 use lieflow::scene::Scene;
 use lieflow::scene::schema::Method;
 use lieflow::scene::{RunPlan, advance_plan, run};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 pub(crate) mod plan;
 mod reference;
@@ -29,6 +30,19 @@ pub fn work_precision(
     reference: &Reference,
     progress: &mut dyn FnMut(&PrecisionRow),
 ) -> Vec<PrecisionRow> {
+    work_precision_until(scene, plan, reference, progress, &AtomicBool::new(false))
+}
+
+/// [`work_precision`] that stops before the next run once `stop` is raised (by a Ctrl-C
+/// handler, say): the rows of the runs that finished, in order. A run in progress completes.
+pub fn work_precision_until(
+    scene: &Scene,
+    plan: &PrecisionPlan,
+    reference: &Reference,
+    progress: &mut dyn FnMut(&PrecisionRow),
+    stop: &AtomicBool,
+) -> Vec<PrecisionRow> {
+    let stopped = || stop.load(Ordering::Relaxed);
     let mut rows = Vec::new();
     let mut push = |row: PrecisionRow, rows: &mut Vec<PrecisionRow>| {
         progress(&row);
@@ -96,12 +110,15 @@ pub fn work_precision(
     }
     for (name, scheme, order) in &methods {
         for &dt in &plan.dts {
+            if stopped() {
+                return rows;
+            }
             let row = lieflow_row(scene, name, *scheme, *order, dt, plan.repeats, reference);
             push(row, &mut rows);
         }
     }
-    if plan.peers {
-        for row in crate::peers::peer_rows(scene, plan, reference) {
+    if plan.peers && !stopped() {
+        for row in crate::peers::peer_rows(scene, plan, reference, &stopped) {
             push(row, &mut rows);
         }
     }

@@ -38,7 +38,7 @@ mod values;
 pub use file::{GridSpec, ParameterSpec, PlotSpec, RandomSpec, SweepFile};
 use lieflow::scene::path::{parse_path, set_path};
 use lieflow::scene::{FieldPath, Scene, SceneError, SceneErrorKind};
-pub use rows::{MemberRow, run_all, run_member, to_jsonl};
+pub use rows::{MemberRow, run_all, run_all_until, run_member, to_jsonl};
 use std::path::Path;
 use values::{SplitMix, grid_values};
 

@@ -3,6 +3,7 @@
 use super::{Member, Sweep};
 use lieflow::scene::run;
 use serde::Serialize;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The result of one member: its parameters and its run's summary, or why it failed.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -101,6 +102,18 @@ pub fn run_all(
     threads: usize,
     progress: &(dyn Fn() + Sync),
 ) -> Result<Vec<(MemberRow, f64)>, String> {
+    run_all_until(sweep, members, threads, progress, &AtomicBool::new(false))
+}
+
+/// [`run_all`] that starts no member once `stop` is raised (by a Ctrl-C handler, say): the rows
+/// of the members that ran, by id. Members in progress complete.
+pub fn run_all_until(
+    sweep: &Sweep,
+    members: &[Member],
+    threads: usize,
+    progress: &(dyn Fn() + Sync),
+    stop: &AtomicBool,
+) -> Result<Vec<(MemberRow, f64)>, String> {
     use rayon::prelude::*;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -109,11 +122,14 @@ pub fn run_all(
     let mut rows: Vec<(MemberRow, f64)> = pool.install(|| {
         members
             .par_iter()
-            .map(|m| {
+            .filter_map(|m| {
+                if stop.load(Ordering::Relaxed) {
+                    return None;
+                }
                 let start = std::time::Instant::now();
                 let row = run_member(sweep, m);
                 progress();
-                (row, start.elapsed().as_secs_f64())
+                Some((row, start.elapsed().as_secs_f64()))
             })
             .collect()
     });

@@ -1,0 +1,150 @@
+//! Ctrl-C keeps what was computed: a run stops after its step (its CSV, plot and summary
+//! written), a work–precision set after its run in progress (its rows, CSV, figures), a sweep
+//! starts no further member (the members that ran written); each says `"interrupted": true` and
+//! exits with 130. A second Ctrl-C ends the process.
+#![cfg(unix)]
+
+mod common;
+
+use common::{pendulum_with, repo, scratch};
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+
+#[test]
+fn ctrl_c_stops_the_run_and_keeps_what_it_computed() {
+    let scene = pendulum_with("endless.toml", "t_end = 10.0", "t_end = 1e7");
+    let (csv, svg) = (scratch("interrupted.csv"), scratch("interrupted.svg"));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lieflow"))
+        .args([
+            "run",
+            &scene,
+            "--csv",
+            csv.to_str().unwrap(),
+            "--plot",
+            svg.to_str().unwrap(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait for the first line: the run has started (and caught Ctrl-C) once it is printed.
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut head = String::new();
+    out.read_line(&mut head).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted at t = "), "{err}");
+    let last = rest.lines().last().unwrap();
+    let j: serde_json::Value = serde_json::from_str(last).unwrap();
+    assert_eq!(j["interrupted"], true);
+    let steps = j["steps"].as_u64().unwrap();
+    assert!(steps > 0 && steps < j["steps_planned"].as_u64().unwrap());
+    // The CSV ends with the state the summary reports, and the plot is drawn.
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    let last_row = rows.lines().last().unwrap();
+    assert_eq!(last_row.split(',').next().unwrap(), steps.to_string());
+    let t: f64 = last_row.split(',').nth(1).unwrap().parse().unwrap();
+    // serde_json reads floats to within an ulp (without its `float_roundtrip` feature).
+    let jt = j["t"].as_f64().unwrap();
+    assert!(
+        (t - jt).abs() <= 2.0 * f64::EPSILON * jt,
+        "{t} against {jt}"
+    );
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+}
+
+#[test]
+fn ctrl_c_stops_a_precision_set_and_keeps_its_rows() {
+    let dir = scratch("precision_interrupted");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lieflow"))
+        .args([
+            "precision",
+            &repo("scenes/damped_pendulum.toml"),
+            "--f64-reference",
+            "--repeats",
+            "1",
+            "--dt",
+            "0.01,0.005,0.0025,0.00125,0.000625,0.0003125",
+            "--out",
+            dir.to_str().unwrap(),
+            "--stem",
+            "set",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The first line follows the reference; Ctrl-C is caught from then on.
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut head = String::new();
+    out.read_line(&mut head).unwrap();
+    assert!(head.contains("reference"), "{head}");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    let j: serde_json::Value = serde_json::from_str(rest.lines().last().unwrap()).unwrap();
+    assert_eq!(j["interrupted"], true);
+    // Fewer rows than the set has (6 step sizes × 8 lieflow methods, then the peers), each in
+    // the table and the CSV.
+    let rows = j["rows"].as_u64().unwrap();
+    assert!(rows > 0 && rows < 48, "{rows} rows");
+    let csv = std::fs::read_to_string(dir.join("set.csv")).unwrap();
+    let data = csv.lines().filter(|l| !l.starts_with('#')).skip(1).count();
+    assert_eq!(data as u64, rows);
+    assert!(dir.join("set_time.svg").exists());
+}
+
+#[test]
+fn ctrl_c_stops_a_sweep_and_writes_the_members_that_ran() {
+    let out = scratch("sweep_interrupted");
+    // A thousand chains of a hundred links, some 40 s on one thread.
+    let child = Command::new(env!("CARGO_BIN_EXE_lieflow"))
+        .args([
+            "sweep",
+            &repo("scenes/sweep_chain100.toml"),
+            "--threads",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted: "), "{err}");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let j: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    assert_eq!(j["interrupted"], true);
+    let members = j["members"].as_u64().unwrap();
+    assert!(members > 0 && members < 1000, "{members} members");
+    let jsonl = std::fs::read_to_string(out.join("members.jsonl")).unwrap();
+    assert_eq!(jsonl.lines().count() as u64, members);
+}
