@@ -1,6 +1,7 @@
 //! A compiled scene writes its hidden constraint `φ = G M ∇H` directly as the constraint
-//! velocities `G_q W⁻¹ p`, without `∇H`: the two agree on scenes with every kind of
-//! constraint and every effect (damping and a magnetic field in `M`, pair potentials in `H`).
+//! velocities `G_q W⁻¹ p`, without `∇H`, and its constraint force `M Gᵀλ` as `(0, −G_qᵀλ)`,
+//! without `M`: each agrees with the generic form on scenes with every kind of constraint and
+//! every effect (damping, dashpots and a magnetic field in `M`, pair potentials in `H`).
 
 use faer::Col;
 use lieflow::scene::Scene;
@@ -44,12 +45,67 @@ fn check(text: &str) {
             "row {i}: generic {a:e}, direct {b:e}"
         );
     }
+    // The constraint force: M applied to Gᵀλ against the direct (0, −G_qᵀλ). Both are the
+    // same sums with the sign flipped (M's damping and field blocks meet Gᵀλ's zero momenta),
+    // so they agree exactly (as numbers: −0 = 0).
+    let lambda: Vec<f64> = (0..m).map(|i| 1.0 - 0.37 * i as f64).collect();
+    let (mut gt, mut force) = (Col::<f64>::zeros(n), Col::<f64>::zeros(n));
+    model.jacobian_transpose_apply(&x, &lambda, &mut gt);
+    model.apply(&x, &gt, &mut force);
+    let mut direct_force = Col::<f64>::from_fn(n, |_| f64::NAN);
+    assert!(HolonomicConstraint::<Col<f64>>::constraint_force_direct(
+        &model,
+        &x,
+        &lambda,
+        &mut direct_force
+    ));
+    for i in 0..n {
+        assert!(
+            force[i] == direct_force[i],
+            "entry {i}: M Gᵀλ {:e}, direct {:e}",
+            force[i],
+            direct_force[i]
+        );
+    }
 }
 
 #[test]
-fn the_direct_hidden_constraint_is_g_m_grad_h() {
+fn the_direct_hidden_constraint_and_constraint_force_are_the_generic_ones() {
     check(include_str!("../scenes/all_effects.toml"));
     check(include_str!("../scenes/shell_damped.toml"));
     check(include_str!("../scenes/parallel_cranks.toml"));
     check(include_str!("../scenes/stiff_chain.toml"));
+    // A dashpot between two bodies on rods to fixed points: its block of R couples momenta.
+    check(
+        r#"version = 1
+dim = 2
+[[bodies]]
+name = "a"
+mass = 1.0
+position = [0.0, -1.0]
+velocity = [1.0, 0.0]
+[[bodies]]
+name = "b"
+mass = 3.0
+position = [1.0, -1.0]
+velocity = [-0.2, 0.0]
+[[constraints]]
+type = "rod"
+bodies = ["a"]
+point = [0.0, 0.0]
+length = 1.0
+[[constraints]]
+type = "rod"
+bodies = ["b"]
+point = [1.0, 0.0]
+length = 1.0
+[[effects]]
+type = "dashpot"
+bodies = ["a", "b"]
+coefficient = 1.5
+[integrator]
+dt = 0.01
+t_end = 1.0
+"#,
+    );
 }

@@ -61,7 +61,7 @@ pub use compile::{
 };
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
 pub use gram::MassGram;
-pub use model::{DashpotFlow, EffectKind, FlightCache, FreeFlight, KickCache, SceneModel};
+pub use model::{DashpotFlow, EffectKind, FlightCache, FreeFlight, Kick, KickCache, SceneModel};
 pub use run::{
     Advanced, EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation,
     SimulationCheckpoint, advance, advance_plan, advance_plan_until, advance_until, run, run_until,

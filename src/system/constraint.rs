@@ -50,6 +50,19 @@ pub trait HolonomicConstraint<V: Vector> {
         let _ = (x, out);
         false
     }
+    /// Writes the constraint force `M(x) G(x)ᵀ λ` into `out` and returns `true`, for a model
+    /// that knows it without applying `M` (see
+    /// [`hidden_constraint_direct`](Self::hidden_constraint_direct)); the default returns
+    /// `false` and the force is `M` applied to `Gᵀλ`.
+    ///
+    /// The same case: position constraints under `M = [[0, I], [−I, K − R]]`, where `Gᵀλ =
+    /// (G_qᵀλ, 0)` and so `M Gᵀλ = (0, −G_qᵀλ)` whatever the damping `R` and gyroscopic `K`,
+    /// which act on the momentum part `Gᵀλ` does not have. A projection forms this direction at
+    /// every residual of its multiplier systems.
+    fn constraint_force_direct(&self, x: &V, lambda: &[V::Real], out: &mut V) -> bool {
+        let _ = (x, lambda, out);
+        false
+    }
 }
 
 /// No constraints (`m = 0`): a [`System`](super::System) of an unconstrained model, e.g. to

@@ -27,6 +27,9 @@ pub trait Model<V: Vector> {
     /// `tmp` is workspace of the state's length.
     #[inline(always)]
     fn constraint_force(&self, x: &V, lambda: &[V::Real], tmp: &mut V, out: &mut V) {
+        if self.constraint().constraint_force_direct(x, lambda, out) {
+            return;
+        }
         self.constraint().jacobian_transpose_apply(x, lambda, tmp);
         self.structure().apply(x, tmp, out);
     }

@@ -133,6 +133,25 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         true
     }
 
+    /// `M Gᵀλ = (0, −G_qᵀλ)`: the scene's constraints read positions and its `M` is
+    /// `[[0, I], [−I, K − R]]` (see the trait's docs).
+    fn constraint_force_direct(&self, x: &V, lambda: &[T], out: &mut V) -> bool {
+        let out = out.as_mut_slice();
+        let d = self.dim;
+        let nq = out.len() / 2;
+        out.fill(T::lit(0.0));
+        let p = &mut out[nq..];
+        self.timed(&self.constraint_counter, || {
+            self.for_each_gradient(x.as_slice(), |row, body, coef| {
+                let s = lambda[row];
+                for k in 0..d {
+                    p[body * d + k] = p[body * d + k] - (s * coef[k]);
+                }
+            });
+        });
+        true
+    }
+
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
         let out = out.as_mut_slice();
         let d = self.dim;
