@@ -43,6 +43,9 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     mark: Vec<usize>,
     /// The row scales of the kept, equilibrated Jacobian (empty when not equilibrated).
     row_scale: Vec<V::Real>,
+    /// The kept Jacobian's diagonal when the pattern is diagonal (independent unknowns; empty
+    /// otherwise): its secant update is one division per unknown.
+    diagonal: Vec<V::Real>,
 }
 
 impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
@@ -99,6 +102,10 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             j11: V::Real::zero(),
             analytic: false,
             row_scale: Vec::with_capacity(if options.equilibrate { k } else { 0 }),
+            diagonal: match pattern {
+                Some(p) if k > 1 && p.iter().all(|&(r, c)| r == c) => vec![V::Real::zero(); k],
+                _ => Vec::new(),
+            },
         })
     }
 
@@ -192,6 +199,26 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
     /// `ratio = s₀/s` converts the update to the scale the Jacobian is kept at.
     fn broyden_update<E>(&mut self, ratio: V::Real) -> Result<(), NewtonError<E>> {
         let k = self.k;
+        if !self.diagonal.is_empty() {
+            // Independent unknowns: the secant slope of each, as for one unknown below (the
+            // rank-one update restricted to the diagonal pattern, which keeps it diagonal).
+            self.lin.clear();
+            for (i, d) in self.diagonal.iter_mut().enumerate() {
+                let dz = self.dz.as_slice()[i];
+                if dz != V::Real::zero() {
+                    *d = *d + ratio * self.f.as_slice()[i] / dz;
+                }
+                if !d.is_finite() || *d == V::Real::zero() {
+                    self.have_jacobian = false;
+                    return Ok(());
+                }
+                self.lin.add(i, i, *d);
+            }
+            if self.lin.factor().is_err() {
+                self.have_jacobian = false;
+            }
+            return Ok(());
+        }
         if k == 1 {
             // The secant slope: J += ratio f / Δz.
             let j = self.j11 + ratio * self.f.as_slice()[0] / self.dz.as_slice()[0];
@@ -266,6 +293,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         if let (Some(groups), true) = (self.groups.as_ref(), k > 1) {
             self.analytic = false;
             self.lin.clear();
+            self.diagonal.iter_mut().for_each(|d| *d = V::Real::zero());
             let central = self.options.central_differences;
             for c in 0..groups.groups() {
                 let cols = &groups.cols[groups.col_ptr[c]..groups.col_ptr[c + 1]];
@@ -275,6 +303,9 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
                     let mut max = V::Real::zero();
                     for &(i, j) in entries {
                         self.lin.add(i, j, fp[i]);
+                        if let Some(d) = self.diagonal.get_mut(i) {
+                            *d = *d + fp[i];
+                        }
                         self.mark[i] = c;
                         max = max.max(fp[i].abs());
                     }
@@ -316,6 +347,9 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
                         (fp[i] - f[i]) / ((z[j] + d) - z[j])
                     };
                     self.lin.add(i, j, v);
+                    if let Some(d) = self.diagonal.get_mut(i) {
+                        *d = *d + v;
+                    }
                 }
             }
             report.factorizations += 1;

@@ -50,7 +50,8 @@ pub struct NewtonOptions<T> {
     /// Between rebuilds, improve the kept Jacobian with Broyden's secant update after every
     /// iteration (superlinear instead of linear convergence, no extra residual evaluations).
     /// Default `true`; ignored with [`JacobianUpdate::EveryIteration`] and with sparse storage
-    /// (a rank-one update fills the matrix).
+    /// (a rank-one update fills the matrix) — except for a diagonal pattern (independent
+    /// unknowns), whose update is restricted to the diagonal: a secant slope per unknown.
     pub broyden: bool,
     /// Also converged when the last update satisfies `|Δz_i| ≤ atol + rtol |z_i|` for every `i`
     /// (Newton's error after an update is about the square of the update, so this is a
