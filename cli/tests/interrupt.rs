@@ -7,46 +7,71 @@
 mod common;
 
 use common::{pendulum_with, repo, scratch};
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read};
 use std::process::{Command, Stdio};
+use std::time::Duration;
 
-#[test]
-fn ctrl_c_stops_the_run_and_keeps_what_it_computed() {
-    let scene = pendulum_with("endless.toml", "t_end = 10.0", "t_end = 1e7");
-    let (csv, svg) = (scratch("interrupted.csv"), scratch("interrupted.svg"));
+/// Runs `lieflow ARGS`, sends it Ctrl-C — `delay` after its first line of stdout when
+/// `after_first_line` (the command prints it once it catches Ctrl-C), `delay` after its start
+/// otherwise — and checks that it exits with 130 and a summary that says it was interrupted.
+/// Returns the first line, the summary and stderr.
+fn interrupt(
+    args: &[&str],
+    after_first_line: bool,
+    delay: Duration,
+) -> (String, serde_json::Value, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_lieflow"))
-        .args([
-            "run",
-            &scene,
-            "--csv",
-            csv.to_str().unwrap(),
-            "--plot",
-            svg.to_str().unwrap(),
-        ])
+        .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Wait for the first line: the run has started (and caught Ctrl-C) once it is printed.
     let mut out = BufReader::new(child.stdout.take().unwrap());
     let mut head = String::new();
-    out.read_line(&mut head).unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(300));
+    if after_first_line {
+        out.read_line(&mut head).unwrap();
+    }
+    std::thread::sleep(delay);
     let sent = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()
         .unwrap();
     assert!(sent.success());
     let mut rest = String::new();
-    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
+    out.read_to_string(&mut rest).unwrap();
     let status = child.wait().unwrap();
     let mut err = String::new();
-    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
     assert_eq!(status.code(), Some(130), "{err}");
+    let last = rest.lines().last().unwrap_or(&head);
+    let summary: serde_json::Value =
+        serde_json::from_str(last).unwrap_or_else(|e| panic!("{e}: {last}"));
+    assert_eq!(summary["interrupted"], true);
+    (head, summary, err)
+}
+
+#[test]
+fn ctrl_c_stops_the_run_and_keeps_what_it_computed() {
+    let scene = pendulum_with("endless.toml", "t_end = 10.0", "t_end = 1e7");
+    let (csv, svg) = (scratch("interrupted.csv"), scratch("interrupted.svg"));
+    let (_, j, err) = interrupt(
+        &[
+            "run",
+            &scene,
+            "--csv",
+            csv.to_str().unwrap(),
+            "--plot",
+            svg.to_str().unwrap(),
+        ],
+        true,
+        Duration::from_millis(300),
+    );
     assert!(err.contains("interrupted at t = "), "{err}");
-    let last = rest.lines().last().unwrap();
-    let j: serde_json::Value = serde_json::from_str(last).unwrap();
-    assert_eq!(j["interrupted"], true);
     let steps = j["steps"].as_u64().unwrap();
     assert!(steps > 0 && steps < j["steps_planned"].as_u64().unwrap());
     // The CSV ends with the state the summary reports, and the plot is drawn.
@@ -66,8 +91,9 @@ fn ctrl_c_stops_the_run_and_keeps_what_it_computed() {
 #[test]
 fn ctrl_c_stops_a_precision_set_and_keeps_its_rows() {
     let dir = scratch("precision_interrupted");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lieflow"))
-        .args([
+    // The first line follows the reference; Ctrl-C is caught from then on.
+    let (head, j, err) = interrupt(
+        &[
             "precision",
             &repo("scenes/damped_pendulum.toml"),
             "--f64-reference",
@@ -79,30 +105,12 @@ fn ctrl_c_stops_a_precision_set_and_keeps_its_rows() {
             dir.to_str().unwrap(),
             "--stem",
             "set",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    // The first line follows the reference; Ctrl-C is caught from then on.
-    let mut out = BufReader::new(child.stdout.take().unwrap());
-    let mut head = String::new();
-    out.read_line(&mut head).unwrap();
+        ],
+        true,
+        Duration::from_millis(300),
+    );
     assert!(head.contains("reference"), "{head}");
-    std::thread::sleep(std::time::Duration::from_millis(300));
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-    let mut rest = String::new();
-    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
-    let status = child.wait().unwrap();
-    let mut err = String::new();
-    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
-    assert_eq!(status.code(), Some(130), "{err}");
-    let j: serde_json::Value = serde_json::from_str(rest.lines().last().unwrap()).unwrap();
-    assert_eq!(j["interrupted"], true);
+    assert!(err.contains("interrupted: "), "{err}");
     // Fewer rows than the set has (6 step sizes × 8 lieflow methods, then the peers), each in
     // the table and the CSV.
     let rows = j["rows"].as_u64().unwrap();
@@ -116,33 +124,21 @@ fn ctrl_c_stops_a_precision_set_and_keeps_its_rows() {
 #[test]
 fn ctrl_c_stops_a_sweep_and_writes_the_members_that_ran() {
     let out = scratch("sweep_interrupted");
-    // A thousand chains of a hundred links, some 40 s on one thread.
-    let child = Command::new(env!("CARGO_BIN_EXE_lieflow"))
-        .args([
+    // A thousand chains of a hundred links, some 40 s on one thread; it prints nothing until
+    // it ends.
+    let (_, j, err) = interrupt(
+        &[
             "sweep",
             &repo("scenes/sweep_chain100.toml"),
             "--threads",
             "1",
             "--out",
             out.to_str().unwrap(),
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-    let o = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(130), "{err}");
+        ],
+        false,
+        Duration::from_millis(1500),
+    );
     assert!(err.contains("interrupted: "), "{err}");
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    let j: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
-    assert_eq!(j["interrupted"], true);
     let members = j["members"].as_u64().unwrap();
     assert!(members > 0 && members < 1000, "{members} members");
     let jsonl = std::fs::read_to_string(out.join("members.jsonl")).unwrap();

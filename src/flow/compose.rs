@@ -105,6 +105,33 @@ impl<V: Vector, A, B> Strang<V, A, B> {
     }
 }
 
+impl<V: Vector, A: Flow<V>, B: Flow<V>> Strang<V, A, B> {
+    /// `a(h/2)`, `b(h)`, and with `tail` the second `a(h/2)`; the state and the ledger are
+    /// restored if a sub-flow after the first fails (the first leaves them as they were).
+    #[inline(always)]
+    fn run(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+        tail: bool,
+    ) -> Result<(), StepError> {
+        let half = h * V::Real::lit(0.5);
+        let guard = self.b.is_fallible() || (tail && self.a.is_fallible());
+        let start = *ledger;
+        self.backup
+            .run(guard, x, |x| {
+                self.a.step_at(ledger, half, x)?;
+                self.b.step_at(ledger, h, x)?;
+                if tail {
+                    self.a.step_at(ledger, half, x)?;
+                }
+                Ok(())
+            })
+            .inspect_err(|_| *ledger = start)
+    }
+}
+
 impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
     #[inline]
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
@@ -117,16 +144,7 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
         h: V::Real,
         x: &mut V,
     ) -> Result<(), StepError> {
-        let half = h * V::Real::lit(0.5);
-        let guard = self.is_fallible();
-        let start = *ledger;
-        self.backup
-            .run(guard, x, |x| {
-                self.a.step_at(ledger, half, x)?;
-                self.b.step_at(ledger, h, x)?;
-                self.a.step_at(ledger, half, x)
-            })
-            .inspect_err(|_| *ledger = start)
+        self.run(ledger, h, x, true)
     }
     fn save_memory(&mut self, out: &mut Vec<V::Real>) {
         self.a.save_memory(out);
@@ -178,18 +196,8 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
         h: V::Real,
         x: &mut V,
     ) -> Result<(), StepError> {
-        if !self.a.is_kick() {
-            return self.step_at(ledger, h, x);
-        }
-        let half = h * V::Real::lit(0.5);
-        let guard = self.b.is_fallible();
-        let start = *ledger;
-        self.backup
-            .run(guard, x, |x| {
-                self.a.step_at(ledger, half, x)?;
-                self.b.step_at(ledger, h, x)
-            })
-            .inspect_err(|_| *ledger = start)
+        let tail = !self.a.is_kick();
+        self.run(ledger, h, x, tail)
     }
     #[inline]
     fn step_tail(
@@ -201,13 +209,8 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
         if !self.a.is_kick() {
             return Ok(());
         }
-        let guard = self.a.is_fallible();
-        let start = *ledger;
-        self.backup
-            .run(guard, x, |x| {
-                self.a.step_at(ledger, h * V::Real::lit(0.5), x)
-            })
-            .inspect_err(|_| *ledger = start)
+        // One sub-flow: on failure it leaves the state and the ledger as they were.
+        self.a.step_at(ledger, h * V::Real::lit(0.5), x)
     }
     /// `D b(h) · D a(h/2) v`, each at the point of its last step (the lead's), when `a` is a
     /// kick and both apply their tangent maps ([`Flow::tangent_apply`]).
