@@ -341,6 +341,13 @@ pub enum SetupError {
         /// What the adapter needs and the flow lacks.
         what: String,
     },
+    /// A structure the model declares (its mechanical form: inverse masses, momentum block,
+    /// position constraints) contradicts its own evaluations at the initial state.
+    #[error("the model's declaration does not hold: {what}")]
+    Declaration {
+        /// What was declared and what the evaluation gave.
+        what: String,
+    },
 }
 
 /// The fixed-step driver stopped at a failing step.

@@ -30,4 +30,27 @@ pub trait Hamiltonian<V: Vector> {
     fn is_quadratic(&self) -> bool {
         false
     }
+    /// Writes the inverse masses `w` (`n/2` entries) and returns `true` when `H` has the
+    /// mechanical form `H(q, p) = ½ Σᵢ wᵢ pᵢ² + V(q)` on `x = (q, p)`, `q, p ∈ R^{n/2}`: a
+    /// constant diagonal mass matrix and a potential of the positions alone. Together with
+    /// [`StructureMatrix::momentum_block`](crate::system::StructureMatrix::momentum_block)
+    /// it lets implicit flows eliminate the momenta from their Newton systems (half the
+    /// unknowns; see `ProjectedMidpoint`). The default returns `false` (always safe); flows
+    /// check a `true` at construction against [`gradient`](Self::gradient) and
+    /// [`hessian_apply`](Self::hessian_apply).
+    fn kinetic_inverse_mass(&self, w: &mut [V::Real]) -> bool {
+        let _ = w;
+        false
+    }
+    /// Appends the positions `(row, col)` at which `∇²H` can be non-zero at some state (of a
+    /// state of `n` entries) and returns `true`; the default returns `false` (dense). Implicit
+    /// flows derive the sparsity of their Newton matrices from it, so that a Jacobian costs a
+    /// few grouped Hessian products and a sparse factorization (Curtis, Powell & Reid 1974).
+    /// A missing position makes Newton matrices inexact (slower convergence, the same answer);
+    /// a closed-form Hessian product outside the pattern is reported as
+    /// [`LinearSolveError::PatternIncomplete`](crate::LinearSolveError::PatternIncomplete).
+    fn hessian_pattern(&self, n: usize, out: &mut Vec<(usize, usize)>) -> bool {
+        let _ = (n, out);
+        false
+    }
 }

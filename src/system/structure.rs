@@ -1,3 +1,4 @@
+use crate::linalg::Sink;
 use crate::real::Real;
 use crate::vector::{Vector, ops};
 use num_traits::{One, Zero};
@@ -44,6 +45,40 @@ pub trait StructureMatrix<V: Vector> {
     fn is_zero(&self) -> bool {
         false
     }
+
+    /// Writes the entries `(row, col, value)` of `B` (rows and columns in `0..n/2`) into `sink`
+    /// and returns `true` when `M(x) = [[0, I], [−I, B]]` on `x = (q, p)` for every `x`, with
+    /// `B` constant (`n` the state's length): the structure of a mechanical system whose
+    /// damping, dashpots and gyroscopic terms act on the momenta (`B = K − R`). With
+    /// [`Hamiltonian::kinetic_inverse_mass`](crate::system::Hamiltonian::kinetic_inverse_mass)
+    /// it lets implicit flows eliminate the momenta from their Newton systems. The default
+    /// returns `false` (always safe); flows check a `true` at construction against
+    /// [`apply`](Self::apply).
+    fn momentum_block(&self, n: usize, sink: &mut dyn Sink<V::Real>) -> bool {
+        let _ = (n, sink);
+        false
+    }
+
+    /// Writes the entries of `C` and returns `true` when `M = [[0, 0], [0, C]]` with `C`
+    /// constant: a term acting on the momenta alone, such as [`MomentumDamping`] (`C = c I`).
+    /// [`JMinusR`] combines it with its `J`'s [`momentum_block`](Self::momentum_block). The
+    /// default returns `false`.
+    fn momentum_only(&self, n: usize, sink: &mut dyn Sink<V::Real>) -> bool {
+        let _ = (n, sink);
+        false
+    }
+}
+
+/// A [`Sink`] that scales every value by `factor` on its way to `inner`.
+struct ScaledSink<'a, T> {
+    inner: &'a mut dyn Sink<T>,
+    factor: T,
+}
+
+impl<T: Real> Sink<T> for ScaledSink<'_, T> {
+    fn add(&mut self, row: usize, col: usize, value: T) {
+        self.inner.add(row, col, self.factor * value);
+    }
 }
 
 /// The canonical symplectic matrix `M = [[0, I], [−I, 0]]` on `x = (q, p)`, `q, p ∈ Rᵈ`, `n = 2d`.
@@ -75,6 +110,10 @@ impl<V: Vector> StructureMatrix<V> for Canonical {
         }
     }
     fn is_constant(&self) -> bool {
+        true
+    }
+    /// `B = 0`.
+    fn momentum_block(&self, _n: usize, _sink: &mut dyn Sink<V::Real>) -> bool {
         true
     }
 }
@@ -233,6 +272,25 @@ impl<V: Vector, J: StructureMatrix<V>, R: StructureMatrix<V>> StructureMatrix<V>
     fn is_zero(&self) -> bool {
         self.j.is_zero() && self.r.is_zero()
     }
+    /// `J`'s block minus `R`'s, when `J` is of the form `[[0, I], [−I, B]]` and `R` acts on the
+    /// momenta alone.
+    fn momentum_block(&self, n: usize, sink: &mut dyn Sink<V::Real>) -> bool {
+        let mut pattern = crate::linalg::Triplets::default();
+        if !self.j.momentum_block(n, &mut pattern) {
+            return false;
+        }
+        let mut negated = ScaledSink {
+            inner: &mut pattern,
+            factor: -V::Real::one(),
+        };
+        if !self.r.momentum_only(n, &mut negated) {
+            return false;
+        }
+        for (r, c, v) in pattern.entries {
+            sink.add(r, c, v);
+        }
+        true
+    }
 }
 
 /// Linear damping of the momenta, `R = c · diag(0, I)` on `x = (q, p)`, `q, p ∈ Rᵈ`, `n = 2d`,
@@ -275,6 +333,13 @@ impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for MomentumDamping<T> {
     }
     fn is_zero(&self) -> bool {
         self.c == T::zero()
+    }
+    /// `C = c I`.
+    fn momentum_only(&self, n: usize, sink: &mut dyn Sink<T>) -> bool {
+        for i in 0..n / 2 {
+            sink.add(i, i, self.c);
+        }
+        true
     }
 }
 

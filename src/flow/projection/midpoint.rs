@@ -5,6 +5,7 @@ use super::{STAGE_LAMBDA_K1, entry::EntryCheck, options::ProjectionOptions};
 use crate::system::Model;
 mod general;
 mod joint;
+mod mechanical;
 
 use super::small::{SecondHalf, fixed, fixed_mut, second_half_is_affine, solve_second_half};
 use super::warm::WarmStart;
@@ -95,7 +96,7 @@ pub struct ProjectedMidpoint<V: Vector, Sys, K, L = <V as Vector>::Solver> {
     /// The `λ_{k+1}` solver of the small path (`None` on the general path).
     newton_k1: Option<SmallNewton<V::Real>>,
     /// The general path (more than [`SMALL_MAX`] constraints).
-    general: Option<general::General<V::Real>>,
+    general: Option<general::General<V::Real, L>>,
     /// `φ` is affine in `λ_{k+1}` (quadratic `H`, constant `M`, `G` unchanged along the second
     /// half-step): one linear solve.
     affine_k1: bool,
@@ -176,7 +177,7 @@ where
         if 2 * m > n {
             return unsupported("need 2m <= n");
         }
-        let (case, _) =
+        let (case, pattern) =
             check_initial_state::<V, Sys, L>(&system, x0, &options.initial_checks(), true)?;
         if case != Case::Degenerate {
             return unsupported("the non-degenerate case (<g,g> invertible)");
@@ -194,7 +195,11 @@ where
         let newton_k1 = SmallNewton::new(m, options.newton);
         let general = match newton_k1 {
             Some(_) => None,
-            None => Some(general::General::new(n, m, options.newton)?),
+            None => {
+                let form = crate::system::MechanicalForm::of(&system, &inner, x0)?;
+                let pattern = pattern.as_deref();
+                Some(general::General::new(n, m, options.newton, form, pattern)?)
+            }
         };
         let small = if general.is_none() { m } else { 0 };
         let zeros = x0.zeros_like();

@@ -16,7 +16,7 @@ use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{ConstraintKind, DashpotFlow, FreeFlight, Kick, SceneModel};
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
-use crate::system::{Case, System};
+use crate::system::{Case, MechanicalForm, System};
 use crate::vector::Vector;
 use faer::Col;
 use std::sync::Arc;
@@ -253,7 +253,10 @@ pub(super) fn scheme_flow(
             // path applies (the decoupled case; above 4 constraints its general path factors
             // a dense (n + m)-square matrix at every step, so only up to DENSE_MAX_DIM
             // unknowns); nested solves otherwise.
-            let joint = if m <= SMALL_MAX || x0.nrows() + m <= DENSE_MAX_DIM {
+            // A model of mechanical form (every scene) solves its joint system on
+            // the positions and multipliers with the model's sparsity, at any size.
+            let mechanical = matches!(MechanicalForm::of(&system(), model, x0), Ok(Some(_)));
+            let joint = if m <= SMALL_MAX || mechanical || x0.nrows() + m <= DENSE_MAX_DIM {
                 match ProjectedMidpoint::<Col<f64>, _, _>::try_new(
                     system(),
                     model.clone(),

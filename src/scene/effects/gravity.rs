@@ -74,6 +74,8 @@ impl<T: Real> PotentialOps<T> for Gravity<T> {
     fn is_quadratic(&self) -> bool {
         true
     }
+    /// Linear in `q`: no Hessian.
+    fn hessian_bodies(&self, _out: &mut Vec<(usize, usize)>) {}
 }
 
 impl<T: Real> Gravity<T> {

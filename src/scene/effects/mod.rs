@@ -85,6 +85,8 @@ pub(crate) trait PotentialOps<T: Real> {
     fn hessian_apply_add(&self, q: &[T], d: usize, v: &[T], out: &mut [T]);
     /// `true` if `V_term` is at most quadratic in `q` (its Hessian is constant).
     fn is_quadratic(&self) -> bool;
+    /// Appends the body pairs `(a, b)` whose `d × d` block of `∇²V_term` can be non-zero.
+    fn hessian_bodies(&self, out: &mut Vec<(usize, usize)>);
 }
 
 /// Declares the effects: the `type`s of `[[effects]]` tables ([`EffectSpec`]), the kinds of
@@ -210,6 +212,12 @@ macro_rules! potentials {
             pub(crate) fn is_quadratic(&self) -> bool {
                 match self {
                     $( Potential::$Variant(p) => PotentialOps::<T>::is_quadratic(p), )+
+                }
+            }
+            /// The body pairs whose block of the term's Hessian can be non-zero.
+            pub(crate) fn hessian_bodies(&self, out: &mut Vec<(usize, usize)>) {
+                match self {
+                    $( Potential::$Variant(p) => PotentialOps::<T>::hessian_bodies(p, out), )+
                 }
             }
         }

@@ -138,6 +138,11 @@ impl<T: Real> PotentialOps<T> for Pairs<T> {
     fn is_quadratic(&self) -> bool {
         false
     }
+    fn hessian_bodies(&self, out: &mut Vec<(usize, usize)>) {
+        for &(a, b) in &self.pairs {
+            out.extend([(a, a), (a, b), (b, a), (b, b)]);
+        }
+    }
 }
 
 impl Pairs<f64> {

@@ -137,6 +137,9 @@ impl<T: Real> PotentialOps<T> for Trap<T> {
     fn is_quadratic(&self) -> bool {
         self.rest == T::lit(0.0)
     }
+    fn hessian_bodies(&self, out: &mut Vec<(usize, usize)>) {
+        out.extend(self.bodies.iter().map(|&b| (b, b)));
+    }
 }
 
 impl Trap<f64> {

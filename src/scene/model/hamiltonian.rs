@@ -73,4 +73,41 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
     fn is_quadratic(&self) -> bool {
         self.potentials.iter().all(|t| t.potential.is_quadratic())
     }
+
+    /// `H = Σ_b |p_b|²/(2 m_b) + V(q)`: each body's inverse mass on its `d` momenta.
+    fn kinetic_inverse_mass(&self, w: &mut [T]) -> bool {
+        let d = self.dim;
+        if w.len() != d * self.inv_masses.len() {
+            return false;
+        }
+        for (b, &inv) in self.inv_masses.iter().enumerate() {
+            w[b * d..(b + 1) * d].fill(inv);
+        }
+        true
+    }
+
+    /// The `d × d` blocks of the bodies each potential term couples, and the diagonal of the
+    /// momentum block.
+    fn hessian_pattern(&self, n: usize, out: &mut Vec<(usize, usize)>) -> bool {
+        let d = self.dim;
+        let nq = d * self.inv_masses.len();
+        if n != 2 * nq {
+            return false;
+        }
+        let mut bodies = Vec::new();
+        for term in &self.potentials {
+            term.potential.hessian_bodies(&mut bodies);
+        }
+        bodies.sort_unstable();
+        bodies.dedup();
+        for (a, b) in bodies {
+            for k in 0..d {
+                for l in 0..d {
+                    out.push((a * d + k, b * d + l));
+                }
+            }
+        }
+        out.extend((nq..n).map(|i| (i, i)));
+        true
+    }
 }

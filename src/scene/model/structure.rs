@@ -2,6 +2,7 @@
 //! skew part `K` and the damping `R` (per body, and the dashpots between bodies).
 
 use super::SceneModel;
+use crate::linalg::Sink;
 use crate::real::Real;
 use crate::system::StructureMatrix;
 use crate::vector::Vector;
@@ -45,6 +46,51 @@ impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
 
     fn is_dissipative(&self) -> bool {
         SceneModel::is_dissipative(self)
+    }
+
+    /// `B = K − R`: the per-body damping `−c_b I`, the dashpots' `−c (e_a − e_b)(e_a − e_b)ᵀ`
+    /// per axis, the magnetic field's skew `d × d` blocks.
+    fn momentum_block(&self, n: usize, sink: &mut dyn Sink<T>) -> bool {
+        let d = self.dim;
+        if n != 2 * d * self.inv_masses.len() {
+            return false;
+        }
+        if let Some(damping) = &self.damping {
+            for (b, &c) in damping.per_body.iter().enumerate() {
+                for k in 0..d {
+                    sink.add(b * d + k, b * d + k, -c);
+                }
+            }
+        }
+        if let Some(dashpots) = &self.dashpots {
+            for &(a, b, c) in &dashpots.pairs {
+                for k in 0..d {
+                    let (i, j) = (a * d + k, b * d + k);
+                    sink.add(i, i, -c);
+                    sink.add(i, j, c);
+                    sink.add(j, i, c);
+                    sink.add(j, j, -c);
+                }
+            }
+        }
+        if let Some(magnetic) = &self.magnetic {
+            for (b, eb) in magnetic.per_body.iter().enumerate() {
+                let i = b * d;
+                if d == 2 {
+                    sink.add(i, i + 1, eb[2]);
+                    sink.add(i + 1, i, -eb[2]);
+                } else {
+                    // (v × e B)_x = v_y B_z − v_z B_y, …
+                    sink.add(i, i + 1, eb[2]);
+                    sink.add(i, i + 2, -eb[1]);
+                    sink.add(i + 1, i + 2, eb[0]);
+                    sink.add(i + 1, i, -eb[2]);
+                    sink.add(i + 2, i, eb[1]);
+                    sink.add(i + 2, i + 1, -eb[0]);
+                }
+            }
+        }
+        true
     }
 }
 

@@ -8,18 +8,21 @@ use crate::flow::projection::{Hidden, STAGE_LAMBDA_K1};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver};
 use crate::real::Real;
-use crate::system::Model;
 use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
+use crate::system::{MechanicalForm, Model};
 use crate::vector::{Vector, ops};
 use nalgebra::DVector;
 use num_traits::Float as _;
 use num_traits::{One, Zero};
 
 /// The solvers and multiplier-sized workspace of the general path (allocated at construction).
-pub(super) struct General<T: Real> {
+pub(super) struct General<T: Real, L> {
     /// The joint system, `n + m` unknowns (dense: the Newton matrix couples every `δ_i` with
     /// the columns `M∇²K`, which are dense for a general model).
-    newton: Newton<DVector<T>>,
+    /// `None` on the mechanical path.
+    newton: Option<Newton<DVector<T>>>,
+    /// The momenta eliminated (a model of mechanical form): Newton on `(δq, λ_k)`.
+    pub(super) mechanical: Option<super::mechanical::Reduced<T, L>>,
     /// The `λ_{k+1}` system, `m` unknowns.
     hidden: Newton<DVector<T>>,
     /// `(δ, λ_k)`.
@@ -36,35 +39,60 @@ pub(super) struct General<T: Real> {
     pub(super) g_next: Vec<T>,
 }
 
-impl<T: Real> General<T> {
+impl<T: Real, L: LinearSolver<T>> General<T, L> {
     /// Forgets the kept Newton matrices (the next solves build them anew) and appends the
     /// unknowns that warm-start the next step.
     pub(super) fn save(&mut self, out: &mut Vec<T>) {
-        self.newton.invalidate_jacobian();
-        self.hidden.invalidate_jacobian();
+        self.invalidate();
         out.extend_from_slice(&self.z);
         out.extend_from_slice(&self.nu);
     }
 
     /// Reads back what [`save`](Self::save) appended.
     pub(super) fn restore(&mut self, from: &mut &[T]) {
-        self.newton.invalidate_jacobian();
-        self.hidden.invalidate_jacobian();
+        self.invalidate();
         for v in [self.z.as_mut_slice(), self.nu.as_mut_slice()] {
             let saved = crate::flow::take_memory(from, v.len());
             v[..saved.len()].copy_from_slice(saved);
         }
     }
 
+    /// Forgets the kept Newton matrices.
+    fn invalidate(&mut self) {
+        if let Some(newton) = self.newton.as_mut() {
+            newton.invalidate_jacobian();
+        }
+        if let Some(reduced) = self.mechanical.as_mut() {
+            reduced.invalidate();
+        }
+        self.hidden.invalidate_jacobian();
+    }
+
+    /// The general path for `n` states and `m` constraints: on the `n_q + m` unknowns of the
+    /// mechanical form when there is one, on `n + m` otherwise; `pattern`: the sparsity of the
+    /// `λ_{k+1}` system, when known.
     pub(super) fn new(
         n: usize,
         m: usize,
         options: NewtonOptions<T>,
+        form: Option<MechanicalForm<T>>,
+        pattern: Option<&[(usize, usize)]>,
     ) -> Result<Self, LinearSolveError> {
+        let (newton, mechanical, k) = match form {
+            Some(form) => (
+                None,
+                Some(super::mechanical::Reduced::new(form, m, options)?),
+                0,
+            ),
+            None => (Some(Newton::new(n + m, options)?), None, n + m),
+        };
         Ok(Self {
-            newton: Newton::new(n + m, options)?,
-            hidden: Newton::new(m, options)?,
-            z: vec![T::zero(); n + m],
+            newton,
+            mechanical,
+            // The multiplier system's sparsity, derived from the constraint's entries (constraints
+            // couple when their gradients share a state variable).
+            hidden: Newton::with_pattern(m, options, pattern)?,
+            z: vec![T::zero(); k],
             nu: vec![T::zero(); m],
             scaled: vec![T::zero(); m],
             unit: vec![T::zero(); m],
@@ -227,49 +255,18 @@ where
         let Some(general) = self.general.as_mut() else {
             unreachable!("step_general without a general path");
         };
-        let (n, m) = (x.len(), self.m);
+        let m = self.m;
         let half = h * V::Real::lit(0.5);
         self.warm.predict_lambda_k(m, h, self.z.as_mut_slice());
-        let w = &mut self.w;
-        let mut problem = Joint {
-            h,
-            x,
-            system: &self.system,
-            inner: &self.inner,
-            noise: V::Real::zero(),
-            scaled: &mut general.scaled,
-            xhat: &mut w.xhat,
-            xbar: &mut w.xbar,
-            y: &mut w.y,
-            grad: &mut w.grad,
-            f: &mut w.f,
-            hv: &mut w.hv,
-            t1: &mut w.t1,
-            t2: &mut w.t2,
-            g: &mut general.g_y,
-        };
-        // The explicit Euler predictor for δ at x̂ of the predicted λ_k.
-        let z = &mut general.z;
-        z[n..].copy_from_slice(&self.z.as_slice()[..m]);
-        z[..n].iter_mut().for_each(|d| *d = V::Real::zero());
-        problem.place(z);
-        for (d, &f) in z[..n].iter_mut().zip(problem.f.as_slice()) {
-            *d = h * f;
+        if general.mechanical.is_some() {
+            self.solve_reduced(h, x)?;
+        } else {
+            self.solve_joint_general(h, x)?;
         }
-        // The tolerance of the increment rows: ε (2‖x‖∞ + 8‖δ₀‖∞), or the rounding floor of a
-        // stiff h M∇K, 4ε |h| ‖M ∇²K(x) x‖∞, when that is larger (as on the small path).
-        let tol1 = increment_tolerance(x.as_slice(), &z[..n]);
-        let floor = stiff_floor(&self.system, &self.inner, h, x, problem.hv, problem.t2);
-        problem.noise = tol1.max(floor.unwrap_or(tol1)) * V::Real::lit(0.25);
-        let report = match general.newton.solve(&mut problem, z) {
-            Ok(report) => report,
-            Err(e) => {
-                general.newton.invalidate_jacobian();
-                return Err(StepError::from_newton(STAGE_JOINT, e));
-            }
+        let Some(general) = self.general.as_mut() else {
+            unreachable!("step_general without a general path");
         };
-        self.stats.record(&report);
-        self.z.as_mut_slice()[..m].copy_from_slice(&z[n..]);
+        let w = &mut self.w;
         self.warm.record_lambda_k(m, h, self.z.as_slice());
         self.warm.predict_lambda_k1(m, h, self.z.as_mut_slice());
         // λ_{k+1} from φ(y + M(y) G(y)ᵀ ν) = 0, ν = (h/2) λ_{k+1}.
@@ -301,5 +298,58 @@ where
             .constraint()
             .residual(&w.x_next, &mut general.g_next);
         guard(self.guard_tol, &general.g_next, &general.g_y)
+    }
+
+    /// The joint solve for `(δ, λ_k)` on `n + m` unknowns: `λ_k` into `z[..m]`, `y` into `w.y`,
+    /// `g(y)` into the general path's `g_y`.
+    fn solve_joint_general(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
+        let Some(general) = self.general.as_mut() else {
+            unreachable!("the joint solve without a general path");
+        };
+        let (n, m) = (x.len(), self.m);
+        let w = &mut self.w;
+        let mut problem = Joint {
+            h,
+            x,
+            system: &self.system,
+            inner: &self.inner,
+            noise: V::Real::zero(),
+            scaled: &mut general.scaled,
+            xhat: &mut w.xhat,
+            xbar: &mut w.xbar,
+            y: &mut w.y,
+            grad: &mut w.grad,
+            f: &mut w.f,
+            hv: &mut w.hv,
+            t1: &mut w.t1,
+            t2: &mut w.t2,
+            g: &mut general.g_y,
+        };
+        // The explicit Euler predictor for δ at x̂ of the predicted λ_k.
+        let z = &mut general.z;
+        z[n..].copy_from_slice(&self.z.as_slice()[..m]);
+        z[..n].iter_mut().for_each(|d| *d = V::Real::zero());
+        problem.place(z);
+        for (d, &f) in z[..n].iter_mut().zip(problem.f.as_slice()) {
+            *d = h * f;
+        }
+        // The tolerance of the increment rows: ε (2‖x‖∞ + 8‖δ₀‖∞), or the rounding floor of a
+        // stiff h M∇K, 4ε |h| ‖M ∇²K(x) x‖∞, when that is larger (as on the small path).
+        let tol1 = increment_tolerance(x.as_slice(), &z[..n]);
+        let floor = stiff_floor(&self.system, &self.inner, h, x, problem.hv, problem.t2);
+        problem.noise = tol1.max(floor.unwrap_or(tol1)) * V::Real::lit(0.25);
+        let Some(newton) = general.newton.as_mut() else {
+            unreachable!("the joint solve without its solver");
+        };
+        let report = match newton.solve(&mut problem, z) {
+            Ok(report) => report,
+            Err(e) => {
+                newton.invalidate_jacobian();
+                return Err(StepError::from_newton(STAGE_JOINT, e));
+            }
+        };
+        self.stats.record(&report);
+        self.z.as_mut_slice()[..m].copy_from_slice(&z[n..]);
+        Ok(())
     }
 }

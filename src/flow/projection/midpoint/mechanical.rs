@@ -1,0 +1,361 @@
+//! [`ProjectedMidpoint`]'s joint solve for a model of mechanical form
+//! ([`MechanicalForm`]): the momenta eliminated, Newton on `(δq, λ_k)` with a sparse, kept
+//! Newton matrix.
+
+use super::{ProjectedMidpoint, STAGE_JOINT, increment_tolerance, stiff_floor};
+use crate::error::{LinearSolveError, StepError};
+use crate::linalg::LinearSolver;
+use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver};
+use crate::real::Real;
+use crate::system::{Hamiltonian, HolonomicConstraint, MechanicalForm, Model, StructureMatrix};
+use crate::vector::{Vector, ops};
+use nalgebra::DVector;
+use num_traits::Float as _;
+use num_traits::{One, Zero};
+
+/// The reduced joint system's solver and workspace (allocated at construction).
+pub(crate) struct Reduced<T: Real, L> {
+    /// `n_q`.
+    nq: usize,
+    /// `diag W⁻¹`.
+    w: Vec<T>,
+    /// Newton on `(δq, λ_k)`, `n_q + m` unknowns, with the pattern of `B`, `∇²V` and `G_q`:
+    /// grouped closed-form columns, factored by the flow's solver `L` (for `f64`,
+    /// [`AutoLu`](crate::linalg::AutoLu): dense, banded or sparse by this pattern), the
+    /// matrix kept across steps of the same size.
+    newton: Newton<DVector<T>, L>,
+    /// `(δq, λ_k)`.
+    z: Vec<T>,
+    /// `(h/2) λ` (scratch), and the multipliers of a group of columns.
+    scaled: Vec<T>,
+    /// The step size of the kept Newton matrix and of `past` (`0`: none).
+    h: T,
+    /// `δq` of the last two steps (newest first), when they were consecutive steps of size
+    /// `h` ending where the next one starts: `count` of them are valid.
+    past: [Vec<T>; 2],
+    count: usize,
+}
+
+impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
+    /// The solver for `form` with `m` constraints. Its Jacobian pattern: the diagonal, `B`,
+    /// `∇²V` (dense without a declared pattern) in the `δq` block, `G_qᵀ` in the `λ` columns
+    /// and `G_q` in the constraint rows (dense without entries).
+    pub(crate) fn new(
+        form: MechanicalForm<T>,
+        m: usize,
+        options: NewtonOptions<T>,
+    ) -> Result<Self, LinearSolveError> {
+        let nq = form.positions;
+        let mut pattern: Vec<(usize, usize)> = (0..nq).map(|i| (i, i)).collect();
+        pattern.extend(form.momentum_block.iter().map(|&(r, c, _)| (r, c)));
+        match &form.hessian_pattern {
+            Some(p) => pattern.extend_from_slice(p),
+            None => pattern.extend((0..nq).flat_map(|i| (0..nq).map(move |j| (i, j)))),
+        }
+        let dense;
+        let g: &[(usize, usize)] = match &form.constraint_pattern {
+            Some(p) => p,
+            None => {
+                dense = (0..m)
+                    .flat_map(|r| (0..nq).map(move |c| (r, c)))
+                    .collect::<Vec<_>>();
+                &dense
+            }
+        };
+        for &(r, c) in g {
+            pattern.push((nq + r, c));
+            pattern.push((c, nq + r));
+        }
+        pattern.sort_unstable();
+        pattern.dedup();
+        // Simplified Newton: the matrix is kept while the iteration contracts, not updated by
+        // secants (a rank-one update refactors a dense matrix; sparse storage has none).
+        // The backend by this matrix's own structure (a solver forced for the projection's
+        // multiplier systems fits those, not this one).
+        let mut options = options.with_solver(crate::linalg::SolverChoice::Auto);
+        options.broyden = false;
+        let newton = Newton::with_pattern(nq + m, options, Some(&pattern))?;
+        Ok(Self {
+            nq,
+            w: form.inverse_mass,
+            newton,
+            z: vec![T::zero(); nq + m],
+            scaled: vec![T::zero(); m],
+            h: T::zero(),
+            past: [vec![T::zero(); nq], vec![T::zero(); nq]],
+            count: 0,
+        })
+    }
+
+    /// Forgets the kept Newton matrix.
+    pub(crate) fn invalidate(&mut self) {
+        self.newton.invalidate_jacobian();
+        self.h = T::zero();
+        self.count = 0;
+    }
+
+    /// The predictor of `δq`: extrapolated from the last two steps, `2 δq₁ − δq₂` (error
+    /// `O(h³)`), when they are there; `false` otherwise.
+    fn predict(past: &[Vec<T>; 2], count: usize, dq: &mut [T]) -> bool {
+        if count < 2 {
+            return false;
+        }
+        let two = T::lit(2.0);
+        for ((d, &a), &b) in dq.iter_mut().zip(&past[0]).zip(&past[1]) {
+            *d = two * a - b;
+        }
+        true
+    }
+
+    /// Records the solved `δq` of a step that continued the previous one (`continued`).
+    fn record(&mut self, continued: bool) {
+        self.past.swap(0, 1);
+        let nq = self.nq;
+        self.past[0].copy_from_slice(&self.z[..nq]);
+        self.count = if continued {
+            (self.count + 1).min(2)
+        } else {
+            1
+        };
+    }
+}
+
+/// `F(δq, λ) = (δq − h W⁻¹ p̄,  g(q + δq))`, the midpoint rule's position rows and the
+/// constraint, with the momenta eliminated: `p̄ = p̂ + δp/2`, `δp = −h ∇V(q̄) + B δq` (the
+/// momentum rows, solved exactly), `p̂ = p − (h/2) G_q(q)ᵀ λ`, `q̄ = q + δq/2`:
+///
+/// ```text
+/// F₁ = δq − (h/2) W⁻¹ B δq + (h²/2) W⁻¹ ∇V(q̄) − h W⁻¹ p̂
+/// ```
+struct Problem<'a, V: Vector, Sys, K> {
+    h: V::Real,
+    nq: usize,
+    w: &'a [V::Real],
+    x: &'a V,
+    system: &'a Sys,
+    inner: &'a K,
+    /// The tolerance of the position rows over 4 (their noise floor).
+    noise: V::Real,
+    scaled: &'a mut [V::Real],
+    /// `x̂ = (q, p̂)`.
+    xhat: &'a mut V,
+    /// `(q̄, p̂)`: `∇K` there has `∇V(q̄)` as its position part.
+    xbar: &'a mut V,
+    /// `y = (q + δq, p̂ + δp)`.
+    y: &'a mut V,
+    grad: &'a mut V,
+    /// `(0, δq)`, then `M (0, δq) = (δq, B δq)`.
+    u: &'a mut V,
+    mu: &'a mut V,
+    hv: &'a mut V,
+    t1: &'a mut V,
+    t2: &'a mut V,
+    /// `g(y)` of the last evaluation.
+    g: &'a mut [V::Real],
+}
+
+impl<V, Sys, K> Problem<'_, V, Sys, K>
+where
+    V: Vector,
+    Sys: Model<V>,
+    K: Hamiltonian<V>,
+{
+    /// `x̂` of `λ` and the positions `q̄`, `q + δq` of `δq` (into `xbar`, `y`).
+    fn place(&mut self, z: &[V::Real]) {
+        let (dq, nu) = z.split_at(self.nq);
+        // (h/2) λ = ν / h.
+        for (s, &l) in self.scaled.iter_mut().zip(nu) {
+            *s = l / self.h;
+        }
+        // (h/2) M Gᵀλ = (0, −(h/2) G_qᵀ λ).
+        self.system
+            .constraint_force(self.x, self.scaled, self.t1, self.t2);
+        let one = V::Real::one();
+        ops::add_scaled(
+            self.xhat.as_mut_slice(),
+            self.x.as_slice(),
+            one,
+            self.t2.as_slice(),
+        );
+        let nq = self.nq;
+        let (x, xhat) = (self.x.as_slice(), self.xhat.as_slice());
+        let (xbar, y) = (self.xbar.as_mut_slice(), self.y.as_mut_slice());
+        for i in 0..nq {
+            xbar[i] = x[i] + V::Real::lit(0.5) * dq[i];
+            y[i] = x[i] + dq[i];
+        }
+        xbar[nq..].copy_from_slice(&xhat[nq..]);
+    }
+}
+
+impl<V, Sys, K> NonlinearProblem<V::Real> for Problem<'_, V, Sys, K>
+where
+    V: Vector,
+    Sys: Model<V>,
+    K: Hamiltonian<V>,
+{
+    type Error = StepError;
+
+    fn dim(&self) -> usize {
+        self.nq + self.g.len()
+    }
+    fn noise_floor(&self) -> V::Real {
+        self.noise
+    }
+    fn noisy_rows(&self) -> usize {
+        self.nq
+    }
+    fn residual(&mut self, z: &[V::Real], out: &mut [V::Real]) -> Result<(), StepError> {
+        self.place(z);
+        let (h, nq) = (self.h, self.nq);
+        self.inner.gradient(self.xbar, self.grad);
+        let u = self.u.as_mut_slice();
+        u[..nq].iter_mut().for_each(|e| *e = V::Real::zero());
+        u[nq..].copy_from_slice(&z[..nq]);
+        self.system.structure().apply(self.x, self.u, self.mu);
+        let (grad, bdq) = (&self.grad.as_slice()[..nq], &self.mu.as_slice()[nq..]);
+        let phat = &self.xhat.as_slice()[nq..];
+        let (r1, r2) = out.split_at_mut(nq);
+        let y = self.y.as_mut_slice();
+        for i in 0..nq {
+            // δp = −h ∇V(q̄) + B δq;  p̄ = p̂ + δp/2.
+            let dp = bdq[i] - h * grad[i];
+            let pbar = phat[i] + V::Real::lit(0.5) * dp;
+            r1[i] = z[i] - h * (self.w[i] * pbar);
+            y[nq + i] = phat[i] + dp;
+        }
+        self.system.constraint().residual(self.y, r2);
+        self.g.copy_from_slice(r2);
+        Ok(())
+    }
+    /// The columns of a group (no two share a row) as one product: for `v = (v_q, v_λ)`,
+    /// `(v_q − (h/2) W⁻¹ B v_q + (h²/4) W⁻¹ ∇²V(q̄) v_q + (h²/2) W⁻¹ G_q(q)ᵀ v_λ,  G_q(y) v_q)`.
+    /// `false` (differences) without [`Hamiltonian::hessian_apply`].
+    fn jacobian_group(&mut self, z: &[V::Real], cols: &[usize], out: &mut [V::Real]) -> bool {
+        let (h, nq) = (self.h, self.nq);
+        self.place(z);
+        let (r1, r2) = out.split_at_mut(nq);
+        r1.iter_mut().for_each(|e| *e = V::Real::zero());
+        r2.iter_mut().for_each(|e| *e = V::Real::zero());
+        let positions = cols.iter().any(|&j| j < nq);
+        let multipliers = cols.iter().any(|&j| j >= nq);
+        let quarter = h * h * V::Real::lit(0.25);
+        if positions {
+            // t1 = (v_q, 0), u = (0, v_q).
+            let (t1, u) = (self.t1.as_mut_slice(), self.u.as_mut_slice());
+            ops::fill_zero(t1);
+            ops::fill_zero(u);
+            for &j in cols.iter().filter(|&&j| j < nq) {
+                t1[j] = V::Real::one();
+                u[nq + j] = V::Real::one();
+            }
+            if !self.inner.hessian_apply(self.xbar, self.t1, self.hv) {
+                return false;
+            }
+            self.system.structure().apply(self.x, self.u, self.mu);
+            let (hv, bv) = (&self.hv.as_slice()[..nq], &self.mu.as_slice()[nq..]);
+            let t1 = &self.t1.as_slice()[..nq];
+            let half = h * V::Real::lit(0.5);
+            for i in 0..nq {
+                r1[i] = t1[i] - self.w[i] * (half * bv[i] - quarter * hv[i]);
+            }
+            self.system.constraint().jacobian_apply(self.y, self.t1, r2);
+        }
+        if multipliers {
+            // W⁻¹ G_qᵀ v_ν = −W⁻¹ times the momentum part of M Gᵀ v_ν.
+            self.scaled.iter_mut().for_each(|s| *s = V::Real::zero());
+            for &j in cols.iter().filter(|&&j| j >= nq) {
+                self.scaled[j - nq] = V::Real::one();
+            }
+            self.system
+                .constraint_force(self.x, self.scaled, self.t1, self.t2);
+            let f = &self.t2.as_slice()[nq..];
+            for i in 0..nq {
+                r1[i] = r1[i] - self.w[i] * f[i];
+            }
+        }
+        true
+    }
+}
+
+impl<V, Sys, K, L> ProjectedMidpoint<V, Sys, K, L>
+where
+    V: Vector,
+    Sys: Model<V>,
+    K: Hamiltonian<V>,
+    L: LinearSolver<V::Real>,
+{
+    /// The joint solve on the mechanical path: `λ_k` into `z[..m]`, `y` into `w.y`, `g(y)` into
+    /// the general path's `g_y`. The same equations, predictor and tolerances as
+    /// `solve_joint_general` with the momentum rows solved exactly.
+    pub(super) fn solve_reduced(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
+        let Some(general) = self.general.as_mut() else {
+            unreachable!("the reduced solve without a general path");
+        };
+        let Some(reduced) = general.mechanical.as_mut() else {
+            unreachable!("the reduced solve without a mechanical form");
+        };
+        let (nq, m) = (reduced.nq, self.m);
+        if reduced.h != h {
+            // The Newton matrix depends on h (not as a power of it): built anew.
+            reduced.invalidate();
+            reduced.h = h;
+        }
+        let continued = self.entry.is_last(x);
+        if !continued {
+            reduced.count = 0;
+        }
+        let w = &mut self.w;
+        let mut problem = Problem {
+            h,
+            nq,
+            w: &reduced.w,
+            x,
+            system: &self.system,
+            inner: &self.inner,
+            noise: V::Real::zero(),
+            scaled: &mut reduced.scaled,
+            xhat: &mut w.xhat,
+            xbar: &mut w.xbar,
+            y: &mut w.y,
+            grad: &mut w.grad,
+            u: &mut w.delta,
+            mu: &mut w.f,
+            hv: &mut w.hv,
+            t1: &mut w.t1,
+            t2: &mut w.t2,
+            g: &mut general.g_y,
+        };
+        // The explicit Euler predictor δq = h W⁻¹ p̂ at x̂ of the predicted λ_k.
+        let z = &mut reduced.z;
+        let nu_per_lambda = h * h * V::Real::lit(0.5);
+        for (nu, &l) in z[nq..].iter_mut().zip(&self.z.as_slice()[..m]) {
+            *nu = nu_per_lambda * l;
+        }
+        z[..nq].iter_mut().for_each(|d| *d = V::Real::zero());
+        problem.place(z);
+        let phat = &problem.xhat.as_slice()[nq..];
+        for ((d, &wi), &p) in z[..nq].iter_mut().zip(problem.w).zip(phat) {
+            *d = h * (wi * p);
+        }
+        let tol1 = increment_tolerance(x.as_slice(), &z[..nq]);
+        // Past steps predict better than the explicit Euler step, when there are two.
+        Reduced::<V::Real, L>::predict(&reduced.past, reduced.count, &mut z[..nq]);
+        let floor = stiff_floor(&self.system, &self.inner, h, x, problem.hv, problem.t2);
+        problem.noise = tol1.max(floor.unwrap_or(tol1)) * V::Real::lit(0.25);
+        let report = match reduced.newton.solve(&mut problem, z) {
+            Ok(report) => report,
+            Err(e) => {
+                reduced.invalidate();
+                return Err(StepError::from_newton(STAGE_JOINT, e));
+            }
+        };
+        // The last evaluation was at the solution: y and g(y) are its.
+        self.stats.record(&report);
+        for (l, &nu) in self.z.as_mut_slice()[..m].iter_mut().zip(&z[nq..]) {
+            *l = nu / nu_per_lambda;
+        }
+        reduced.record(continued);
+        Ok(())
+    }
+}
