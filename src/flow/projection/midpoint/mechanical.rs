@@ -1,5 +1,5 @@
 //! [`ProjectedMidpoint`]'s joint solve for a model of mechanical form
-//! ([`MechanicalForm`]): the momenta eliminated, Newton on `(δq, λ_k)` with a sparse, kept
+//! ([`MechanicalForm`]): the momenta eliminated, Newton on `(δq, ν = (h²/2) λ_k)` with a sparse, kept
 //! Newton matrix.
 
 use super::{ProjectedMidpoint, STAGE_JOINT, increment_tolerance, stiff_floor};
@@ -19,14 +19,14 @@ pub(crate) struct Reduced<T: Real, L> {
     nq: usize,
     /// `diag W⁻¹`.
     w: Vec<T>,
-    /// Newton on `(δq, λ_k)`, `n_q + m` unknowns, with the pattern of `B`, `∇²V` and `G_q`:
+    /// Newton on `(δq, ν)`, `ν = (h²/2) λ_k`, `n_q + m` unknowns, with the pattern of `B`, `∇²V` and `G_q`:
     /// grouped closed-form columns, factored by the flow's solver `L` (for `f64`,
     /// [`AutoLu`](crate::linalg::AutoLu): dense, banded or sparse by this pattern), the
     /// matrix kept across steps of the same size.
     newton: Newton<DVector<T>, L>,
-    /// `(δq, λ_k)`.
+    /// `(δq, ν)`.
     z: Vec<T>,
-    /// `(h/2) λ` (scratch), and the multipliers of a group of columns.
+    /// `(h/2) λ = ν/h` (scratch), and the multipliers of a group of columns.
     scaled: Vec<T>,
     /// The step size of the kept Newton matrix and of `past` (`0`: none).
     h: T,
@@ -120,7 +120,7 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
     }
 }
 
-/// `F(δq, λ) = (δq − h W⁻¹ p̄,  g(q + δq))`, the midpoint rule's position rows and the
+/// `F(δq, ν) = (δq − h W⁻¹ p̄,  g(q + δq))`, the midpoint rule's position rows and the
 /// constraint, with the momenta eliminated: `p̄ = p̂ + δp/2`, `δp = −h ∇V(q̄) + B δq` (the
 /// momentum rows, solved exactly), `p̂ = p − (h/2) G_q(q)ᵀ λ`, `q̄ = q + δq/2`:
 ///
@@ -228,8 +228,8 @@ where
         self.g.copy_from_slice(r2);
         Ok(())
     }
-    /// The columns of a group (no two share a row) as one product: for `v = (v_q, v_λ)`,
-    /// `(v_q − (h/2) W⁻¹ B v_q + (h²/4) W⁻¹ ∇²V(q̄) v_q + (h²/2) W⁻¹ G_q(q)ᵀ v_λ,  G_q(y) v_q)`.
+    /// The columns of a group (no two share a row) as one product: for `v = (v_q, v_ν)`,
+    /// `(v_q − (h/2) W⁻¹ B v_q + (h²/4) W⁻¹ ∇²V(q̄) v_q + W⁻¹ G_q(q)ᵀ v_ν,  G_q(y) v_q)`.
     /// `false` (differences) without [`Hamiltonian::hessian_apply`].
     fn jacobian_group(&mut self, z: &[V::Real], cols: &[usize], out: &mut [V::Real]) -> bool {
         let (h, nq) = (self.h, self.nq);
