@@ -79,6 +79,11 @@ pub(crate) trait Effect {
 pub(crate) trait PotentialOps<T: Real> {
     /// `V_term(q)`.
     fn energy(&self, q: &[T], d: usize) -> T;
+    /// `V_term(q') − V_term(q)`; a term may sum per-part differences (no cancellation of the
+    /// two totals, fewer transcendental evaluations).
+    fn energy_difference(&self, q: &[T], q2: &[T], d: usize) -> T {
+        self.energy(q2, d) - self.energy(q, d)
+    }
     /// `out += α ∇V_term(q)`.
     fn gradient_add(&self, q: &[T], d: usize, alpha: T, out: &mut [T]);
     /// `out += ∇²V_term(q) v`.
@@ -189,6 +194,13 @@ macro_rules! potentials {
             pub(crate) fn energy(&self, q: &[T], d: usize) -> T {
                 match self {
                     $( Potential::$Variant(p) => p.energy(q, d), )+
+                }
+            }
+            /// `V_term(q') − V_term(q)`.
+            #[inline]
+            pub(crate) fn energy_difference(&self, q: &[T], q2: &[T], d: usize) -> T {
+                match self {
+                    $( Potential::$Variant(p) => p.energy_difference(q, q2, d), )+
                 }
             }
             /// `out += α ∇V_term(q)`.

@@ -32,6 +32,26 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
         self.kinetic_energy(x) + self.potential_energy(&x[..nq])
     }
 
+    /// `H(y) − H(x)` without cancelling the totals: `Σ_b (p'_b − p_b)·(p'_b + p_b)/(2 m_b)`
+    /// and each potential term's own difference.
+    fn energy_difference(&self, x: &V, y: &V) -> T {
+        let (x, y) = (x.as_slice(), y.as_slice());
+        let nq = self.dim * self.masses.len();
+        let d = self.dim;
+        let (p, p2) = (&x[nq..], &y[nq..]);
+        let mut t = T::lit(0.0);
+        self.kinetic.hit();
+        for (b, w) in self.inv_masses.iter().enumerate() {
+            let mut s = T::lit(0.0);
+            for k in 0..d {
+                let i = b * d + k;
+                s = s + (p2[i] - p[i]) * (p2[i] + p[i]);
+            }
+            t = t + (T::lit(0.5) * *w * s);
+        }
+        t + self.potential_energy_difference(&x[..nq], &y[..nq])
+    }
+
     fn gradient(&self, x: &V, out: &mut V) {
         let x = x.as_slice();
         let nq = self.dim * self.masses.len();

@@ -21,6 +21,16 @@ impl<T: Real> SceneModel<T> {
         v
     }
 
+    /// `V(q') − V(q)`, term by term.
+    pub(crate) fn potential_energy_difference(&self, q: &[T], q2: &[T]) -> T {
+        let d = self.dim;
+        let mut v = T::lit(0.0);
+        for term in &self.potentials {
+            v = v + self.timed(&term.counter, || term.potential.energy_difference(q, q2, d));
+        }
+        v
+    }
+
     /// `out += α ∇V(q)`, `V` the sum of the potential terms (length `d N`: positions only).
     pub fn potential_gradient_add(&self, q: &[T], alpha: T, out: &mut [T]) {
         let d = self.dim;
