@@ -18,6 +18,7 @@ mod ledger;
 mod linear;
 mod petrov_galerkin;
 mod projection;
+mod reduced;
 
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};

@@ -1,11 +1,14 @@
 //! The discrete-gradient method with holonomic constraints (Gonzalez 1999).
 
+mod mechanical;
 mod step_problem;
 
 use super::projection::HiddenSolver;
 use super::{Flow, FlowStats, ProjectionOptions};
 use crate::error::{NewtonError, SetupError, StepError};
+use crate::flow::reduced::Reduced;
 use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver, SMALL_MAX, SolveReport};
+use crate::system::MechanicalForm;
 use crate::system::Model;
 use crate::system::{Case, Hamiltonian, HolonomicConstraint, StructureMatrix, check_initial_state};
 use crate::vector::{Vector, ops};
@@ -69,7 +72,10 @@ pub struct ConstrainedDiscreteGradient<
     W: Vector<Real = V::Real> = faer::Col<<V as Vector>::Real>,
 > {
     system: Sys,
-    newton: Newton<W>,
+    /// Newton on `(δ, ℓ)`; `None` on the mechanical path.
+    newton: Option<Newton<W>>,
+    /// The momenta eliminated (a model of mechanical form): Newton on `(δq, ν)`.
+    mechanical: Option<Reduced<V::Real, W::Solver>>,
     hidden: Option<HiddenSolver<V>>,
     /// Unknowns `(δ, ℓ = hλ)`.
     z: W,
@@ -110,6 +116,7 @@ impl<V: Vector, Sys, W: Vector<Real = V::Real>> core::fmt::Debug
             .field("n", &self.start.len())
             .field("m", &self.g0.len())
             .field("hidden_projection", &self.hidden.is_some())
+            .field("mechanical", &self.mechanical.is_some())
             .field("stats", &self.stats)
             .finish_non_exhaustive()
     }
@@ -131,7 +138,7 @@ where
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
         // φ(x0) need not vanish: the first hidden-constraint projection restores it.
-        let (case, _) = check_initial_state::<V, Sys, W::Solver>(
+        let (case, pattern) = check_initial_state::<V, Sys, W::Solver>(
             &system,
             x0,
             &options.initial_checks(),
@@ -140,11 +147,25 @@ where
         let (n, m) = (x0.len(), system.constraint().dim());
         let g0 = vec![V::Real::zero(); m];
         let hidden = match case {
-            Case::Degenerate => Some(HiddenSolver::new(&system, x0, options.newton)?),
+            Case::Degenerate => Some(HiddenSolver::new(
+                &system,
+                x0,
+                options.newton,
+                pattern.as_deref(),
+            )?),
             Case::NonDegenerate => None,
         };
+        let mechanical = match MechanicalForm::of(&system, system.hamiltonian(), x0)? {
+            Some(form) if m > 0 => Some(Reduced::new(form, m, options.newton, true)?),
+            _ => None,
+        };
+        let newton = match mechanical {
+            Some(_) => None,
+            None => Some(Newton::new(n + m, options.newton)?),
+        };
         Ok(Self {
-            newton: Newton::new(n + m, options.newton)?,
+            newton,
+            mechanical,
             hidden,
             z: W::zeros(n + m),
             lambda: vec![V::Real::zero(); m],
@@ -192,23 +213,38 @@ where
     }
 
     /// The energy bookkeeping of the last successful step (`None` before the first), recomputed
-    /// from the stored step (costs one residual evaluation and three energies).
+    /// from the stored step (costs three energies and one residual evaluation, or on the
+    /// mechanical path one product with `M`).
     pub fn energy_balance(&mut self) -> Option<EnergyBalance<V::Real>> {
         if !self.have_step {
             return None;
         }
         let h = self.last_h;
+        let sys = &self.system;
+        let (before, after_step, after) = (
+            sys.hamiltonian().energy(&self.start),
+            sys.hamiltonian().energy(&self.after_step),
+            sys.hamiltonian().energy(&self.last),
+        );
+        if self.mechanical.is_some() {
+            let supplied = self.supplied_reduced(h);
+            return Some(EnergyBalance {
+                before,
+                after_step,
+                after,
+                supplied,
+            });
+        }
         let zs = self.z.as_slice().to_vec();
         let mut out = vec![V::Real::zero(); zs.len()];
         let mut problem = problem!(self, h);
         problem.residual(&zs, &mut out).ok()?;
         // grad = h F̄, f = h M(x̄) F̄.
         let supplied = ops::dot(problem.grad.as_slice(), problem.f.as_slice()) / h;
-        let sys = &self.system;
         Some(EnergyBalance {
-            before: sys.hamiltonian().energy(&self.start),
-            after_step: sys.hamiltonian().energy(&self.after_step),
-            after: sys.hamiltonian().energy(&self.last),
+            before,
+            after_step,
+            after,
             supplied,
         })
     }
@@ -250,6 +286,41 @@ where
         self.g0.len()
     }
 
+    /// The step on the general path: Newton on `(δ, ℓ = hλ)` from the predictor
+    /// `δ = M(x)(h ∇H(x) + G(x)ᵀ ℓ)`, `ℓ = h λ_prev`.
+    fn solve_full(&mut self, h: V::Real) -> Result<SolveReport<V::Real>, StepError> {
+        let n = self.start.len();
+        {
+            let (zd, zl) = self.z.as_mut_slice().split_at_mut(n);
+            for (l, &lp) in zl.iter_mut().zip(&self.lambda) {
+                *l = h * lp;
+            }
+            let sys = &self.system;
+            sys.hamiltonian().gradient(&self.start, &mut self.grad);
+            for g in self.grad.as_mut_slice() {
+                *g = *g * h;
+            }
+            sys.constraint().jacobian_transpose_apply_add(
+                &self.start,
+                zl,
+                V::Real::one(),
+                &mut self.grad,
+            );
+            sys.structure().apply(&self.start, &self.grad, &mut self.f);
+            zd.copy_from_slice(self.f.as_slice());
+        }
+        let Some(newton) = self.newton.as_mut() else {
+            unreachable!("the full solve on the mechanical path");
+        };
+        let mut problem = problem!(self, h);
+        newton
+            .solve(&mut problem, self.z.as_mut_slice())
+            .map_err(|e| {
+                newton.invalidate_jacobian();
+                newton_error("constrained discrete gradient", e)
+            })
+    }
+
     /// The hidden-constraint projection from `after_step` into `xe` (`nu` holds `ν`). `K = m`
     /// on the small path, `K = 0` on the general one.
     #[inline(always)]
@@ -275,10 +346,20 @@ fn newton_error(stage: &'static str, e: NewtonError<StepError>) -> StepError {
 }
 
 impl<V: Vector, Sys, W: Vector<Real = V::Real>> ConstrainedDiscreteGradient<V, Sys, W> {
+    /// Forgets the step's kept Newton matrix (either path's).
+    fn forget_step_jacobian(&mut self) {
+        if let Some(newton) = self.newton.as_mut() {
+            newton.invalidate_jacobian();
+        }
+        if let Some(reduced) = self.mechanical.as_mut() {
+            reduced.invalidate();
+        }
+    }
+
     /// Forgets the kept Newton matrices (a checkpoint cannot hold them): the next step builds
     /// them anew.
     fn forget_jacobians(&mut self) {
-        self.newton.invalidate_jacobian();
+        self.forget_step_jacobian();
         if let Some(HiddenSolver::General(n)) = self.hidden.as_mut() {
             n.invalidate_jacobian();
         }
@@ -339,41 +420,17 @@ where
                 .apply(&self.start, &self.tmp, &mut self.f);
             self.base_noise = V::Real::epsilon() * h.abs() * ops::norm_inf(self.f.as_slice());
         }
-        // Predictor: δ = M(x)(h ∇H(x) + G(x)ᵀ ℓ), ℓ = h λ_prev.
-        {
-            let (zd, zl) = self.z.as_mut_slice().split_at_mut(n);
-            for (l, &lp) in zl.iter_mut().zip(&self.lambda) {
-                *l = h * lp;
-            }
-            let sys = &self.system;
-            sys.hamiltonian().gradient(&self.start, &mut self.grad);
-            for g in self.grad.as_mut_slice() {
-                *g = *g * h;
-            }
-            sys.constraint().jacobian_transpose_apply_add(
-                &self.start,
-                zl,
-                V::Real::one(),
-                &mut self.grad,
-            );
-            sys.structure().apply(&self.start, &self.grad, &mut self.f);
-            zd.copy_from_slice(self.f.as_slice());
-        }
-        let solved = {
-            let mut problem = problem!(self, h);
-            self.newton.solve(&mut problem, self.z.as_mut_slice())
+        let continued = self.start.as_slice() == self.last.as_slice();
+        let solved = if self.mechanical.is_some() {
+            self.solve_reduced(h, continued)
+        } else {
+            self.solve_full(h)
         };
-        let report = match solved {
-            Ok(report) => report,
-            Err(e) => {
-                self.newton.invalidate_jacobian();
-                return Err(newton_error("constrained discrete gradient", e));
-            }
-        };
+        let report = solved?;
         self.stats.record(&report);
         let delta = &self.z.as_slice()[..n];
         if let Some(component) = ops::first_non_finite(self.z.as_slice()) {
-            self.newton.invalidate_jacobian();
+            self.forget_step_jacobian();
             return Err(StepError::NonFinite {
                 component: component.min(n - 1),
             });
@@ -413,7 +470,7 @@ where
             self.last.copy_from(&self.xe);
         }
         if let Some(component) = ops::first_non_finite(self.last.as_slice()) {
-            self.newton.invalidate_jacobian();
+            self.forget_step_jacobian();
             return Err(StepError::NonFinite { component });
         }
         core::mem::swap(&mut self.comp, &mut self.comp_next);

@@ -169,7 +169,7 @@ where
                 what: "the Petrov–Galerkin scheme takes a constant structure matrix M (its energy identity is proven for M = J − R constant)".into(),
             });
         }
-        let (case, _) = check_initial_state::<V, Sys, W::Solver>(
+        let (case, pattern) = check_initial_state::<V, Sys, W::Solver>(
             &system,
             x0,
             &options.initial_checks(),
@@ -182,7 +182,12 @@ where
             });
         }
         let hidden = if m > 0 {
-            Some(HiddenSolver::new(&system, x0, options.newton)?)
+            Some(HiddenSolver::new(
+                &system,
+                x0,
+                options.newton,
+                pattern.as_deref(),
+            )?)
         } else {
             None
         };

@@ -110,6 +110,7 @@ impl<V: Vector> HiddenSolver<V> {
         system: &Sys,
         x0: &V,
         options: NewtonOptions<V::Real>,
+        pattern: Option<&[(usize, usize)]>,
     ) -> Result<Self, SetupError>
     where
         Sys: Model<V>,
@@ -126,7 +127,9 @@ impl<V: Vector> HiddenSolver<V> {
                         && half_step_keeps_jacobian(system, x0),
                 })
             }
-            _ => Ok(HiddenSolver::General(Newton::new(m, options)?)),
+            _ => Ok(HiddenSolver::General(Newton::with_pattern(
+                m, options, pattern,
+            )?)),
         }
     }
 

@@ -85,7 +85,7 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
                 Case::Degenerate if m > SMALL_MAX => Some(HiddenSolver::General(
                     Newton::with_pattern(m, options.newton, pattern.as_deref())?,
                 )),
-                Case::Degenerate => Some(HiddenSolver::new(&system, x0, options.newton)?),
+                Case::Degenerate => Some(HiddenSolver::new(&system, x0, options.newton, None)?),
                 Case::NonDegenerate => None,
             };
         let zero = <V::Real as num_traits::Zero>::zero();

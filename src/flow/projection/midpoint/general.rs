@@ -22,7 +22,7 @@ pub(super) struct General<T: Real, L> {
     /// `None` on the mechanical path.
     newton: Option<Newton<DVector<T>>>,
     /// The momenta eliminated (a model of mechanical form): Newton on `(δq, λ_k)`.
-    pub(super) mechanical: Option<super::mechanical::Reduced<T, L>>,
+    pub(super) mechanical: Option<crate::flow::reduced::Reduced<T, L>>,
     /// The `λ_{k+1}` system, `m` unknowns.
     hidden: Newton<DVector<T>>,
     /// `(δ, λ_k)`.
@@ -81,7 +81,7 @@ impl<T: Real, L: LinearSolver<T>> General<T, L> {
         let (newton, mechanical, k) = match form {
             Some(form) => (
                 None,
-                Some(super::mechanical::Reduced::new(form, m, options)?),
+                Some(crate::flow::reduced::Reduced::new(form, m, options, false)?),
                 0,
             ),
             None => (Some(Newton::new(n + m, options)?), None, n + m),

@@ -3,122 +3,14 @@
 //! Newton matrix.
 
 use super::{ProjectedMidpoint, STAGE_JOINT, increment_tolerance, stiff_floor};
-use crate::error::{LinearSolveError, StepError};
+use crate::error::StepError;
 use crate::linalg::LinearSolver;
-use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver};
+use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
-use crate::system::{Hamiltonian, HolonomicConstraint, MechanicalForm, Model, StructureMatrix};
+use crate::system::{Hamiltonian, HolonomicConstraint, Model, StructureMatrix};
 use crate::vector::{Vector, ops};
-use nalgebra::DVector;
 use num_traits::Float as _;
 use num_traits::{One, Zero};
-
-/// The reduced joint system's solver and workspace (allocated at construction).
-pub(crate) struct Reduced<T: Real, L> {
-    /// `n_q`.
-    nq: usize,
-    /// `diag W⁻¹`.
-    w: Vec<T>,
-    /// Newton on `(δq, ν)`, `ν = (h²/2) λ_k`, `n_q + m` unknowns, with the pattern of `B`, `∇²V` and `G_q`:
-    /// grouped closed-form columns, factored by the flow's solver `L` (for `f64`,
-    /// [`AutoLu`](crate::linalg::AutoLu): dense, banded or sparse by this pattern), the
-    /// matrix kept across steps of the same size.
-    newton: Newton<DVector<T>, L>,
-    /// `(δq, ν)`.
-    z: Vec<T>,
-    /// `(h/2) λ = ν/h` (scratch), and the multipliers of a group of columns.
-    scaled: Vec<T>,
-    /// The step size of the kept Newton matrix and of `past` (`0`: none).
-    h: T,
-    /// `δq` of the last two steps (newest first), when they were consecutive steps of size
-    /// `h` ending where the next one starts: `count` of them are valid.
-    past: [Vec<T>; 2],
-    count: usize,
-}
-
-impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
-    /// The solver for `form` with `m` constraints. Its Jacobian pattern: the diagonal, `B`,
-    /// `∇²V` (dense without a declared pattern) in the `δq` block, `G_qᵀ` in the `λ` columns
-    /// and `G_q` in the constraint rows (dense without entries).
-    pub(crate) fn new(
-        form: MechanicalForm<T>,
-        m: usize,
-        options: NewtonOptions<T>,
-    ) -> Result<Self, LinearSolveError> {
-        let nq = form.positions;
-        let mut pattern: Vec<(usize, usize)> = (0..nq).map(|i| (i, i)).collect();
-        pattern.extend(form.momentum_block.iter().map(|&(r, c, _)| (r, c)));
-        match &form.hessian_pattern {
-            Some(p) => pattern.extend_from_slice(p),
-            None => pattern.extend((0..nq).flat_map(|i| (0..nq).map(move |j| (i, j)))),
-        }
-        let dense;
-        let g: &[(usize, usize)] = match &form.constraint_pattern {
-            Some(p) => p,
-            None => {
-                dense = (0..m)
-                    .flat_map(|r| (0..nq).map(move |c| (r, c)))
-                    .collect::<Vec<_>>();
-                &dense
-            }
-        };
-        for &(r, c) in g {
-            pattern.push((nq + r, c));
-            pattern.push((c, nq + r));
-        }
-        pattern.sort_unstable();
-        pattern.dedup();
-        // Simplified Newton: the matrix is kept while the iteration contracts, not updated by
-        // secants (a rank-one update refactors a dense matrix; sparse storage has none).
-        // The backend by this matrix's own structure (a solver forced for the projection's
-        // multiplier systems fits those, not this one).
-        let mut options = options.with_solver(crate::linalg::SolverChoice::Auto);
-        options.broyden = false;
-        let newton = Newton::with_pattern(nq + m, options, Some(&pattern))?;
-        Ok(Self {
-            nq,
-            w: form.inverse_mass,
-            newton,
-            z: vec![T::zero(); nq + m],
-            scaled: vec![T::zero(); m],
-            h: T::zero(),
-            past: [vec![T::zero(); nq], vec![T::zero(); nq]],
-            count: 0,
-        })
-    }
-
-    /// Forgets the kept Newton matrix.
-    pub(crate) fn invalidate(&mut self) {
-        self.newton.invalidate_jacobian();
-        self.h = T::zero();
-        self.count = 0;
-    }
-
-    /// The predictor of `δq`: extrapolated from the last two steps, `2 δq₁ − δq₂` (error
-    /// `O(h³)`), when they are there; `false` otherwise.
-    fn predict(past: &[Vec<T>; 2], count: usize, dq: &mut [T]) -> bool {
-        if count < 2 {
-            return false;
-        }
-        let two = T::lit(2.0);
-        for ((d, &a), &b) in dq.iter_mut().zip(&past[0]).zip(&past[1]) {
-            *d = two * a - b;
-        }
-        true
-    }
-
-    /// Records the solved `δq` of a step that continued the previous one (`continued`).
-    fn record(&mut self, continued: bool) {
-        self.past.swap(0, 1);
-        let nq = self.nq;
-        self.past[0].copy_from_slice(&self.z[..nq]);
-        self.count = if continued {
-            (self.count + 1).min(2)
-        } else {
-            1
-        };
-    }
-}
 
 /// `F(δq, ν) = (δq − h W⁻¹ p̄,  g(q + δq))`, the midpoint rule's position rows and the
 /// constraint, with the momenta eliminated: `p̄ = p̂ + δp/2`, `δp = −h ∇V(q̄) + B δq` (the
@@ -296,15 +188,8 @@ where
             unreachable!("the reduced solve without a mechanical form");
         };
         let (nq, m) = (reduced.nq, self.m);
-        if reduced.h != h {
-            // The Newton matrix depends on h (not as a power of it): built anew.
-            reduced.invalidate();
-            reduced.h = h;
-        }
         let continued = self.entry.is_last(x);
-        if !continued {
-            reduced.count = 0;
-        }
+        reduced.solver.begin(h, continued);
         let w = &mut self.w;
         let mut problem = Problem {
             h,
@@ -339,23 +224,20 @@ where
             *d = h * (wi * p);
         }
         let tol1 = increment_tolerance(x.as_slice(), &z[..nq]);
-        // Past steps predict better than the explicit Euler step, when there are two.
-        Reduced::<V::Real, L>::predict(&reduced.past, reduced.count, &mut z[..nq]);
         let floor = stiff_floor(&self.system, &self.inner, h, x, problem.hv, problem.t2);
         problem.noise = tol1.max(floor.unwrap_or(tol1)) * V::Real::lit(0.25);
-        let report = match reduced.newton.solve(&mut problem, z) {
-            Ok(report) => report,
-            Err(e) => {
-                reduced.invalidate();
-                return Err(StepError::from_newton(STAGE_JOINT, e));
-            }
-        };
+        // Past steps predict better than the explicit Euler step, when there are two.
+        reduced.solver.predict(z);
+        let report = reduced
+            .solver
+            .solve(&mut problem, z)
+            .map_err(|e| StepError::from_newton(STAGE_JOINT, e))?;
         // The last evaluation was at the solution: y and g(y) are its.
         self.stats.record(&report);
         for (l, &nu) in self.z.as_mut_slice()[..m].iter_mut().zip(&z[nq..]) {
             *l = nu / nu_per_lambda;
         }
-        reduced.record(continued);
+        reduced.solver.record(z, continued);
         Ok(())
     }
 }

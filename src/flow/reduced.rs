@@ -1,0 +1,184 @@
+//! Newton on the positions of a model of mechanical form ([`MechanicalForm`]): the implicit
+//! schemes whose momentum rows can be solved exactly (the implicit midpoint rule of
+//! [`ProjectedMidpoint`](super::ProjectedMidpoint), the constrained discrete gradient) eliminate
+//! the momenta and solve for `(δq, ν)`, `ν = (h²/2) λ`, `n_q + m` unknowns, with a sparse Newton
+//! matrix kept across steps and a predictor extrapolated from the last two steps.
+
+use crate::error::{LinearSolveError, NewtonError, StepError};
+use crate::linalg::LinearSolver;
+use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver, SolveReport};
+use crate::real::Real;
+use crate::system::MechanicalForm;
+use nalgebra::DVector;
+
+/// The reduced system's solver and workspace (allocated at construction), in fields a step
+/// borrows separately: the problem reads `w` and writes `scaled` while `solver` solves for `z`.
+pub(crate) struct Reduced<T: Real, L> {
+    /// `n_q`.
+    pub(crate) nq: usize,
+    /// `diag W⁻¹`.
+    pub(crate) w: Vec<T>,
+    /// `(δq, ν)`.
+    pub(crate) z: Vec<T>,
+    /// Multiplier-sized scratch for the problems' residuals and columns.
+    pub(crate) scaled: Vec<T>,
+    pub(crate) solver: KeptNewton<T, L>,
+}
+
+/// Newton on `(δq, ν)`, `n_q + m` unknowns, with the pattern of `B`, `∇²V` and `G_q` (and of
+/// the constraint Hessians when asked for): grouped closed-form columns, factored by `L` (for
+/// `f64`, [`AutoLu`](crate::linalg::AutoLu): dense, banded or sparse by this pattern), the
+/// matrix kept across steps of the same size, the predictor from past steps.
+pub(crate) struct KeptNewton<T: Real, L> {
+    newton: Newton<DVector<T>, L>,
+    /// The step size of the kept Newton matrix and of `past` (`0`: none).
+    h: T,
+    /// `(δq, ν)` of the last three steps (newest first), when they were consecutive steps of
+    /// size `h` ending where the next one starts: `count` of them are valid.
+    past: [Vec<T>; 3],
+    count: usize,
+}
+
+impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
+    /// The solver for `form` with `m` constraints. Its Jacobian pattern: the diagonal, `B`,
+    /// `∇²V` (dense without a declared pattern) in the `δq` block, `G_qᵀ` in the `ν` columns
+    /// and `G_q` in the constraint rows (dense without entries); with `curvature`, also the
+    /// pattern of `Σᵢ νᵢ ∇²gᵢ` (the positions each constraint couples) in the `δq` block.
+    pub(crate) fn new(
+        form: MechanicalForm<T>,
+        m: usize,
+        options: NewtonOptions<T>,
+        curvature: bool,
+    ) -> Result<Self, LinearSolveError> {
+        let nq = form.positions;
+        let mut pattern: Vec<(usize, usize)> = (0..nq).map(|i| (i, i)).collect();
+        pattern.extend(form.momentum_block.iter().map(|&(r, c, _)| (r, c)));
+        match &form.hessian_pattern {
+            Some(p) => pattern.extend_from_slice(p),
+            None => pattern.extend((0..nq).flat_map(|i| (0..nq).map(move |j| (i, j)))),
+        }
+        let dense;
+        let g: &[(usize, usize)] = match &form.constraint_pattern {
+            Some(p) => p,
+            None => {
+                dense = (0..m)
+                    .flat_map(|r| (0..nq).map(move |c| (r, c)))
+                    .collect::<Vec<_>>();
+                &dense
+            }
+        };
+        for &(r, c) in g {
+            pattern.push((nq + r, c));
+            pattern.push((c, nq + r));
+        }
+        if curvature {
+            let mut rows: Vec<Vec<usize>> = vec![Vec::new(); m];
+            for &(r, c) in g {
+                rows[r].push(c);
+            }
+            for cols in &rows {
+                pattern.extend(cols.iter().flat_map(|&a| cols.iter().map(move |&b| (a, b))));
+            }
+        }
+        pattern.sort_unstable();
+        pattern.dedup();
+        // Simplified Newton: the matrix is kept while the iteration contracts, not updated by
+        // secants (a rank-one update refactors a dense matrix; sparse storage has none).
+        // The backend by this matrix's own structure (a solver forced for a projection's
+        // multiplier systems fits those, not this one).
+        let mut options = options.with_solver(crate::linalg::SolverChoice::Auto);
+        options.broyden = false;
+        let newton = Newton::with_pattern(nq + m, options, Some(&pattern))?;
+        Ok(Self {
+            nq,
+            w: form.inverse_mass,
+            z: vec![T::zero(); nq + m],
+            scaled: vec![T::zero(); m],
+            solver: KeptNewton {
+                newton,
+                h: T::zero(),
+                past: [
+                    vec![T::zero(); nq + m],
+                    vec![T::zero(); nq + m],
+                    vec![T::zero(); nq + m],
+                ],
+                count: 0,
+            },
+        })
+    }
+
+    /// Forgets the kept Newton matrix and the past steps.
+    pub(crate) fn invalidate(&mut self) {
+        self.solver.invalidate();
+    }
+}
+
+impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
+    /// Forgets the kept Newton matrix and the past steps.
+    pub(crate) fn invalidate(&mut self) {
+        self.newton.invalidate_jacobian();
+        self.h = T::zero();
+        self.count = 0;
+    }
+
+    /// Starts a step of size `h`: the kept matrix depends on `h` (not as a power of it), so a
+    /// new size builds it anew; the past steps predict only a step that `continued` them.
+    pub(crate) fn begin(&mut self, h: T, continued: bool) {
+        if self.h != h {
+            self.invalidate();
+            self.h = h;
+        }
+        if !continued {
+            self.count = 0;
+        }
+    }
+
+    /// Replaces the predicted `z = (δq, ν)` by the extrapolation of the last steps' — the
+    /// quadratic `3 z₁ − 3 z₂ + z₃` (error `O(h⁴)` relative to `z`) after three, the linear
+    /// `2 z₁ − z₂` after two — when they are there.
+    pub(crate) fn predict(&self, z: &mut [T]) {
+        let [a, b, c] = &self.past;
+        let (two, three) = (T::lit(2.0), T::lit(3.0));
+        match self.count {
+            3 => {
+                for (((d, &a), &b), &c) in z.iter_mut().zip(a).zip(b).zip(c) {
+                    *d = three * (a - b) + c;
+                }
+            }
+            2 => {
+                for ((d, &a), &b) in z.iter_mut().zip(a).zip(b) {
+                    *d = two * a - b;
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Solves `problem` from the predictor in `z`; on failure the kept matrix is forgotten.
+    pub(crate) fn solve<P>(
+        &mut self,
+        problem: &mut P,
+        z: &mut [T],
+    ) -> Result<SolveReport<T>, NewtonError<StepError>>
+    where
+        P: NonlinearProblem<T, Error = StepError>,
+    {
+        let solved = self.newton.solve(problem, z);
+        if solved.is_err() {
+            self.invalidate();
+        }
+        solved
+    }
+
+    /// Records the solved `z` of a step that continued the previous one
+    /// (`continued`).
+    pub(crate) fn record(&mut self, z: &[T], continued: bool) {
+        self.past.rotate_right(1);
+        self.past[0].copy_from_slice(z);
+        self.count = if continued {
+            (self.count + 1).min(3)
+        } else {
+            1
+        };
+    }
+}
