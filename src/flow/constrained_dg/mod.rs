@@ -58,7 +58,13 @@ pub struct EnergyBalance<T> {
 /// [`without_hidden_projection`](Self::without_hidden_projection) turns it off (symmetric step,
 /// `|φ| = O(h²)`). In the non-degenerate case there is no hidden constraint and no projection.
 ///
-/// Each step solves for `(δ, hλ)` (`n + m` unknowns) by Newton, stored in `W` (heap `faer::Col`
+/// **A model of mechanical form** ([`MechanicalForm`]: `H = ½pᵀW⁻¹p + V(q)`,
+/// `M = [[0, I], [−I, B]]`, constraints on positions) takes the discrete gradient block by block,
+/// `∇̄H = (∇̄V(q, q'), W⁻¹p̄)` and `∇̄g(q, q')`, solves the momentum rows exactly and runs Newton
+/// on `(δq, (h²/2) λ)` (`n/2 + m` unknowns) with the model's sparsity and a kept matrix; the
+/// identity above holds with `h F̄ᵀM F̄ = δqᵀB δq / h` (docs/method.md §10).
+///
+/// Otherwise each step solves for `(δ, hλ)` (`n + m` unknowns) by Newton, stored in `W` (heap `faer::Col`
 /// by default, since `n + m` exceeds a stack vector's capacity `n`). When the model gives
 /// `∇²H` ([`Hamiltonian::hessian_apply`]) and `DM` ([`StructureMatrix::derivative_apply_add`];
 /// automatic for a constant `M`) the Newton matrix is assembled in closed form at every
