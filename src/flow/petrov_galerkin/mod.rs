@@ -194,11 +194,14 @@ where
         Ok(Self {
             tables: Tables::new(k, k + 2),
             // Stiffly damped momentum rows carry `c h/m`: equilibrated, their size does not make
-            // the multipliers' pivots look singular.
+            // the multipliers' pivots look singular. The difference Jacobian costs `k (n + m)`
+            // residuals (each `s` gradients) and a dense factorization, a hundred iterations'
+            // worth on a mid-sized state: it is kept while an iteration contracts at all (a
+            // stale one, 0.5–0.9, is still far cheaper; a worse residual rebuilds it).
             newton: Newton::new(k * (n + m), {
                 let mut newton = options.newton;
                 newton.equilibrate = true;
-                newton.max_contraction = V::Real::lit(0.5);
+                newton.max_contraction = V::Real::lit(0.9);
                 newton.broyden = false;
                 newton
             })?,
