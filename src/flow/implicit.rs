@@ -112,7 +112,7 @@ impl<V: Vector, H: Hamiltonian<V>> GradientRule<V, H> for GonzalezRule {
         let d2 = delta.iter().fold(V::Real::zero(), |s, &d| s + d * d);
         let x2 = x.as_slice().iter().fold(V::Real::zero(), |s, &v| s + v * v);
         let eps = V::Real::epsilon();
-        if d2 <= eps.powf(V::Real::lit(2.0 / 3.0)) * (V::Real::one() + x2) {
+        if !gonzalez_corrects(d2, x2) {
             return V::Real::zero();
         }
         ops::add_scaled(tmp.as_mut_slice(), x.as_slice(), V::Real::one(), delta);
@@ -129,6 +129,13 @@ impl<V: Vector, H: Hamiltonian<V>> GradientRule<V, H> for GonzalezRule {
         // know about) and of the slope; divided by |δ| it is the noise along δ/|δ|.
         eps * (hamiltonian.energy(x).abs() + diff.abs() + slope_abs) / d2.sqrt()
     }
+}
+
+/// Whether Gonzalez's correction `(ΔH − ∇H·δ)/|δ|² δ` is evaluated for a step of `|δ|² = d2`
+/// from a point of `|x|² = x2`: above `ε^{2/3} (1 + |x|²)`; below, it is round-off.
+#[inline]
+pub(crate) fn gonzalez_corrects<T: Real>(d2: T, x2: T) -> bool {
+    d2 > T::epsilon().powf(T::lit(2.0 / 3.0)) * (T::one() + x2)
 }
 
 /// A one-step method `x_{k+1} = x_k + δ`, `δ = h M(x + δ/2) ∇̄H(x, x + δ)`, with the gradient

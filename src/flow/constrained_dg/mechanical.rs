@@ -24,6 +24,7 @@
 
 use super::ConstrainedDiscreteGradient;
 use crate::error::StepError;
+use crate::flow::implicit::gonzalez_corrects;
 use crate::flow::reduced::Reduced;
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
@@ -88,8 +89,7 @@ where
     fn corrected(&self, dq: &[V::Real]) -> Option<V::Real> {
         let d2 = ops::dot(dq, dq);
         let q = &self.x.as_slice()[..self.nq];
-        (d2 > V::Real::epsilon().powf(V::Real::lit(2.0 / 3.0)) * (V::Real::one() + ops::dot(q, q)))
-            .then_some(d2)
+        gonzalez_corrects(d2, ops::dot(q, q)).then_some(d2)
     }
 }
 

@@ -3,7 +3,7 @@
 //! closed-form Jacobian columns and noise floor.
 
 use crate::error::StepError;
-use crate::flow::implicit::{GonzalezRule, GradientRule, noise_image};
+use crate::flow::implicit::{GonzalezRule, GradientRule, gonzalez_corrects, noise_image};
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
 use crate::system::Model;
@@ -40,8 +40,7 @@ where
     fn corrected(&self, delta: &[V::Real]) -> Option<V::Real> {
         let d2 = ops::dot(delta, delta);
         let x2 = ops::dot(self.x.as_slice(), self.x.as_slice());
-        (d2 > V::Real::epsilon().powf(V::Real::lit(2.0 / 3.0)) * (V::Real::one() + x2))
-            .then_some(d2)
+        gonzalez_corrects(d2, x2).then_some(d2)
     }
 }
 
