@@ -464,17 +464,25 @@ where
 impl SceneModel {
     /// The assembled terms with their evaluation counts (and time shares when profiling).
     pub fn reports(&self) -> Vec<EffectReport> {
+        // A free flight evaluates the kinetic term, the damping, the field and the gravity
+        // joined to it at once (one count for all of them).
+        let flights = self.flight_counter.evaluations();
         let mut out = vec![EffectReport {
             name: "kinetic".into(),
             kind: "kinetic",
-            evaluations: self.kinetic.evaluations(),
+            evaluations: self.kinetic.evaluations() + flights,
             time_share: None,
         }];
         for t in &self.potentials {
+            let joined = if self.gravity_in_flight() && t.is_gravity() {
+                flights
+            } else {
+                0
+            };
             out.push(EffectReport {
                 name: t.label.clone(),
                 kind: t.kind.name(),
-                evaluations: t.counter.evaluations(),
+                evaluations: t.counter.evaluations() + joined,
                 time_share: self.profile.then(|| t.counter.nanos() as f64),
             });
         }
@@ -482,7 +490,7 @@ impl SceneModel {
             out.push(EffectReport {
                 name: t.label.clone(),
                 kind: "damping",
-                evaluations: t.counter.evaluations(),
+                evaluations: t.counter.evaluations() + flights,
                 time_share: None,
             });
         }
@@ -498,7 +506,7 @@ impl SceneModel {
             out.push(EffectReport {
                 name: t.label.clone(),
                 kind: "magnetic",
-                evaluations: t.counter.evaluations(),
+                evaluations: t.counter.evaluations() + flights,
                 time_share: None,
             });
         }

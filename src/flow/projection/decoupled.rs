@@ -2,7 +2,7 @@
 //! `λ_{k+1}` from `φ(x_{k+1}) = 0` (RATTLE for any structure matrix), on the small stack path
 //! or through Newton, and the guard that checks the decoupling still holds.
 
-use super::small::FirstHalf;
+use super::small::{Columns, FirstHalf};
 use super::small::{SecondHalf, fixed_mut, solve_second_half};
 use super::stage::{Mode, Stage};
 use super::{Base, Projected, STAGE_LAMBDA_K, STAGE_LAMBDA_K1, Work};
@@ -11,8 +11,8 @@ use crate::flow::{Flow, FlowStats};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NonlinearSolver, SolveReport};
 use crate::real::Real;
+use crate::system::HolonomicConstraint;
 use crate::system::Model;
-use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 use num_traits::Zero;
@@ -163,31 +163,22 @@ where
             let result = solve_second_half(&small.newton_k1, small.affine_k1, &mut problem, z);
             (result, STAGE_LAMBDA_K1)
         } else {
-            // w_j = d_j + h M(x) ∇²H(x) d_j, so that G(y) w_j is column j of ∂g/∂λ_k.
-            let mut exact = true;
-            for (dj, wj) in d.iter().zip(cols.iter_mut()) {
-                if !self.system.hamiltonian().hessian_apply(x, dj, t1) {
-                    exact = false;
-                    break;
-                }
-                self.system.structure().apply(x, t1, t2);
-                let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), t2.as_slice());
-                for ((o, &dv), &tv) in wj.iter_mut().zip(dj).zip(t2) {
-                    *o = dv + h * tv;
-                }
-            }
+            // The columns' directions `w_j = d_j + h M ∇²H d_j` are formed by the problem
+            // only if the inner flow has no tangent map.
             let mut problem = FirstHalf {
                 h,
                 x,
                 inner: &mut self.inner,
                 ledger_in: w.ledger_in,
                 ledger_y: &mut w.ledger_y,
-                constraint: self.system.constraint(),
+                system: &self.system,
                 d,
-                w: exact.then_some(&*cols),
+                w: cols,
+                w_state: Columns::Unformed,
                 y: &mut w.y,
                 g: fixed_mut(&mut small.g_y),
                 scratch: t1,
+                scratch2: t2,
             };
             let z: &mut [V::Real; K] = fixed_mut(w.z.as_mut_slice());
             (small.newton_k.solve_fixed(&mut problem, z), STAGE_LAMBDA_K)

@@ -118,31 +118,69 @@ pub(crate) fn shift<V: Vector, const K: usize>(out: &mut V, x: &V, z: &[V::Real]
     }
 }
 
-/// `λ_k ↦ g(L_h(x + Σ λ_j d_j))`, `d_j = (h/2) M Gᵀ e_j`, with the columns `G(y) w_j` (small
-/// path); `L_h` is the inner flow's lead ([`Flow::step_lead`]: all of it, or all but a
+/// `λ_k ↦ g(L_h(x + Σ λ_j d_j))`, `d_j = (h/2) M Gᵀ e_j`, with the columns `G(y) DL_h d_j`
+/// (small path); `L_h` is the inner flow's lead ([`Flow::step_lead`]: all of it, or all but a
 /// trailing kick, which cannot change `g`).
-pub(super) struct FirstHalf<'a, V: Vector, F, C, const K: usize> {
+pub(super) struct FirstHalf<'a, V: Vector, F, Sys, const K: usize> {
     pub(crate) h: V::Real,
     pub(crate) x: &'a V,
     pub(crate) inner: &'a mut F,
     pub(crate) ledger_in: Ledger<V::Real>,
     pub(crate) ledger_y: &'a mut Ledger<V::Real>,
-    pub(crate) constraint: &'a C,
+    pub(crate) system: &'a Sys,
     /// The half-step directions `(h/2) M Gᵀ e_j` at `x`.
     pub(super) d: &'a [V; K],
-    pub(super) w: Option<&'a [V; K]>,
+    /// `w_j = d_j + h M ∇²H d_j` at `x`, the columns' directions when the inner flow has no
+    /// tangent map: formed on the first column asked for (`w_state`), never when it has one.
+    pub(super) w: &'a mut [V; K],
+    pub(super) w_state: Columns,
     pub(crate) y: &'a mut V,
     /// `g(y)` of the last evaluation.
     pub(crate) g: &'a mut [V::Real; K],
-    /// Scratch for the inner flow's tangent map.
+    /// Scratch for the inner flow's tangent map and for `w`.
     pub(crate) scratch: &'a mut V,
+    pub(crate) scratch2: &'a mut V,
 }
 
-impl<V, F, C, const K: usize> NonlinearProblem<V::Real> for FirstHalf<'_, V, F, C, K>
+/// Whether [`FirstHalf`]'s approximate column directions `w_j` are formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Columns {
+    /// Not yet (the inner flow's tangent map gave every column so far).
+    Unformed,
+    /// Formed: `w_j = d_j + h M ∇²H d_j`.
+    Formed,
+    /// The Hamiltonian has no Hessian product: no closed-form column.
+    Unavailable,
+}
+
+impl<V, F, Sys, const K: usize> FirstHalf<'_, V, F, Sys, K>
+where
+    V: Vector,
+    Sys: Model<V>,
+{
+    /// Forms `w_j = d_j + h M(x) ∇²H(x) d_j` (`Unavailable` without a Hessian product).
+    fn form_columns(&mut self) {
+        let (sys, h) = (self.system, self.h);
+        for (dj, wj) in self.d.iter().zip(self.w.iter_mut()) {
+            if !sys.hamiltonian().hessian_apply(self.x, dj, self.scratch) {
+                self.w_state = Columns::Unavailable;
+                return;
+            }
+            sys.structure().apply(self.x, self.scratch, self.scratch2);
+            let (wj, dj, t2) = (wj.as_mut_slice(), dj.as_slice(), self.scratch2.as_slice());
+            for ((o, &dv), &tv) in wj.iter_mut().zip(dj).zip(t2) {
+                *o = dv + h * tv;
+            }
+        }
+        self.w_state = Columns::Formed;
+    }
+}
+
+impl<V, F, Sys, const K: usize> NonlinearProblem<V::Real> for FirstHalf<'_, V, F, Sys, K>
 where
     V: Vector,
     F: Flow<V>,
-    C: HolonomicConstraint<V>,
+    Sys: Model<V>,
 {
     type Error = StepError;
 
@@ -154,6 +192,7 @@ where
     }
     #[inline(always)]
     fn residual(&mut self, z: &[V::Real], f: &mut [V::Real]) -> Result<(), StepError> {
+        let constraint = self.system.constraint();
         if V::CLONE_IS_COPY {
             // A stack state: work on a local copy the compiler can keep in registers through
             // the half-step, the inner flow and the constraint, and store it once.
@@ -162,40 +201,42 @@ where
             let mut ledger = self.ledger_in;
             self.inner.step_lead(&mut ledger, self.h, &mut y)?;
             *self.ledger_y = ledger;
-            self.constraint.residual(&y, f);
+            constraint.residual(&y, f);
             *self.y = y;
         } else {
             shift(self.y, self.x, z, self.d);
             let mut ledger = self.ledger_in;
             self.inner.step_lead(&mut ledger, self.h, self.y)?;
             *self.ledger_y = ledger;
-            self.constraint.residual(&*self.y, f);
+            constraint.residual(&*self.y, f);
         }
         for (g, &v) in self.g.iter_mut().zip(&*f) {
             *g = v;
         }
         Ok(())
     }
-    /// `∂g(y)/∂λ_j = G(y) DΦ_h d_j` with `DΦ_h ≈ I + h M ∇²H` at `x`: exact when the inner
-    /// flow's tangent map is that (a drift, or a kick–drift–kick with a potential linear in the
-    /// constrained coordinates), `O(h²)` relative otherwise.
-    ///
-    /// An inner flow that applies its own tangent map ([`Flow::tangent_apply`], at the point of
-    /// the last evaluation) gives the exact column `G(y) DΦ_h d_j` instead.
+    /// `∂g(y)/∂λ_j = G(y) DL_h d_j`: exact when the inner flow applies its own tangent map
+    /// ([`Flow::lead_tangent_apply`], at the point of the last evaluation). Otherwise
+    /// `DL_h ≈ I + h M ∇²H` at `x`: exact for a drift, or a kick–drift–kick with a potential
+    /// linear in the constrained coordinates, `O(h²)` relative otherwise.
     #[inline(always)]
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
         if self.inner.lead_tangent_apply(&self.d[j], self.scratch) {
-            self.constraint
+            self.system
+                .constraint()
                 .jacobian_apply(&*self.y, &*self.scratch, out);
             return true;
         }
-        match self.w {
-            Some(w) => {
-                self.constraint.jacobian_apply(&*self.y, &w[j], out);
-                true
-            }
-            None => false,
+        if self.w_state == Columns::Unformed {
+            self.form_columns();
         }
+        if self.w_state == Columns::Unavailable {
+            return false;
+        }
+        self.system
+            .constraint()
+            .jacobian_apply(&*self.y, &self.w[j], out);
+        true
     }
 }
 

@@ -9,6 +9,7 @@ mod effects;
 mod initial;
 mod raise;
 mod scheme;
+mod storage;
 
 pub(crate) use super::validate::{self, Result, err};
 pub use crate::scene::bodies::MAX_BODIES;
@@ -16,12 +17,9 @@ pub use crate::scene::effects::MAX_PAIRS;
 
 use super::error::{FieldPath, SceneError, SceneErrorKind};
 use super::model::{ConstraintKind, ConstraintTerm, SceneModel};
-use super::ports::{Scratch, compile_events, compile_inputs, compile_outputs};
-use super::run::{ModelRun, RunPlan, Simulation};
+use super::ports::{SceneEvents, compile_events, compile_inputs, compile_outputs};
+use super::run::{RunPlan, Simulation};
 use super::schema::{Method, Redundant, SCENE_VERSION, SceneFile};
-use super::watch::Watch;
-use crate::stepper::Events;
-use crate::system::System;
 use crate::vector::Vector;
 use bodies::expand_bodies;
 use builtin::compile_builtin;
@@ -33,6 +31,7 @@ pub use raise::Raise;
 use scheme::{SchemeFlow, choose_scheme, plan, scheme_flow};
 pub use scheme::{Splitting, splitting_flow};
 use std::sync::Arc;
+use storage::{EventSource, RunParts};
 
 /// The most steps a run may plan (`t_end / dt`).
 pub const MAX_STEPS: usize = 1_000_000_000_000;
@@ -343,13 +342,13 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     }
     let dt = file.integrator.dt;
     let dissipative = model.is_dissipative();
-    let shared = model.clone();
     let SchemeFlow {
         flow,
         name: scheme_name,
         case,
         projection,
         solver,
+        split,
     } = scheme_flow(file, &model, &x0, raise, backward)?;
     let scheme = raise.describe(scheme_name);
     let reason = raise
@@ -369,7 +368,8 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         }
     }
     let outputs = compile_outputs(&file.outputs, &bodies, dim, model.inputs.as_ref(), m)?;
-    let (events, event_names) =
+    // Compiled here for the checks (and again for a stack state's run).
+    let _: SceneEvents<Col<f64>> =
         compile_events(&file.events, &bodies, dim, model.inputs.as_ref(), &model)?;
     let assembly = Assembly {
         name: file.name.clone().unwrap_or_else(|| "scene".to_owned()),
@@ -415,23 +415,20 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             })
             .collect(),
     };
-    let system = System::new(model.clone(), model.clone(), model.clone());
-    let mut run =
-        ModelRun::new(flow, system, x0, dt, m, Some(shared)).map_err(initial_state_error)?;
-    let books_dissipation = dissipative && splitting;
-    if model.inputs.is_some() || !outputs.is_empty() || !events.is_empty() || books_dissipation {
-        run.watch = Some(Watch {
-            model: model.clone(),
-            scratch: Scratch::new(n, model.inputs.as_ref().map_or(0, |i| i.names().len())),
-            outputs,
-            events: (!events.is_empty()).then(|| Events::new(events)),
-            event_names,
-            log: Vec::new(),
-            supplied: model.inputs.is_some(),
-            dissipated: books_dissipation,
-        });
-    }
-    let simulation = Box::new(run);
+    let parts = RunParts {
+        model: &model,
+        x0: &x0,
+        dt,
+        outputs,
+        events: EventSource {
+            specs: &file.events,
+            bodies: &bodies,
+            dim,
+        },
+        books_dissipation: dissipative && splitting,
+    };
+    // A splitting of one to three bodies steps a stack state (compile/storage.rs).
+    let simulation = storage::simulation(flow, parts, split.then_some((raise, backward)))?;
     Ok(Compiled {
         simulation,
         assembly,

@@ -162,6 +162,8 @@ pub(super) struct SchemeFlow {
     pub(super) projection: Option<String>,
     /// The multiplier solver, when projected by the splitting.
     pub(super) solver: Option<String>,
+    /// The flow is the scene's splitting ([`splitting_flow`]), raised by the scene's `raise`.
+    pub(super) split: bool,
 }
 
 /// Builds the flow of `file`'s scheme for `model` from `x0`: the discrete gradient, the
@@ -181,6 +183,7 @@ pub(super) fn scheme_flow(
     let mut solver = None;
     let scheme_name;
     let discrete_gradient = file.integrator.scheme == Method::DiscreteGradient;
+    let mut split = false;
     let flow: Box<dyn Flow<Col<f64>>> = if file.integrator.scheme == Method::PetrovGalerkin {
         let order = file.integrator.order.unwrap_or(4);
         let unknowns = (order as usize / 2) * (x0.nrows() + m);
@@ -294,6 +297,7 @@ pub(super) fn scheme_flow(
         let (flow, name, desc) = splitting_flow(model, x0, raise, backward, f64::EPSILON)
             .map_err(|e| setup_error(model, e))?;
         scheme_name = name;
+        split = true;
         if let Some((scheme, small, kind)) = desc {
             case = Some(
                 match scheme {
@@ -324,6 +328,7 @@ pub(super) fn scheme_flow(
         case,
         projection,
         solver,
+        split,
     })
 }
 

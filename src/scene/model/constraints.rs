@@ -19,7 +19,7 @@ impl<T: Real> SceneModel<T> {
     }
 
     /// `g` of a single-row constraint (rod, sphere, plane) at positions `q`; `None` for a pin.
-    #[inline]
+    #[inline(always)]
     pub(super) fn single_row_residual(&self, q: &[T], kind: &ConstraintKind<T>) -> Option<T> {
         let half = T::lit(0.5);
         match kind {
@@ -84,52 +84,39 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
     fn residual(&self, x: &V, out: &mut [T]) {
         let q = x.as_slice();
         let d = self.dim;
-        self.timed(&self.constraint_counter, || {
-            for c in &self.constraints {
-                let r = c.row;
-                match &c.kind {
-                    ConstraintKind::Pin { body, point } => {
-                        for k in 0..d {
-                            out[r + k] = q[body * d + k] - point[k];
-                        }
+        let _timer = self.timer(&self.constraint_counter);
+        for c in &self.constraints {
+            let r = c.row;
+            match &c.kind {
+                ConstraintKind::Pin { body, point } => {
+                    for k in 0..d {
+                        out[r + k] = q[body * d + k] - point[k];
                     }
-                    kind => {
-                        out[r] = self
-                            .single_row_residual(q, kind)
-                            .expect("rods, spheres and planes are single rows");
-                    }
+                }
+                kind => {
+                    out[r] = self
+                        .single_row_residual(q, kind)
+                        .expect("rods, spheres and planes are single rows");
                 }
             }
-        });
+        }
     }
 
+    /// `out = G(q) v`, one row at a time (each row written once: no fill, no accumulation in
+    /// memory).
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [T]) {
         let v = v.as_slice();
-        let d = self.dim;
-        self.timed(&self.constraint_counter, || {
-            out.fill(T::lit(0.0));
-            self.for_each_gradient(x.as_slice(), |row, body, coef| {
-                for k in 0..d {
-                    out[row] = out[row] + (coef[k] * v[body * d + k]);
-                }
-            });
-        });
+        let _timer = self.timer(&self.constraint_counter);
+        self.for_each_row_dot(x.as_slice(), v, None, |row, s| out[row] = s);
     }
 
     /// `φ = G_q W⁻¹ p`: a scene's `M = [[0, I], [−I, K − R]]` has `q' = ∂H/∂p = W⁻¹ p`, and its
     /// constraints act on positions (see the trait method).
     fn hidden_constraint_direct(&self, x: &V, out: &mut [T]) -> bool {
         let x = x.as_slice();
-        let (d, nq) = (self.dim, x.len() / 2);
-        let w = &self.inv_masses;
-        self.timed(&self.constraint_counter, || {
-            out.fill(T::lit(0.0));
-            self.for_each_gradient(x, |row, body, coef| {
-                for k in 0..d {
-                    out[row] = out[row] + coef[k] * (w[body] * x[nq + body * d + k]);
-                }
-            });
-        });
+        let (q, p) = x.split_at(x.len() / 2);
+        let _timer = self.timer(&self.constraint_counter);
+        self.for_each_row_dot(q, p, Some(&self.inv_masses), |row, s| out[row] = s);
         true
     }
 
@@ -137,32 +124,18 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
     /// `[[0, I], [−I, K − R]]` (see the trait's docs).
     fn constraint_force_direct(&self, x: &V, lambda: &[T], out: &mut V) -> bool {
         let out = out.as_mut_slice();
-        let d = self.dim;
         let nq = out.len() / 2;
         out.fill(T::lit(0.0));
         let p = &mut out[nq..];
-        self.timed(&self.constraint_counter, || {
-            self.for_each_gradient(x.as_slice(), |row, body, coef| {
-                let s = lambda[row];
-                for k in 0..d {
-                    p[body * d + k] = p[body * d + k] - (s * coef[k]);
-                }
-            });
-        });
+        let _timer = self.timer(&self.constraint_counter);
+        self.gradient_transpose_add(x.as_slice(), lambda, -T::one(), p);
         true
     }
 
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
         let out = out.as_mut_slice();
-        let d = self.dim;
-        self.timed(&self.constraint_counter, || {
-            self.for_each_gradient(x.as_slice(), |row, body, coef| {
-                let s = alpha * mu[row];
-                for k in 0..d {
-                    out[body * d + k] = out[body * d + k] + (s * coef[k]);
-                }
-            });
-        });
+        let _timer = self.timer(&self.constraint_counter);
+        self.gradient_transpose_add(x.as_slice(), mu, alpha, out);
     }
 
     fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<T>) -> bool {
@@ -200,7 +173,7 @@ impl<T: Real> SceneModel<T> {
                     let u = self.rod_vector(q, *a, *b, point);
                     f(r, *a, u);
                     if let Some(b) = b {
-                        f(r, *b, u.map(|x| -x));
+                        f(r, *b, [-u[0], -u[1], -u[2]]);
                     }
                 }
                 ConstraintKind::Sphere { body, center, .. } => {
@@ -209,6 +182,118 @@ impl<T: Real> SceneModel<T> {
                 ConstraintKind::Plane { body, normal, .. } => f(r, *body, *normal),
             }
         }
+    }
+}
+
+impl<T: Real> SceneModel<T> {
+    /// Calls `f(row, G_row(q) · v)` for every row of `G(q)`, with body `b`'s part of `v`
+    /// (stride `d`) scaled by `scale[b]` when given (`W⁻¹ p` for the hidden constraint): a rod
+    /// gives `u · (v_a − v_b)`, a sphere `u · v_b`, a plane `n · v_b`, a pin `v_b` itself. The
+    /// same gradients as [`for_each_gradient`](Self::for_each_gradient), summed per row in
+    /// registers. (Plain functions rather than a closure per body: a closure called from
+    /// several arms is outlined, and its 3-vector returned through memory.)
+    #[inline(always)]
+    pub(crate) fn for_each_row_dot(
+        &self,
+        q: &[T],
+        v: &[T],
+        scale: Option<&[T]>,
+        mut f: impl FnMut(usize, T),
+    ) {
+        let d = self.dim;
+        for c in &self.constraints {
+            let r = c.row;
+            match &c.kind {
+                ConstraintKind::Pin { body, .. } => {
+                    let v = body3(v, *body, d, scale);
+                    for k in 0..d {
+                        f(r + k, v[k]);
+                    }
+                }
+                ConstraintKind::Rod { a, b, point, .. } => {
+                    let u = self.rod_vector(q, *a, *b, point);
+                    let va = body3(v, *a, d, scale);
+                    let dv = match b {
+                        Some(b) => {
+                            let vb = body3(v, *b, d, scale);
+                            [va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]]
+                        }
+                        None => va,
+                    };
+                    f(r, dot3(u, dv));
+                }
+                ConstraintKind::Sphere { body, center, .. } => {
+                    let u = self.rod_vector(q, *body, None, center);
+                    f(r, dot3(u, body3(v, *body, d, scale)));
+                }
+                ConstraintKind::Plane { body, normal, .. } => {
+                    f(r, dot3(*normal, body3(v, *body, d, scale)));
+                }
+            }
+        }
+    }
+}
+
+impl<T: Real> SceneModel<T> {
+    /// `out += α G(q)ᵀ μ` on positions (`out` of length `d N`): a rod adds `α μ u` to body `a`
+    /// and subtracts it from `b`, a sphere adds `α μ u`, a plane `α μ n`, a pin `α μ_k` per
+    /// axis. The same gradients as [`for_each_gradient`](Self::for_each_gradient), written as
+    /// plain code (see [`for_each_row_dot`](Self::for_each_row_dot)).
+    #[inline(always)]
+    pub(crate) fn gradient_transpose_add(&self, q: &[T], mu: &[T], alpha: T, out: &mut [T]) {
+        let d = self.dim;
+        for c in &self.constraints {
+            let r = c.row;
+            match &c.kind {
+                ConstraintKind::Pin { body, .. } => {
+                    for k in 0..d {
+                        out[body * d + k] = out[body * d + k] + alpha * mu[r + k];
+                    }
+                }
+                ConstraintKind::Rod { a, b, point, .. } => {
+                    let u = self.rod_vector(q, *a, *b, point);
+                    let s = alpha * mu[r];
+                    add3(out, *a, d, s, u);
+                    if let Some(b) = b {
+                        add3(out, *b, d, -s, u);
+                    }
+                }
+                ConstraintKind::Sphere { body, center, .. } => {
+                    let u = self.rod_vector(q, *body, None, center);
+                    add3(out, *body, d, alpha * mu[r], u);
+                }
+                ConstraintKind::Plane { body, normal, .. } => {
+                    add3(out, *body, d, alpha * mu[r], *normal);
+                }
+            }
+        }
+    }
+}
+
+/// `out_b += s u` on body `b`'s `d` components (stride `d`).
+#[inline(always)]
+fn add3<T: Real>(out: &mut [T], b: usize, d: usize, s: T, u: [T; 3]) {
+    let i = b * d;
+    out[i] = out[i] + s * u[0];
+    out[i + 1] = out[i + 1] + s * u[1];
+    if d == 3 {
+        out[i + 2] = out[i + 2] + s * u[2];
+    }
+}
+
+/// Body `b`'s `d` components of `v` (stride `d`) times `scale[b]` if given, zero-padded to
+/// three, built from values (see `rod_vector`).
+#[inline(always)]
+fn body3<T: Real>(v: &[T], b: usize, d: usize, scale: Option<&[T]>) -> [T; 3] {
+    let i = b * d;
+    let x = if d == 3 {
+        [v[i], v[i + 1], v[i + 2]]
+    } else {
+        [v[i], v[i + 1], T::lit(0.0)]
+    };
+    match scale {
+        Some(w) => [w[b] * x[0], w[b] * x[1], w[b] * x[2]],
+        None => x,
     }
 }
 

@@ -150,7 +150,7 @@ impl<T: Real> Flight<T> {
                 } else {
                     let bh = c.axis;
                     let along = dot3(bh, p);
-                    let par = bh.map(|b| along * b);
+                    let par = [along * bh[0], along * bh[1], along * bh[2]];
                     let perp = [p[0] - par[0], p[1] - par[1], p[2] - par[2]];
                     let wv = cross(bh, perp);
                     for k in 0..d {
@@ -297,18 +297,9 @@ impl<T: Real> SceneModel<T> {
         let d = self.dim;
         let nq = d * self.masses.len();
         let (q, p) = x.split_at_mut(nq);
-        self.kinetic.hit();
-        if let Some(damping) = &self.damping {
-            damping.counter.hit();
-        }
-        if let Some(magnetic) = &self.magnetic {
-            magnetic.counter.hit();
-        }
-        if self.gravity_in_flight {
-            for term in self.potentials.iter().filter(|t| t.is_gravity()) {
-                term.counter.hit();
-            }
-        }
+        // One count for every term the flight evaluates (the kinetic term, damping, field,
+        // joined gravity): the reports add it to each of them.
+        self.flight_counter.hit();
         for (b, (flight, c)) in self.flights.iter().zip(&cache.coefficients).enumerate() {
             let (qb, pb) = (&mut q[b * d..b * d + d], &mut p[b * d..b * d + d]);
             removed = removed + flight.apply(c, self.inv_masses[b], qb, pb);

@@ -64,6 +64,9 @@ pub struct SceneModel<T = f64> {
     pub(crate) multiplier_names: Vec<String>,
     pub(crate) magnetic: Option<StructureTerm<[T; 3]>>,
     pub(crate) kinetic: Counter,
+    /// Free flights: each evaluates the kinetic term, the damping, the field and gravity joined
+    /// to it at once, and counts once here ([`SceneModel::flight_evaluations`]).
+    pub(crate) flight_counter: Counter,
     pub(crate) constraint_counter: Counter,
     /// Time each evaluation (the `profile` diagnostic).
     pub(crate) profile: bool,
@@ -136,6 +139,7 @@ impl<T: Real> SceneModel<T> {
             damping,
             magnetic,
             kinetic: Counter::default(),
+            flight_counter: Counter::default(),
             constraint_counter: Counter::default(),
             profile,
             sparse: m > 4,
@@ -193,6 +197,7 @@ impl<T: Real> SceneModel<T> {
     /// Zeroes every term's evaluation counter and clock.
     pub fn reset_counters(&self) {
         self.kinetic.reset();
+        self.flight_counter.reset();
         self.constraint_counter.reset();
         for t in &self.potentials {
             t.counter.reset();
@@ -236,16 +241,37 @@ impl<T: Real> SceneModel<T> {
         self.magnetic.is_none()
     }
 
-    #[inline]
+    /// Counts one evaluation of a term and, when profiling, times it.
+    #[inline(always)]
     fn timed<R>(&self, counter: &Counter, f: impl FnOnce() -> R) -> R {
+        let _timer = self.timer(counter);
+        f()
+    }
+
+    /// Counts one evaluation of a term and, when profiling, times it until the returned guard
+    /// drops: for kernels written inline (a closure around a kernel's body was outlined by
+    /// the compiler, and the kernel then passed its captures through memory).
+    #[inline(always)]
+    fn timer<'a>(&self, counter: &'a Counter) -> Timer<'a> {
         counter.hit();
-        if self.profile {
-            let t = Instant::now();
-            let r = f();
-            counter.add_time(t);
-            r
-        } else {
-            f()
+        Timer {
+            counter,
+            start: self.profile.then(Instant::now),
+        }
+    }
+}
+
+/// The clock of one evaluation (see [`SceneModel::timer`]).
+struct Timer<'a> {
+    counter: &'a Counter,
+    start: Option<Instant>,
+}
+
+impl Drop for Timer<'_> {
+    #[inline(always)]
+    fn drop(&mut self) {
+        if let Some(t) = self.start {
+            self.counter.add_time(t);
         }
     }
 }

@@ -8,7 +8,6 @@ use crate::scene::model::SceneModel;
 use crate::scene::validate::{Result, err, norm, vector};
 use crate::stepper::{Direction, Event};
 use crate::vector::Vector;
-use faer::Col;
 use serde::Deserialize;
 use std::sync::Arc;
 
@@ -82,16 +81,17 @@ pub struct EventSpec {
 }
 
 /// A scene's compiled events and their names.
-pub(crate) type SceneEvents = (Vec<Event<Col<f64>>>, Vec<String>);
+pub(crate) type SceneEvents<V> = (Vec<Event<V>>, Vec<String>);
 
-/// Compiles `[[events]]` into the stepper's events over the scene's state, with their names.
-pub(crate) fn compile_events(
+/// Compiles `[[events]]` into the stepper's events over the scene's state (any storage), with
+/// their names.
+pub(crate) fn compile_events<V: Vector<Real = f64> + 'static>(
     specs: &[EventSpec],
     bodies: &Bodies,
     dim: usize,
     inputs: Option<&SceneInputs<f64>>,
     model: &Arc<SceneModel>,
-) -> Result<SceneEvents> {
+) -> Result<SceneEvents<V>> {
     let root = FieldPath::root().key("events");
     let mut events = Vec::new();
     let mut names: Vec<String> = Vec::new();
@@ -141,7 +141,8 @@ pub(crate) fn compile_events(
                 let n = n.map(|v| v / len);
                 let offset = plane.offset + level;
                 Event::new(
-                    move |_t, x: &Col<f64>| {
+                    move |_t, x: &V| {
+                        let x = x.as_slice();
                         (0..dim).fold(-offset, |s, k| s + n[k] * x[b * dim + k])
                     },
                     direction,
@@ -168,7 +169,7 @@ pub(crate) fn compile_events(
                 let mut scratch =
                     Scratch::new(model.state_len(), inputs.map_or(0, |i| i.names.len()));
                 Event::new(
-                    move |t, x: &Col<f64>| {
+                    move |t, x: &V| {
                         let at = At {
                             model: &model,
                             t,

@@ -18,7 +18,7 @@ pub use input::InputSpec;
 pub use output::{OutputSpec, Quantity};
 pub use signal::SignalSpec;
 
-pub(crate) use event::compile_events;
+pub(crate) use event::{SceneEvents, compile_events};
 pub(crate) use input::InputTerm;
 pub(crate) use output::{At, CompiledOutput, Scratch, compile_outputs};
 
