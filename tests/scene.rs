@@ -342,6 +342,26 @@ fn gradients_and_hessians_of_every_term_match_finite_differences() {
         let fd = (ra[j] - rb[j]) / (2.0 * delta);
         assert!((fd - gv[j]).abs() < 1e-8, "G v row {j}: {fd} vs {}", gv[j]);
     }
+    // Every constraint is quadratic (rods, spheres) or affine (plane, pin): for a finite step
+    // `v`, g(x + v) = g(x) + G v + ½ vᵀ∇²g v exactly, to the rounding of the evaluations.
+    let mut hgv = vec![0.0; m];
+    assert!(model.hessian_form(&x0, &v, &v, &mut hgv));
+    let mut xv = x0.clone();
+    for i in 0..n {
+        xv[i] += v[i];
+    }
+    let (mut g0, mut g1) = (vec![0.0; m], vec![0.0; m]);
+    model.residual(&x0, &mut g0);
+    model.residual(&xv, &mut g1);
+    let size = (0..n).fold(1.0f64, |s, i| s.max(x0[i].abs()).max(xv[i].abs()));
+    for j in 0..m {
+        let taylor = g0[j] + gv[j] + 0.5 * hgv[j];
+        assert!(
+            (g1[j] - taylor).abs() <= 16.0 * f64::EPSILON * size * size,
+            "row {j}: g(x + v) = {} against the quadratic expansion {taylor}",
+            g1[j]
+        );
+    }
 }
 
 /// Convergence orders of composed scenes: an unconstrained one (springs, pair potential, trap

@@ -134,6 +134,44 @@ fn small_newton_converges_quadratically_with_exact_columns() {
     assert_eq!(report.residual_evaluations, report.iterations + 1);
 }
 
+/// The same circle with its constant second derivatives (`∂²F₁ = 2I`, `∂²F₂ = 0`): the first
+/// iteration takes the root of the exact quadratic model, which is the root of `F` itself, so
+/// one iteration converges where Newton needs several.
+struct QuadraticCircle;
+
+impl NonlinearProblem<f64> for QuadraticCircle {
+    type Error = StepError;
+    fn dim(&self) -> usize {
+        2
+    }
+    fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+        Circle { exact: true }.residual(z, f)
+    }
+    fn jacobian_column(&mut self, z: &[f64], j: usize, out: &mut [f64]) -> bool {
+        Circle { exact: true }.jacobian_column(z, j, out)
+    }
+    fn second_derivative(&mut self, _z: &[f64], j: usize, k: usize, out: &mut [f64]) -> bool {
+        out[0] = if j == k { 2.0 } else { 0.0 };
+        out[1] = 0.0;
+        true
+    }
+}
+
+#[test]
+fn small_newton_solves_a_quadratic_residual_in_one_iteration() {
+    let mut newton = SmallNewton::new(2, NewtonOptions::default()).unwrap();
+    let mut z = [1.0, 2.0];
+    let report = newton.solve(&mut QuadraticCircle, &mut z).unwrap();
+    let r = 2f64.sqrt();
+    assert!((z[0] - r).abs() <= 2.0 * f64::EPSILON && (z[1] - r).abs() <= 2.0 * f64::EPSILON);
+    assert_eq!(report.iterations, 1, "{report:?}");
+    assert_eq!(report.residual_evaluations, 2);
+    // Without the second derivatives the same start takes Newton's quadratic convergence.
+    let mut z = [1.0, 2.0];
+    let plain = newton.solve(&mut Circle { exact: true }, &mut z).unwrap();
+    assert!(plain.iterations >= 4, "{plain:?}");
+}
+
 #[test]
 fn small_newton_falls_back_to_differences_for_a_poor_jacobian() {
     let mut newton = SmallNewton::new(2, NewtonOptions::default()).unwrap();

@@ -217,7 +217,14 @@ fn a_failing_run_exits_1_and_keeps_what_it_computed() {
         .take(4)
         .map(|v| v.parse().unwrap())
         .collect();
-    assert_eq!(xs, x);
+    // The same digits on both sides; serde_json's float parser (without its `float_roundtrip`
+    // feature) may land one ulp from the correctly rounded `str::parse`.
+    assert!(
+        xs.iter()
+            .zip(&x)
+            .all(|(a, b)| (a - b).abs() <= 2.0 * f64::EPSILON * a.abs()),
+        "{xs:?} against {x:?}"
+    );
 }
 
 #[test]

@@ -276,6 +276,10 @@ impl<V: Vector> Flow<V> for LinearFlow<V::Real> {
     fn dissipates(&self) -> bool {
         self.dissipative
     }
+    /// `x ↦ e^{hA} x + (forcing)` is affine.
+    fn lead_is_affine(&self) -> bool {
+        true
+    }
     /// `DΦ_h v = e^{hA} v`: the last step's exponential without its affine column.
     fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
         let Some(slot) = self.last else {

@@ -176,6 +176,14 @@ pub trait Flow<V: Vector> {
     fn lead_tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
         self.tangent_apply(v, out)
     }
+    /// `true` when the lead ([`step_lead`](Self::step_lead)) is affine in the state,
+    /// `L_h(x + v) = L_h(x) + DL_h v` for every `x` and `v` — a linear flow with forcing, a
+    /// scene's free flight — so that its tangent map is the same at every point. A projection
+    /// around it with quadratic constraints then has a `λ_k` system that is exactly quadratic
+    /// in `λ_k`. Default `false`.
+    fn lead_is_affine(&self) -> bool {
+        false
+    }
     /// Advances `x` by one step of size `h` that starts at time `ledger.t`, advancing the
     /// extended coordinates the flow owns (see [`Ledger`]): a flow of a time-dependent part
     /// (an input) reads `ledger.t`, advances it by `h` and adds the energy it supplied; an
@@ -313,6 +321,9 @@ macro_rules! forward_flow {
             }
             fn lead_tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
                 (**self).lead_tangent_apply(v, out)
+            }
+            fn lead_is_affine(&self) -> bool {
+                (**self).lead_is_affine()
             }
         }
     )*};

@@ -110,6 +110,13 @@ impl<V: Vector> HolonomicConstraint<V> for Circle {
         o[0] = o[0] + alpha * mu[0] * x[0];
         o[1] = o[1] + alpha * mu[0] * x[1];
     }
+    /// `g = (x₁² + x₂² − 1)/2` is quadratic: `uᵀ∇²g v = u₁v₁ + u₂v₂`.
+    #[inline(always)]
+    fn hessian_form(&self, _x: &V, u: &V, v: &V, out: &mut [V::Real]) -> bool {
+        let (u, v) = (u.as_slice(), v.as_slice());
+        out[0] = u[0] * v[0] + u[1] * v[1];
+        true
+    }
     /// `out = Gᵀ μ = μ (x₁, x₂, 0, 0)`, written directly.
     #[inline(always)]
     fn jacobian_transpose_apply(&self, x: &V, mu: &[V::Real], out: &mut V) {

@@ -53,6 +53,16 @@ pub trait NonlinearProblem<T: Real> {
         let _ = (z, j, out);
         false
     }
+    /// Writes `∂²F/∂z_j∂z_k` into `out` and returns `true` when `F` is quadratic in `z` (its
+    /// second derivatives are constant) and the problem has them in closed form; the default
+    /// returns `false`. Called after the columns of the same Jacobian
+    /// ([`jacobian_column`](Self::jacobian_column)). The small solver then takes the root of the
+    /// exact quadratic model `F + J δ + ½ δᵀ∇²F δ` nearest the Newton step instead of the Newton
+    /// step: one iteration where Newton takes two.
+    fn second_derivative(&mut self, z: &[T], j: usize, k: usize, out: &mut [T]) -> bool {
+        let _ = (z, j, k, out);
+        false
+    }
     /// Writes `J(z) Σ_{j ∈ cols} e_j` — the sum of the Jacobian's columns `cols` — into `out`
     /// and returns `true`, when the problem forms Jacobian–vector products in closed form.
     /// Newton with a sparsity pattern calls it once per group of structurally orthogonal

@@ -164,6 +164,9 @@ pub struct SolveReport<T> {
     pub factorizations: usize,
     /// Step halvings of the line search.
     pub halvings: usize,
+    /// Iterations that took the root of the exact quadratic model instead of the Newton step
+    /// (see [`NonlinearProblem::second_derivative`](super::NonlinearProblem::second_derivative)).
+    pub quadratic_steps: usize,
     /// `‖F(z)‖∞` at the returned `z`.
     pub residual: T,
 }

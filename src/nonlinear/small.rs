@@ -129,6 +129,86 @@ pub(crate) fn solve_dense<T: Real, const K: usize>(
 
 /// `max |v_i|`, NaN-propagating (a NaN entry makes the norm NaN).
 #[inline(always)]
+/// The root `δ` of `F + J δ + ½ δᵀ∇²F δ = 0` nearest the Newton step `δ₀ = −J⁻¹F`, by Newton
+/// on the model from `δ₀` (each iteration `O(K³)`, no evaluation of the problem), when the
+/// problem gives its constant second derivatives ([`NonlinearProblem::second_derivative`]).
+/// For a residual that is exactly quadratic in `z` this is its root to rounding: the solve
+/// then takes one iteration where Newton takes two (its first step leaves the residual at
+/// `½ δ₀ᵀ∇²F δ₀`). `None` when the problem has no second derivatives, or the model's
+/// iteration does not settle in a few steps (no real root near `δ₀`), or when the Newton step
+/// already leaves less than `ftol/2` (`½ C(δ₀, δ₀)`): the Newton step stands.
+#[allow(clippy::needless_range_loop)] // Indices run across the three axes of `c` at once.
+fn quadratic_root<T: Real, P: NonlinearProblem<T>, const K: usize>(
+    problem: &mut P,
+    z: &[T; K],
+    jac: &[[T; K]; K],
+    f: &[T; K],
+    newton: &[T; K],
+    ftol: T,
+) -> Option<[T; K]> {
+    // c[j][k][i] = ∂²F_i/∂z_j∂z_k (symmetric in j, k; indices across the three axes).
+    let mut c = [[[T::zero(); K]; K]; K];
+    for j in 0..K {
+        for k in j..K {
+            let mut col = [T::zero(); K];
+            if !problem.second_derivative(z, j, k, &mut col) {
+                return None;
+            }
+            c[j][k] = col;
+            c[k][j] = col;
+        }
+    }
+    let half = T::lit(0.5);
+    // The Newton step leaves `½ C(δ₀, δ₀)` (plus rounding): when that is below half the
+    // tolerance, the next evaluation converges anyway and the model's iteration (a chain of
+    // divisions) is not worth its latency.
+    let mut left = T::zero();
+    for i in 0..K {
+        let mut q = T::zero();
+        for j in 0..K {
+            for k in 0..K {
+                q = q + c[j][k][i] * newton[j] * newton[k];
+            }
+        }
+        left = left.max((half * q).abs());
+    }
+    if left <= half * ftol {
+        return None;
+    }
+    let mut delta = *newton;
+    let mut last = T::infinity();
+    for _ in 0..6 {
+        // The model's residual and Jacobian at δ: p = F + Jδ + ½ C(δ, δ), J_p = J + C(δ, ·).
+        let mut p = *f;
+        let mut jp = *jac;
+        for i in 0..K {
+            for j in 0..K {
+                let mut cd = T::zero();
+                for k in 0..K {
+                    cd = cd + c[j][k][i] * delta[k];
+                }
+                jp[i][j] = jp[i][j] + cd;
+                p[i] = p[i] + (jac[i][j] + half * cd) * delta[j];
+            }
+        }
+        let mut step = p.map(|v| -v);
+        solve_dense(&mut jp, &mut step).ok()?;
+        for (d, &s) in delta.iter_mut().zip(&step) {
+            *d = *d + s;
+        }
+        if !delta.iter().all(|d| d.is_finite()) {
+            return None;
+        }
+        last = norm_inf(&step);
+        if last <= T::lit(4.0) * T::epsilon() * norm_inf(&delta) {
+            return Some(delta);
+        }
+    }
+    // At the rounding floor of the model's residual the last correction need not fall below
+    // 4ε|δ|; a settled iteration is still the root to working precision.
+    (last <= T::epsilon().sqrt() * norm_inf(&delta)).then_some(delta)
+}
+
 fn norm_inf<T: Real, const K: usize>(v: &[T; K]) -> T {
     let mut m = T::zero();
     for &x in v {
@@ -213,8 +293,17 @@ impl<T: Real> SmallNewton<T> {
                 evaluate(problem, z, &mut again, &mut report)?;
             }
             report.factorizations += 1;
+            let jac0 = jac;
             let mut dz = f.map(|fi| -fi);
             solve_dense(&mut jac, &mut dz)?;
+            // A residual quadratic in z (closed-form second derivatives): the root of its
+            // exact quadratic model nearest the Newton step instead.
+            if !differenced
+                && let Some(root) = quadratic_root(problem, z, &jac0, &f, &dz, opts.ftol)
+            {
+                dz = root;
+                report.quadratic_steps += 1;
+            }
             for (zi, &d) in z.iter_mut().zip(&dz) {
                 *zi = *zi + d;
             }

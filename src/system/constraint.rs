@@ -23,6 +23,15 @@ pub trait HolonomicConstraint<V: Vector> {
         ops::fill_zero(out.as_mut_slice());
         self.jacobian_transpose_apply_add(x, mu, V::Real::one(), out);
     }
+    /// Writes `out_i = uᵀ ∇²g_i v` and returns `true` when every component of `g` is quadratic
+    /// in `x` (constant Hessians: rods and spheres `(|q_a − q_b|² − L²)/2`, planes, pins), so
+    /// that `g(x + δ) = g(x) + G(x) δ + ½ δᵀ∇²g δ` exactly; the default returns `false`. A
+    /// projection around an affine inner flow then solves its `λ_k` system from the exact
+    /// quadratic model (see [`NonlinearProblem::second_derivative`](crate::nonlinear::NonlinearProblem::second_derivative)).
+    fn hessian_form(&self, x: &V, u: &V, v: &V, out: &mut [V::Real]) -> bool {
+        let _ = (x, u, v, out);
+        false
+    }
     /// Writes the structurally non-zero entries of `G(x)` — `(constraint, state index, value)` —
     /// into `sink` and returns `true`; the same positions in the same order for every `x`.
     /// The default returns `false`: `G` is then treated as dense.

@@ -179,9 +179,14 @@ where
                 g: fixed_mut(&mut small.g_y),
                 scratch: t1,
                 scratch2: t2,
+                quadratic: small.quadratic,
             };
             let z: &mut [V::Real; K] = fixed_mut(w.z.as_mut_slice());
-            (small.newton_k.solve_fixed(&mut problem, z), STAGE_LAMBDA_K)
+            let result = small.newton_k.solve_fixed(&mut problem, z);
+            if let Ok(report) = &result {
+                small.quadratic = report.quadratic_steps > 0 || report.iterations >= 2;
+            }
+            (result, STAGE_LAMBDA_K)
         };
         Self::finish_solve(tally, result, stage)
     }

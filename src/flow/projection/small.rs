@@ -31,6 +31,11 @@ pub(super) struct SmallPath<V: Vector> {
     /// `φ(y + (h/2) Σ λ_j e_j)` is affine in `λ_{k+1}`: quadratic `H`, constant `M`, and `G`
     /// unchanged along the second half-step (probed at `x0`). Solved by one linear solve.
     pub(super) affine_k1: bool,
+    /// The `λ_k` solve offers its second derivatives (an affine lead, quadratic constraints):
+    /// while the last solve needed them — it took the quadratic model's root, or Newton took
+    /// two iterations. At small steps Newton's first step converges, and forming the second
+    /// derivatives would only add their cost.
+    pub(super) quadratic: bool,
 }
 
 impl<V: Vector> SmallPath<V> {
@@ -59,6 +64,7 @@ impl<V: Vector> SmallPath<V> {
             w: vec![x0.zeros_like(); m],
             g_y: [V::Real::zero(); SMALL_MAX],
             affine_k1,
+            quadratic: true,
         })
     }
 }
@@ -140,13 +146,17 @@ pub(super) struct FirstHalf<'a, V: Vector, F, Sys, const K: usize> {
     /// Scratch for the inner flow's tangent map and for `w`.
     pub(crate) scratch: &'a mut V,
     pub(crate) scratch2: &'a mut V,
+    /// Offer the second derivatives ([`SmallPath::quadratic`]).
+    pub(super) quadratic: bool,
 }
 
 /// Whether [`FirstHalf`]'s approximate column directions `w_j` are formed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Columns {
-    /// Not yet (the inner flow's tangent map gave every column so far).
+    /// Not yet.
     Unformed,
+    /// `w_j` holds the inner flow's tangents `a_j = DL_h d_j` (the exact columns' directions).
+    Tangents,
     /// Formed: `w_j = d_j + h M ∇²H d_j`.
     Formed,
     /// The Hamiltonian has no Hessian product: no closed-form column.
@@ -221,13 +231,18 @@ where
     /// linear in the constrained coordinates, `O(h²)` relative otherwise.
     #[inline(always)]
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
-        if self.inner.lead_tangent_apply(&self.d[j], self.scratch) {
-            self.system
-                .constraint()
-                .jacobian_apply(&*self.y, &*self.scratch, out);
-            return true;
+        if self.w_state == Columns::Unformed || self.w_state == Columns::Tangents {
+            // The inner flow's tangent `a_j = DL_h d_j`, kept in `w_j` (the second derivatives
+            // of an affine lead read it).
+            if self.inner.lead_tangent_apply(&self.d[j], &mut self.w[j]) {
+                self.w_state = Columns::Tangents;
+                self.system
+                    .constraint()
+                    .jacobian_apply(&*self.y, &self.w[j], out);
+                return true;
+            }
         }
-        if self.w_state == Columns::Unformed {
+        if self.w_state == Columns::Unformed || self.w_state == Columns::Tangents {
             self.form_columns();
         }
         if self.w_state == Columns::Unavailable {
@@ -237,6 +252,24 @@ where
             .constraint()
             .jacobian_apply(&*self.y, &self.w[j], out);
         true
+    }
+    /// `∂²g_i/∂λ_j∂λ_k = a_jᵀ ∇²g_i a_k` with `a_j = DL_h d_j`: exact and constant when the
+    /// lead is affine (`y` is affine in `λ`) and `g` quadratic (its Hessians constant).
+    #[inline(always)]
+    fn second_derivative(
+        &mut self,
+        _z: &[V::Real],
+        j: usize,
+        k: usize,
+        out: &mut [V::Real],
+    ) -> bool {
+        self.quadratic
+            && self.w_state == Columns::Tangents
+            && self.inner.lead_is_affine()
+            && self
+                .system
+                .constraint()
+                .hessian_form(&*self.y, &self.w[j], &self.w[k], out)
     }
 }
 

@@ -138,6 +138,43 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         self.gradient_transpose_add(x.as_slice(), mu, alpha, out);
     }
 
+    /// Every scene constraint is quadratic in `q` (rods and spheres) or affine (planes, pins):
+    /// `uᵀ∇²g v` is `(u_a − u_b)·(v_a − v_b)` for a rod, `u_b·v_b` for a sphere, zero otherwise,
+    /// on the position parts of `u` and `v`.
+    fn hessian_form(&self, _x: &V, u: &V, v: &V, out: &mut [T]) -> bool {
+        let (u, v) = (u.as_slice(), v.as_slice());
+        let d = self.dim;
+        for c in &self.constraints {
+            let r = c.row;
+            match &c.kind {
+                ConstraintKind::Pin { .. } => {
+                    for k in 0..d {
+                        out[r + k] = T::lit(0.0);
+                    }
+                }
+                ConstraintKind::Plane { .. } => out[r] = T::lit(0.0),
+                ConstraintKind::Rod { a, b, .. } => {
+                    let (ua, va) = (body3(u, *a, d, None), body3(v, *a, d, None));
+                    let (du, dv) = match b {
+                        Some(b) => {
+                            let (ub, vb) = (body3(u, *b, d, None), body3(v, *b, d, None));
+                            (
+                                [ua[0] - ub[0], ua[1] - ub[1], ua[2] - ub[2]],
+                                [va[0] - vb[0], va[1] - vb[1], va[2] - vb[2]],
+                            )
+                        }
+                        None => (ua, va),
+                    };
+                    out[r] = dot3(du, dv);
+                }
+                ConstraintKind::Sphere { body, .. } => {
+                    out[r] = dot3(body3(u, *body, d, None), body3(v, *body, d, None));
+                }
+            }
+        }
+        true
+    }
+
     fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<T>) -> bool {
         if !self.sparse {
             return false;

@@ -250,13 +250,59 @@ pub(super) fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     ]
 }
 
-/// The flights' coefficients for the last sub-step length, one per body: a flow that calls the
-/// free flight with the same `t` again (every step of a fixed-step run) recomputes no
-/// exponential.
+/// The flights' coefficients, one per body, for the last sub-step length — and, set aside, for
+/// the few lengths before it: a flow that calls the free flight with the same `t` again (every
+/// step of a fixed-step run) recomputes no exponential, and one that alternates between a few
+/// lengths (the rows of an extrapolation, sub-steps `h/1 … h/k` in turn) swaps the kept ones
+/// back in instead of recomputing the damped fall's exponentials and series.
 #[derive(Debug, Clone, Default)]
 pub struct FlightCache<T> {
     t: Option<T>,
     coefficients: Vec<FlightCoefficients<T>>,
+    /// Earlier lengths, at most [`FLIGHT_KEPT`], the oldest replaced first.
+    kept: Vec<(T, Vec<FlightCoefficients<T>>)>,
+    next: usize,
+}
+
+/// Earlier sub-step lengths a [`FlightCache`] keeps besides the current one (an extrapolation
+/// to order 16 alternates between 8).
+const FLIGHT_KEPT: usize = 8;
+
+impl<T: Real> FlightCache<T> {
+    /// Makes the current coefficients those of `t`: kept, swapped in, or computed (the current
+    /// ones are set aside either way).
+    #[cold]
+    fn switch(&mut self, t: T, flights: &[Flight<T>]) {
+        let found = self
+            .kept
+            .iter()
+            .position(|(s, c)| *s == t && c.len() == flights.len());
+        let i = match found {
+            Some(i) => i,
+            None if self.kept.len() < FLIGHT_KEPT => {
+                self.kept.push((t, Vec::with_capacity(flights.len())));
+                self.kept.len() - 1
+            }
+            None => {
+                let i = self.next;
+                self.next = (self.next + 1) % FLIGHT_KEPT;
+                i
+            }
+        };
+        let slot = &mut self.kept[i];
+        std::mem::swap(&mut slot.1, &mut self.coefficients);
+        let previous = self.t.replace(t);
+        if found.is_none() {
+            self.coefficients.clear();
+            self.coefficients
+                .extend(flights.iter().map(|f| f.coefficients(t)));
+        }
+        match previous {
+            Some(p) => slot.0 = p,
+            // Nothing was current: the slot holds no coefficients worth keeping.
+            None => slot.1.clear(),
+        }
+    }
 }
 
 impl<T: Real> SceneModel<T> {
@@ -287,11 +333,7 @@ impl<T: Real> SceneModel<T> {
     /// only when `t` differs from the last call's).
     pub fn free_flight_cached(&self, t: T, x: &mut [T], cache: &mut FlightCache<T>) -> T {
         if cache.t != Some(t) || cache.coefficients.len() != self.flights.len() {
-            cache.coefficients.clear();
-            cache
-                .coefficients
-                .extend(self.flights.iter().map(|f| f.coefficients(t)));
-            cache.t = Some(t);
+            cache.switch(t, &self.flights);
         }
         let mut removed = T::lit(0.0);
         let d = self.dim;
@@ -356,6 +398,10 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
     }
     fn dissipates(&self) -> bool {
         self.model.is_dissipative()
+    }
+    /// The flight is affine in `x` (linear per body, with a constant force).
+    fn lead_is_affine(&self) -> bool {
+        true
     }
     fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
         if self.cache.t.is_none() || self.cache.coefficients.len() != self.model.flights.len() {
