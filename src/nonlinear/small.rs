@@ -127,8 +127,6 @@ pub(crate) fn solve_dense<T: Real, const K: usize>(
     Ok(())
 }
 
-/// `max |v_i|`, NaN-propagating (a NaN entry makes the norm NaN).
-#[inline(always)]
 /// The root `δ` of `F + J δ + ½ δᵀ∇²F δ = 0` nearest the Newton step `δ₀ = −J⁻¹F`, by Newton
 /// on the model from `δ₀` (each iteration `O(K³)`, no evaluation of the problem), when the
 /// problem gives its constant second derivatives ([`NonlinearProblem::second_derivative`]).
@@ -209,6 +207,8 @@ fn quadratic_root<T: Real, P: NonlinearProblem<T>, const K: usize>(
     (last <= T::epsilon().sqrt() * norm_inf(&delta)).then_some(delta)
 }
 
+/// `max |v_i|`, NaN-propagating (a NaN entry makes the norm NaN).
+#[inline(always)]
 fn norm_inf<T: Real, const K: usize>(v: &[T; K]) -> T {
     let mut m = T::zero();
     for &x in v {

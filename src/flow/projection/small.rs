@@ -231,9 +231,9 @@ where
     /// linear in the constrained coordinates, `O(h²)` relative otherwise.
     #[inline(always)]
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
-        if self.w_state == Columns::Unformed || self.w_state == Columns::Tangents {
+        if matches!(self.w_state, Columns::Unformed | Columns::Tangents) {
             // The inner flow's tangent `a_j = DL_h d_j`, kept in `w_j` (the second derivatives
-            // of an affine lead read it).
+            // of an affine lead read it); without one, the approximate directions.
             if self.inner.lead_tangent_apply(&self.d[j], &mut self.w[j]) {
                 self.w_state = Columns::Tangents;
                 self.system
@@ -241,8 +241,6 @@ where
                     .jacobian_apply(&*self.y, &self.w[j], out);
                 return true;
             }
-        }
-        if self.w_state == Columns::Unformed || self.w_state == Columns::Tangents {
             self.form_columns();
         }
         if self.w_state == Columns::Unavailable {
