@@ -19,6 +19,7 @@ mod linear;
 mod petrov_galerkin;
 mod projection;
 mod reduced;
+mod schur;
 
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};

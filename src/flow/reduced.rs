@@ -4,9 +4,10 @@
 //! the momenta and solve for `(δq, ν)`, `ν = (h²/2) λ`, `n_q + m` unknowns, with a sparse Newton
 //! matrix kept across steps and a predictor extrapolated from the last two steps.
 
+use super::schur::{ReducedBlocks, SchurIteration};
 use crate::error::{LinearSolveError, NewtonError, StepError};
 use crate::linalg::LinearSolver;
-use crate::nonlinear::{Newton, NewtonOptions, NonlinearProblem, NonlinearSolver, SolveReport};
+use crate::nonlinear::{Newton, NewtonOptions, NonlinearSolver, SolveReport};
 use crate::real::Real;
 use crate::system::MechanicalForm;
 use nalgebra::DVector;
@@ -25,11 +26,13 @@ pub(crate) struct Reduced<T: Real, L> {
     pub(crate) solver: KeptNewton<T, L>,
 }
 
-/// Newton on `(δq, ν)`, `n_q + m` unknowns, with the pattern of `B`, `∇²V` and `G_q` (and of
+/// Newton on `(δq, ν)`, `n_q + m` unknowns: first the [`SchurIteration`] (no force Jacobian),
+/// and when it contracts too slowly Newton with the pattern of `B`, `∇²V` and `G_q` (and of
 /// the constraint Hessians when asked for): grouped closed-form columns, factored by `L` (for
 /// `f64`, [`AutoLu`](crate::linalg::AutoLu): dense, banded or sparse by this pattern), the
-/// matrix kept across steps of the same size, the predictor from past steps.
+/// matrix kept across steps of the same size. The predictor from past steps.
 pub(crate) struct KeptNewton<T: Real, L> {
+    schur: SchurIteration<T, L>,
     newton: Newton<DVector<T>, L>,
     /// The step size of the kept Newton matrix and of `past` (`0`: none).
     h: T,
@@ -89,12 +92,20 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
         let mut options = options.with_solver(crate::linalg::SolverChoice::Auto);
         options.broyden = false;
         let newton = Newton::with_pattern(nq + m, options, Some(&pattern))?;
+        let schur = SchurIteration::new(
+            &form.inverse_mass,
+            &form.momentum_block,
+            m,
+            form.constraint_pattern.as_deref(),
+            options,
+        )?;
         Ok(Self {
             nq,
             w: form.inverse_mass,
             z: vec![T::zero(); nq + m],
             scaled: vec![T::zero(); m],
             solver: KeptNewton {
+                schur,
                 newton,
                 h: T::zero(),
                 past: [
@@ -128,6 +139,7 @@ impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
             self.invalidate();
             self.h = h;
         }
+        self.schur.begin(h);
         if !continued {
             self.count = 0;
         }
@@ -154,20 +166,40 @@ impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
         }
     }
 
-    /// Solves `problem` from the predictor in `z`; on failure the kept matrix is forgotten.
+    /// Solves `problem` from the predictor in `z`: by the Schur iteration when it is ready and
+    /// contracts, by Newton on the kept matrix from where it stopped otherwise; on failure the
+    /// kept matrix is forgotten. The report counts both.
     pub(crate) fn solve<P>(
         &mut self,
         problem: &mut P,
         z: &mut [T],
     ) -> Result<SolveReport<T>, NewtonError<StepError>>
     where
-        P: NonlinearProblem<T, Error = StepError>,
+        P: ReducedBlocks<T, Error = StepError>,
     {
-        let solved = self.newton.solve(problem, z);
-        if solved.is_err() {
-            self.invalidate();
+        let mut head = SolveReport::default();
+        if self.schur.ready() {
+            match self.schur.solve(problem, z, &mut head) {
+                Ok(true) => return Ok(head),
+                Ok(false) => {}
+                Err(e) => {
+                    self.invalidate();
+                    return Err(e);
+                }
+            }
         }
-        solved
+        match self.newton.solve(problem, z) {
+            Ok(mut report) => {
+                report.iterations += head.iterations;
+                report.residual_evaluations += head.residual_evaluations;
+                report.factorizations += head.factorizations;
+                Ok(report)
+            }
+            Err(e) => {
+                self.invalidate();
+                Err(e)
+            }
+        }
     }
 
     /// Records the solved `z` of a step that continued the previous one

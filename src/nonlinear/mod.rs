@@ -8,6 +8,7 @@ mod options;
 mod small;
 
 pub use newton::Newton;
+pub(crate) use newton::{NOISE_FACTOR, effective_residual};
 pub use options::{JacobianUpdate, NewtonOptions, SolveReport};
 pub(crate) use small::solve_dense;
 pub use small::{SMALL_MAX, SmallNewton};

@@ -420,11 +420,11 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
 }
 
 /// Residuals below `NOISE_FACTOR · ftol` are treated as possibly at their round-off floor.
-pub(super) const NOISE_FACTOR: f64 = 100.0;
+pub(crate) const NOISE_FACTOR: f64 = 100.0;
 
 /// The residual as the convergence test sees it: the rows the problem's noise floor applies to
 /// count as zero while within `4 · noise_floor`; the other rows count as they are.
-fn effective_residual<T: Real, P: NonlinearProblem<T>>(problem: &P, f: &[T]) -> T {
+pub(crate) fn effective_residual<T: Real, P: NonlinearProblem<T>>(problem: &P, f: &[T]) -> T {
     let (noisy, exact) = f.split_at(problem.noisy_rows().min(f.len()));
     let r_noisy = ops::norm_inf(noisy);
     let r_exact = ops::norm_inf(exact);

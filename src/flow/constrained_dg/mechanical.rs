@@ -26,6 +26,7 @@ use super::ConstrainedDiscreteGradient;
 use crate::error::StepError;
 use crate::flow::implicit::gonzalez_corrects;
 use crate::flow::reduced::Reduced;
+use crate::flow::schur::ReducedBlocks;
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model, StructureMatrix};
@@ -244,19 +245,51 @@ where
             for &j in cols.iter().filter(|&&j| j >= nq) {
                 self.scaled[j - nq] = V::Real::one();
             }
-            ops::fill_zero(self.t2.as_mut_slice());
-            sys.constraint().jacobian_transpose_apply_add(
-                self.xbar,
-                self.scaled,
-                V::Real::one(),
-                self.t2,
-            );
-            let f = &self.t2.as_slice()[..nq];
-            for i in 0..nq {
-                r1[i] = r1[i] + self.w[i] * f[i];
-            }
+            self.scaled_columns_add(r1);
         }
         true
+    }
+}
+
+impl<V, Sys> Problem<'_, V, Sys>
+where
+    V: Vector,
+    Sys: Model<V>,
+{
+    /// `out += W⁻¹ G(q̄)ᵀ v` for `v` in `scaled`.
+    fn scaled_columns_add(&mut self, out: &mut [V::Real]) {
+        ops::fill_zero(self.t2.as_mut_slice());
+        self.system.constraint().jacobian_transpose_apply_add(
+            self.xbar,
+            self.scaled,
+            V::Real::one(),
+            self.t2,
+        );
+        let f = &self.t2.as_slice()[..self.nq];
+        for ((o, &w), &f) in out.iter_mut().zip(self.w).zip(f) {
+            *o = *o + w * f;
+        }
+    }
+}
+
+impl<V, Sys> ReducedBlocks<V::Real> for Problem<'_, V, Sys>
+where
+    V: Vector,
+    Sys: Model<V>,
+{
+    fn multiplier_columns_add(&mut self, v: &[V::Real], out: &mut [V::Real]) {
+        self.scaled.copy_from_slice(v);
+        self.scaled_columns_add(out);
+    }
+    /// `G(q + δq) v`.
+    fn constraint_rows(&mut self, v: &[V::Real], out: &mut [V::Real]) {
+        let t1 = self.t1.as_mut_slice();
+        let (q, p) = t1.split_at_mut(self.nq);
+        q.copy_from_slice(v);
+        ops::fill_zero(p);
+        self.system
+            .constraint()
+            .jacobian_apply(self.y, self.t1, out);
     }
 }
 

@@ -4,6 +4,7 @@
 
 use super::{ProjectedMidpoint, STAGE_JOINT, increment_tolerance, stiff_floor};
 use crate::error::StepError;
+use crate::flow::schur::ReducedBlocks;
 use crate::linalg::LinearSolver;
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
@@ -154,19 +155,53 @@ where
             self.system.constraint().jacobian_apply(self.y, self.t1, r2);
         }
         if multipliers {
-            // W⁻¹ G_qᵀ v_ν = −W⁻¹ times the momentum part of M Gᵀ v_ν.
             self.scaled.iter_mut().for_each(|s| *s = V::Real::zero());
             for &j in cols.iter().filter(|&&j| j >= nq) {
                 self.scaled[j - nq] = V::Real::one();
             }
-            self.system
-                .constraint_force(self.x, self.scaled, self.t1, self.t2);
-            let f = &self.t2.as_slice()[nq..];
-            for i in 0..nq {
-                r1[i] = r1[i] - self.w[i] * f[i];
-            }
+            self.scaled_columns_add(r1);
         }
         true
+    }
+}
+
+impl<V, Sys, K> Problem<'_, V, Sys, K>
+where
+    V: Vector,
+    Sys: Model<V>,
+    K: Hamiltonian<V>,
+{
+    /// `out += W⁻¹ G_q(q)ᵀ v` for `v` in `scaled`: minus `W⁻¹` times the momentum part of
+    /// `M Gᵀ v`.
+    fn scaled_columns_add(&mut self, out: &mut [V::Real]) {
+        self.system
+            .constraint_force(self.x, self.scaled, self.t1, self.t2);
+        let f = &self.t2.as_slice()[self.nq..];
+        for ((o, &w), &f) in out.iter_mut().zip(self.w).zip(f) {
+            *o = *o - w * f;
+        }
+    }
+}
+
+impl<V, Sys, K> ReducedBlocks<V::Real> for Problem<'_, V, Sys, K>
+where
+    V: Vector,
+    Sys: Model<V>,
+    K: Hamiltonian<V>,
+{
+    fn multiplier_columns_add(&mut self, v: &[V::Real], out: &mut [V::Real]) {
+        self.scaled.copy_from_slice(v);
+        self.scaled_columns_add(out);
+    }
+    /// `G_q(q + δq) v`.
+    fn constraint_rows(&mut self, v: &[V::Real], out: &mut [V::Real]) {
+        let t1 = self.t1.as_mut_slice();
+        let (q, p) = t1.split_at_mut(self.nq);
+        q.copy_from_slice(v);
+        ops::fill_zero(p);
+        self.system
+            .constraint()
+            .jacobian_apply(self.y, self.t1, out);
     }
 }
 
