@@ -6,8 +6,11 @@
 
 use faer::Col;
 use lieflow::prelude::*;
-use lieflow::scene::Scene;
 use std::sync::Arc;
+
+#[path = "common/scene_text.rs"]
+mod scene_text;
+use scene_text::moving_shell;
 
 type V = Col<f64>;
 type Model = Arc<lieflow::scene::SceneModel>;
@@ -15,26 +18,10 @@ type Model = Arc<lieflow::scene::SceneModel>;
 /// The damped shell with a magnetic field and a dashpot (every term of `B`), momenta set off
 /// rest tangent to the spheres (`φ = 0`).
 fn shell() -> (Model, V) {
-    let text = include_str!("../scenes/shell_damped.toml").replace(
-        "[integrator]",
+    moving_shell(
         "[[effects]]\ntype = \"magnetic\"\nfield = [0.0, 0.0, 0.7]\n\n\
-         [[effects]]\ntype = \"dashpot\"\nbodies = [\"p.0\", \"p.3\"]\ncoefficient = 0.3\n\n\
-         [integrator]",
-    );
-    let c = Scene::from_toml(&text, "test.toml")
-        .unwrap_or_else(|e| panic!("{e}"))
-        .compile()
-        .unwrap_or_else(|e| panic!("{e}"));
-    let mut x0 = V::from_fn(c.simulation.state().len(), |i| c.simulation.state()[i]);
-    let n = x0.nrows();
-    for b in 0..n / 6 {
-        let q = [x0[3 * b], x0[3 * b + 1], x0[3 * b + 2]];
-        let t = [-q[1], q[0], 0.0];
-        for k in 0..3 {
-            x0[n / 2 + 3 * b + k] = 0.4 * t[k] * (1.0 + 0.1 * b as f64);
-        }
-    }
-    (c.model.expect("a scene of bodies"), x0)
+         [[effects]]\ntype = \"dashpot\"\nbodies = [\"p.0\", \"p.3\"]\ncoefficient = 0.3\n",
+    )
 }
 
 /// A Hamiltonian that hides its mechanical form: the flow then takes the full-state path.

@@ -10,6 +10,10 @@ use lieflow::scene::Scene;
 use lieflow::system::MechanicalForm;
 use std::sync::Arc;
 
+#[path = "common/scene_text.rs"]
+mod scene_text;
+use scene_text::moving_shell;
+
 type V = Col<f64>;
 type Model = Arc<lieflow::scene::SceneModel>;
 
@@ -75,24 +79,6 @@ fn run<K: Hamiltonian<V>>(model: &Model, inner: K, x0: &V, h: f64, steps: usize)
         out.push(x.clone());
     }
     out
-}
-
-/// The damped shell with `extra` effects, compiled, with momenta tangent to the spheres
-/// (`q · p = 0` per particle, so `φ = 0`) so that the pair forces, damping and magnetic terms
-/// all act from the first step.
-fn moving_shell(extra: &str) -> (Model, V) {
-    let text = include_str!("../scenes/shell_damped.toml")
-        .replace("[integrator]", &format!("{extra}\n[integrator]"));
-    let (model, mut x0) = compile(&text);
-    let n = x0.nrows();
-    for b in 0..n / 6 {
-        let q = [x0[3 * b], x0[3 * b + 1], x0[3 * b + 2]];
-        let t = [-q[1], q[0], 0.0];
-        for k in 0..3 {
-            x0[n / 2 + 3 * b + k] = 0.4 * t[k] * (1.0 + 0.1 * b as f64);
-        }
-    }
-    (model, x0)
 }
 
 /// Ten particles on spheres of their own (m = 10 > 4: the general path), pair repulsion,

@@ -39,7 +39,8 @@ use crate::error::{NewtonError, StepError};
 use crate::linalg::{ColumnGroups, LinearSolver, SolverChoice, Structure};
 use crate::nonlinear::{NewtonOptions, NonlinearProblem, SolveReport, effective_residual};
 use crate::real::Real;
-use crate::vector::ops;
+use crate::system::HolonomicConstraint;
+use crate::vector::{Vector, ops};
 
 /// A reduced step problem whose Newton matrix has the blocks `[[A, C], [G, 0]]` on
 /// `(δq, ν)` (`n_q` positions first): the products with `C` and `G` at the `z` of the last
@@ -51,13 +52,31 @@ pub(crate) trait ReducedBlocks<T: Real>: NonlinearProblem<T> {
     fn constraint_rows(&mut self, v: &[T], out: &mut [T]);
 }
 
+/// `out = G(y) (v, 0)`: the rows of a constraint on positions applied to the positions `v`
+/// (`t`: a state-sized scratch), the [`ReducedBlocks::constraint_rows`] of both reduced
+/// problems.
+pub(crate) fn position_rows<V, C>(
+    constraint: &C,
+    y: &V,
+    v: &[V::Real],
+    t: &mut V,
+    out: &mut [V::Real],
+) where
+    V: Vector,
+    C: HolonomicConstraint<V>,
+{
+    let (q, p) = t.as_mut_slice().split_at_mut(v.len());
+    q.copy_from_slice(v);
+    ops::fill_zero(p);
+    constraint.jacobian_apply(y, t, out);
+}
+
 /// The longest pause (in steps) after which the Schur iteration is tried again.
 const MAX_PAUSE: usize = 1024;
 
 /// The Schur iteration's matrices and workspace (allocated at construction).
 pub(crate) struct SchurIteration<T: Real, L> {
     nq: usize,
-    m: usize,
     /// `diag W⁻¹`.
     w: Vec<T>,
     /// `diag B`.
@@ -116,17 +135,9 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             }
             None => (0..m).flat_map(|r| (0..m).map(move |c| (r, c))).collect(),
         };
-        let structure = match Structure::of_pattern(&pattern) {
-            Structure::Banded { lower, upper, .. } => Structure::Banded {
-                lower,
-                upper,
-                nnz: pattern.len(),
-            },
-            s => s,
-        };
+        let structure = Structure::of_pattern(&pattern);
         Ok(Self {
             nq,
-            m,
             w: w.to_vec(),
             b,
             h: T::zero(),
@@ -154,14 +165,18 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         self.backoff = 1;
         self.inv_d.clear();
         let half = h * T::lit(0.5);
-        let mut d = Vec::with_capacity(self.nq);
-        for (&w, &b) in self.w.iter().zip(&self.b) {
-            d.push(T::one() - half * w * b);
-        }
+        let d = |(&w, &b): (&T, &T)| T::one() - half * w * b;
         // A diagonal that nearly vanishes (energy supplied at the rate 2/h) would amplify
         // every update: no Schur iteration at this size.
-        if d.iter().all(|&d| d.is_finite() && d.abs() >= T::lit(0.125)) {
-            self.inv_d.extend(d.iter().map(|&d| T::one() / d));
+        if self
+            .w
+            .iter()
+            .zip(&self.b)
+            .map(d)
+            .all(|d| d.is_finite() && d.abs() >= T::lit(0.125))
+        {
+            let inv = self.w.iter().zip(&self.b).map(|e| T::one() / d(e));
+            self.inv_d.extend(inv);
         }
     }
 
@@ -296,6 +311,6 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 self.lin.add(i, j, self.col[i]);
             }
         }
-        self.m > 0 && self.lin.factor().is_ok()
+        !self.unit.is_empty() && self.lin.factor().is_ok()
     }
 }

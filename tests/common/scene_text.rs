@@ -1,8 +1,9 @@
-//! Scene texts in tests: parse, run, and set an `[integrator]` key (shared by tests/scene.rs and
-//! tests/scene_errors.rs, included with `#[path]`).
+//! Scene texts in tests: parse, run, set an `[integrator]` key, and the moving damped shell
+//! (included with `#[path]` by the scene and mechanical-form tests).
 #![allow(dead_code)]
 
-use lieflow::scene::{RunSummary, Scene, run};
+use lieflow::scene::{RunSummary, Scene, SceneModel, run};
+use std::sync::Arc;
 
 pub fn parse(text: &str) -> Scene {
     Scene::from_toml(text, "test.toml").unwrap_or_else(|e| panic!("{e}"))
@@ -28,4 +29,25 @@ pub fn set(text: &str, key: &str, value: &str) -> String {
     }
     assert!(done, "no line `{key} = …`");
     out
+}
+
+/// scenes/shell_damped.toml with `extra` effects before its `[integrator]`, compiled: its model
+/// and an initial state whose momenta are set off rest tangent to the spheres (`q · p = 0` per
+/// particle, so `φ = 0`), so that the pair forces, damping and field terms act from the first
+/// step.
+pub fn moving_shell(extra: &str) -> (Arc<SceneModel>, faer::Col<f64>) {
+    let text = include_str!("../../scenes/shell_damped.toml")
+        .replace("[integrator]", &format!("{extra}\n[integrator]"));
+    let c = parse(&text).compile().unwrap_or_else(|e| panic!("{e}"));
+    let state = c.simulation.state();
+    let mut x0 = faer::Col::from_fn(state.len(), |i| state[i]);
+    let n = x0.nrows();
+    for b in 0..n / 6 {
+        let q = [x0[3 * b], x0[3 * b + 1], x0[3 * b + 2]];
+        let t = [-q[1], q[0], 0.0];
+        for k in 0..3 {
+            x0[n / 2 + 3 * b + k] = 0.4 * t[k] * (1.0 + 0.1 * b as f64);
+        }
+    }
+    (c.model.expect("a scene of bodies"), x0)
 }

@@ -26,7 +26,7 @@ use super::ConstrainedDiscreteGradient;
 use crate::error::StepError;
 use crate::flow::implicit::gonzalez_corrects;
 use crate::flow::reduced::Reduced;
-use crate::flow::schur::ReducedBlocks;
+use crate::flow::schur::{ReducedBlocks, position_rows};
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model, StructureMatrix};
@@ -283,13 +283,7 @@ where
     }
     /// `G(q + δq) v`.
     fn constraint_rows(&mut self, v: &[V::Real], out: &mut [V::Real]) {
-        let t1 = self.t1.as_mut_slice();
-        let (q, p) = t1.split_at_mut(self.nq);
-        q.copy_from_slice(v);
-        ops::fill_zero(p);
-        self.system
-            .constraint()
-            .jacobian_apply(self.y, self.t1, out);
+        position_rows(self.system.constraint(), self.y, v, self.t1, out);
     }
 }
 

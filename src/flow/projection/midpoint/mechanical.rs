@@ -4,7 +4,7 @@
 
 use super::{ProjectedMidpoint, STAGE_JOINT, increment_tolerance, stiff_floor};
 use crate::error::StepError;
-use crate::flow::schur::ReducedBlocks;
+use crate::flow::schur::{ReducedBlocks, position_rows};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
@@ -195,13 +195,7 @@ where
     }
     /// `G_q(q + δq) v`.
     fn constraint_rows(&mut self, v: &[V::Real], out: &mut [V::Real]) {
-        let t1 = self.t1.as_mut_slice();
-        let (q, p) = t1.split_at_mut(self.nq);
-        q.copy_from_slice(v);
-        ops::fill_zero(p);
-        self.system
-            .constraint()
-            .jacobian_apply(self.y, self.t1, out);
+        position_rows(self.system.constraint(), self.y, v, self.t1, out);
     }
 }
 
