@@ -1,4 +1,4 @@
-//! Extrapolation of the symmetric projected step on the damped pendulum: fitted orders 4, 6, 8
+//! Extrapolation of the symmetric projected step on the damped pendulum: fitted orders 4 to 12
 //! in double-double against a double-double reference, no backward sub-step of the damping,
 //! the constraint and hidden constraint at round-off after every macro step, the booked energy
 //! balance at the scheme's order, and the refusals.
@@ -192,6 +192,26 @@ mod double_double {
     #[test]
     fn extrapolated_projected_strang_has_order_8() {
         check(8, &[0.5, 0.3125, 0.25, 0.15625, 0.125]);
+    }
+
+    #[test]
+    fn extrapolated_projected_strang_has_order_10() {
+        check(10, &[0.5, 0.3125, 0.25, 0.15625, 0.125]);
+    }
+
+    #[test]
+    fn extrapolated_projected_strang_has_order_12() {
+        // Steps from 0.5 to 0.36: at h = 0.25 the error is at the reference's floor.
+        check(
+            12,
+            &[
+                0.5,
+                0.45454545454545453,
+                0.4166666666666667,
+                0.38461538461538464,
+                0.35714285714285715,
+            ],
+        );
     }
 }
 

@@ -280,6 +280,9 @@ impl<V: Vector> Flow<V> for LinearFlow<V::Real> {
     fn lead_is_affine(&self) -> bool {
         true
     }
+    fn is_affine_in_momenta(&self) -> bool {
+        true
+    }
     /// `DΦ_h v = e^{hA} v`: the last step's exponential without its affine column.
     fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
         let Some(slot) = self.last else {

@@ -185,6 +185,23 @@ pub trait Flow<V: Vector> {
     fn lead_is_affine(&self) -> bool {
         false
     }
+    /// `true` when the whole step is affine along the directions a [kick](Self::is_kick)
+    /// moves — the coordinates no holonomic constraint reads, a mechanical model's momenta:
+    /// `Φ_h(x + v) = Φ_h(x) + DΦ_h v` for every `x` and every such `v`. A potential's kick
+    /// (its increment depends on the positions alone) and a scene's free flight (affine in
+    /// everything) are. Default `false`.
+    fn is_affine_in_momenta(&self) -> bool {
+        false
+    }
+    /// `true` when the lead ([`step_lead`](Self::step_lead)) is affine along the directions a
+    /// kick moves, as [`is_affine_in_momenta`](Self::is_affine_in_momenta) is for the whole
+    /// step. The decoupled projection's half-steps move along them (`M Gᵀλ` acts on momenta
+    /// only), so with quadratic constraints its `λ_k` system is then exactly quadratic in
+    /// `λ_k` — for a [`Strang`] splitting of a potential's kick and a free flight, whose lead is
+    /// not affine in the positions. Default: [`lead_is_affine`](Self::lead_is_affine).
+    fn lead_is_affine_in_momenta(&self) -> bool {
+        self.lead_is_affine()
+    }
     /// Advances `x` by one step of size `h` that starts at time `ledger.t`, advancing the
     /// extended coordinates the flow owns (see [`Ledger`]): a flow of a time-dependent part
     /// (an input) reads `ledger.t`, advances it by `h` and adds the energy it supplied; an
@@ -325,6 +342,12 @@ macro_rules! forward_flow {
             }
             fn lead_is_affine(&self) -> bool {
                 (**self).lead_is_affine()
+            }
+            fn is_affine_in_momenta(&self) -> bool {
+                (**self).is_affine_in_momenta()
+            }
+            fn lead_is_affine_in_momenta(&self) -> bool {
+                (**self).lead_is_affine_in_momenta()
             }
         }
     )*};

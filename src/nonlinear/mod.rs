@@ -3,10 +3,12 @@
 //! The multiplier systems of the projection half-steps are small (`m` or `2m` unknowns) but
 //! their residual runs the inner flow, so Newton's cost is counted in residual evaluations.
 
+mod diagonal;
 mod newton;
 mod options;
 mod small;
 
+pub use diagonal::DiagonalNewton;
 pub use newton::Newton;
 pub(crate) use newton::{NOISE_FACTOR, effective_residual};
 pub use options::{JacobianUpdate, NewtonOptions, SolveReport};
@@ -71,6 +73,16 @@ pub trait NonlinearProblem<T: Real> {
     /// are differenced. `z` is the current iterate (the residual was last evaluated there
     /// unless a previous group was differenced). Default `false`.
     fn jacobian_group(&mut self, z: &[T], cols: &[usize], out: &mut [T]) -> bool {
+        let _ = (z, cols, out);
+        false
+    }
+    /// Writes `D²F(z)[e, e]`, `e = Σ_{j ∈ cols} e_j` — the second derivative of `F` along the
+    /// group's indicator — into `out` and returns `true` when the problem has it in closed
+    /// form; default `false`. Called right after [`jacobian_group`](Self::jacobian_group) for
+    /// the same `z` and `cols`. For independent unknowns (one group of every column) row `i` is
+    /// `∂²F_i/∂z_i²`, from which [`DiagonalNewton`] takes the root of each unknown's quadratic
+    /// model: exact when `F` is quadratic in `z`.
+    fn curvature_group(&mut self, z: &[T], cols: &[usize], out: &mut [T]) -> bool {
         let _ = (z, cols, out);
         false
     }

@@ -78,12 +78,22 @@ where
             g_y,
             fixed_point_max_iterations: self.fixed_point_max_iterations,
             fixed_point_tol: self.fixed_point_tol,
+            tangent: false,
         };
-        let newton = match (mode, self.newton_k1.as_mut()) {
-            (Mode::LambdaK1, Some(n)) => n,
-            _ => &mut self.newton,
+        let z = &mut z.as_mut_slice()[range];
+        let result = match (mode, self.diagonal.as_mut(), self.newton_k1.as_mut()) {
+            (Mode::LambdaK | Mode::LambdaK1, Some(d), _) => {
+                let result = d.solve(&mut problem, z);
+                // Without closed-form diagonals the kept, secant-updated Jacobians of `newton`
+                // and `newton_k1` cost less: from the next solve on.
+                if d.needs_differences() {
+                    self.diagonal = None;
+                }
+                result
+            }
+            (Mode::LambdaK1, None, Some(n)) => n.solve(&mut problem, z),
+            _ => self.newton.solve(&mut problem, z),
         };
-        let result = newton.solve(&mut problem, &mut z.as_mut_slice()[range]);
         Self::finish_solve(&mut self.stats, result, stage)
     }
 

@@ -36,7 +36,7 @@ mod warm;
 use super::{CompositionTable, Flow, FlowStats, Ledger, Multipliers};
 use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
-use crate::nonlinear::{Newton, SMALL_MAX};
+use crate::nonlinear::{DiagonalNewton, Newton, SMALL_MAX};
 use crate::system::Model;
 use crate::system::{
     Case, HolonomicConstraint, StructureMatrix, check_initial_state, probe_decoupled,
@@ -104,6 +104,10 @@ pub struct Projected<V: Vector, F, Sys, L = <V as Vector>::Solver> {
     newton_k1: Option<Newton<V, L>>,
     /// The small decoupled path (see [`SmallPath`]), when it applies.
     small: Option<SmallPath<V>>,
+    /// The decoupled systems of independent constraints (no two read a common coordinate:
+    /// the pattern of `G Gᵀ` is diagonal), solved by [`DiagonalNewton`] instead of `newton`
+    /// and `newton_k1`.
+    diagonal: Option<DiagonalNewton<V::Real>>,
     fixed_point_max_iterations: usize,
     /// Bound on `|g(x_{k+1}) − g(y)|` in the decoupled variant (exactly 0 when it applies).
     guard_tol: V::Real,
@@ -181,6 +185,9 @@ where
             Scheme::Decoupled => Some(Newton::with_pattern(m, options.newton, pattern_m)?),
             _ => None,
         };
+        let diagonal = pattern_m
+            .filter(|p| p.iter().all(|&(r, c)| r == c))
+            .map(|_| DiagonalNewton::new(m, options.newton));
         let small = if grouped || scheme != Scheme::Decoupled {
             None
         } else {
@@ -221,6 +228,7 @@ where
             newton,
             newton_k1,
             small,
+            diagonal,
             fixed_point_max_iterations: options.fixed_point_max_iterations,
             guard_tol: options.newton.ftol,
             fixed_point_tol: options.newton.xtol,

@@ -47,6 +47,9 @@ pub(super) struct Stage<'a, V: Vector, F, Sys> {
     pub(super) g_y: &'a mut V,
     pub(super) fixed_point_max_iterations: usize,
     pub(super) fixed_point_tol: V::Real,
+    /// The last `λ_k` group's directions in `hess_v` are the inner flow's exact tangents
+    /// `DL_h M Gᵀ e` (not the approximation `(I + h M ∇²H) M Gᵀ e`).
+    pub(super) tangent: bool,
 }
 
 impl<V, F, Sys> Stage<'_, V, F, Sys>
@@ -210,7 +213,8 @@ where
             sys.constraint_force(x, e, self.t1, self.t2);
             // An inner flow that applies its own tangent map (of the lead at `y`'s
             // evaluation, the last one) gives the exact group `G(y) DΦ_h (h/2) M Gᵀ e`.
-            if !self.inner.lead_tangent_apply(&*self.t2, self.hess_v) {
+            self.tangent = self.inner.lead_tangent_apply(&*self.t2, self.hess_v);
+            if !self.tangent {
                 // With dissipation the inner flow's tangent is not `I + h M ∇²H`: the exact
                 // damping flow moves positions by `(1 − e^{−ch/m}) p / c`, not `h p / m`, so
                 // the closed form is off by a factor up to `c h / m` and Newton would crawl.
@@ -247,6 +251,27 @@ where
                 .jacobian_apply(&*self.x_next, &*self.m_hess_v, out);
         }
         out.iter_mut().for_each(|v| *v = *v * half);
+        true
+    }
+
+    /// `λ_k`: `D²g(y)[a, a]` with `a = DL_h (h/2) M Gᵀ e` from the group just formed — the
+    /// exact second derivative along `e` when the lead is affine along the half-step's
+    /// (momentum) directions ([`Flow::lead_is_affine_in_momenta`]), so that `y` is affine in
+    /// `λ_k`; the constraint's Hessian form ([`HolonomicConstraint::hessian_form`]) at `y`,
+    /// constant for quadratic constraints. The other systems have none.
+    fn curvature_group(&mut self, _z: &[V::Real], _cols: &[usize], out: &mut [V::Real]) -> bool {
+        if self.mode != Mode::LambdaK || !self.tangent || !self.inner.lead_is_affine_in_momenta() {
+            return false;
+        }
+        if !self
+            .system
+            .constraint()
+            .hessian_form(&*self.y, &*self.hess_v, &*self.hess_v, out)
+        {
+            return false;
+        }
+        let quarter = self.h * self.h * V::Real::lit(0.25);
+        out.iter_mut().for_each(|v| *v = *v * quarter);
         true
     }
 

@@ -34,6 +34,9 @@ impl Raise {
     /// check` tells a user.
     pub fn reason(self, scheme: Method, dissipative: bool, order: u32) -> &'static str {
         match (scheme, self) {
+            (Method::Auto, Raise::Extrapolate(o)) if o > 8 && !dissipative => {
+                "an order above 8 asked: extrapolation (the compositions stop at order 8)"
+            }
             (Method::Auto, Raise::Extrapolate(_)) => {
                 "damping is declared and an order above 2 asked: extrapolation, every sub-step forward (a composition's negative sub-steps would run the damping backwards)"
             }

@@ -21,11 +21,16 @@ use crate::vector::Vector;
 use faer::Col;
 use std::sync::Arc;
 
+/// The orders `auto` offers.
+const ORDERS: &str =
+    "the schemes have the even orders 2 to 16 (compositions up to 8, extrapolation from 4 to 16)";
+
 /// The scheme a scene asks for: how its order-2 step is raised, and the order.
 ///
 /// `auto` with `order = 4 | 6 | 8` composes the step (Suzuki, Kahan–Li) — or, when the scene
 /// `dissipative`, extrapolates it, since a composition above order 2 runs the damping
-/// backwards. `extrapolation` extrapolates whatever the scene. A named composition on a
+/// backwards; `order = 10 | 12 | 14 | 16` extrapolates it (no composition of those orders is
+/// offered). `extrapolation` extrapolates whatever the scene. A named composition on a
 /// dissipative scene is refused.
 pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result<(Raise, u32)> {
     let path = FieldPath::root().key("integrator");
@@ -45,7 +50,9 @@ pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result
                 4 => Raise::Compose(Method::Suzuki4.composition().expect("a table")),
                 6 => Raise::Compose(Method::KahanLi6.composition().expect("a table")),
                 8 => Raise::Compose(Method::KahanLi8.composition().expect("a table")),
-                o => return Err(out_of_range(o, "the schemes have orders 2, 4, 6 and 8")),
+                // No composition of these orders: extrapolation, damped or not.
+                10 | 12 | 14 | 16 => Raise::Extrapolate(order),
+                o => return Err(out_of_range(o, ORDERS)),
             };
             (raise, order)
         }
@@ -61,10 +68,10 @@ pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result
         }
         Method::Extrapolation => {
             let order = integ.order.unwrap_or(4);
-            if !matches!(order, 4 | 6 | 8) {
+            if !matches!(order, 4 | 6 | 8 | 10 | 12 | 14 | 16) {
                 return Err(out_of_range(
                     order,
-                    "extrapolation of the splitting offers orders 4, 6 and 8",
+                    "extrapolation of the splitting offers the even orders 4 to 16",
                 ));
             }
             (Raise::Extrapolate(order), order)

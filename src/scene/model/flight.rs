@@ -403,6 +403,9 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
     fn lead_is_affine(&self) -> bool {
         true
     }
+    fn is_affine_in_momenta(&self) -> bool {
+        true
+    }
     fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
         if self.cache.t.is_none() || self.cache.coefficients.len() != self.model.flights.len() {
             return false;

@@ -76,17 +76,29 @@ impl<T: Real> SceneModel<T> {
             cache.grad = vec![T::lit(0.0); nq];
             cache.q = vec![T::lit(0.0); nq];
             cache.valid = false;
+            cache.anchor_valid = false;
             cache.enabled = self.potentials.iter().any(|t| t.kind == EffectKind::Pair);
         }
-        if !(cache.valid && cache.q.as_slice() == &*q) {
+        let grad = if cache.valid && cache.q.as_slice() == &*q {
+            &cache.grad
+        } else if cache.anchor_valid && cache.anchor_q.as_slice() == &*q {
+            &cache.anchor_grad
+        } else {
             cache.grad.fill(T::lit(0.0));
             self.kick_gradient_add(q, &mut cache.grad);
             if cache.enabled {
                 cache.q.copy_from_slice(q);
                 cache.valid = true;
+                if cache.anchor_pending {
+                    cache.anchor_q.clone_from(&cache.q);
+                    cache.anchor_grad.clone_from(&cache.grad);
+                    cache.anchor_valid = true;
+                }
             }
-        }
-        for (pi, gi) in p.iter_mut().zip(cache.grad.iter()) {
+            cache.anchor_pending = false;
+            &cache.grad
+        };
+        for (pi, gi) in p.iter_mut().zip(grad.iter()) {
             *pi = *pi - (t * *gi);
         }
     }
@@ -105,13 +117,21 @@ impl<T: Real> SceneModel<T> {
     }
 }
 
-/// The kick's gradient at the last positions it saw ([`SceneModel::kick_cached`]).
+/// The kick's gradient at the last positions it saw ([`SceneModel::kick_cached`]), and at an
+/// *anchor*: the first positions it computed after the flow saved its memory
+/// ([`Flow::save_memory`]), the point a caller returns to — every row of an extrapolation
+/// starts there, so its first kick is computed once a macro step instead of once a row.
 #[derive(Debug, Clone, Default)]
 pub struct KickCache<T> {
     q: Vec<T>,
     grad: Vec<T>,
     valid: bool,
     enabled: bool,
+    anchor_q: Vec<T>,
+    anchor_grad: Vec<T>,
+    anchor_valid: bool,
+    /// The next computed gradient becomes the anchor.
+    anchor_pending: bool,
 }
 
 /// The kick of a scene's potential terms as a [`Flow`] (see [`SceneModel::kick_cached`]):
@@ -140,6 +160,11 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for Kick<T> {
         self.model.kick_cached(h, x.as_mut_slice(), &mut self.cache);
         Ok(())
     }
+    /// Nothing to save (the cache is exact, not memory); the next gradient computed becomes
+    /// the cache's anchor, for the return to this point (see [`KickCache`]).
+    fn save_memory(&mut self, _out: &mut Vec<T>) {
+        self.cache.anchor_pending = true;
+    }
     fn order(&self) -> u32 {
         EXACT
     }
@@ -150,6 +175,10 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for Kick<T> {
         false
     }
     fn is_kick(&self) -> bool {
+        true
+    }
+    /// The increment `−t ∇V(q)` depends on the positions alone.
+    fn is_affine_in_momenta(&self) -> bool {
         true
     }
     /// `DΦ v = v − t (0, ∇²V v_q)`: the identity for `v` with no position part; `false` for
