@@ -132,6 +132,43 @@ impl<T: Real> DiagonalNewton<T> {
     }
 }
 
+impl<T: Real> DiagonalNewton<T> {
+    /// Solves a system whose residual is affine in `z` with a constant diagonal Jacobian,
+    /// `F(z) = F(0) + diag(J) z`: from `z = 0`, one evaluation and one product, `z = −F(0)/J`.
+    /// The residual is not evaluated at the solution (it is `F(0) + J z`, zero to rounding):
+    /// the caller forms what it needs there. `report.residual` is `‖F(0)‖∞` when that already
+    /// meets the tolerance (`z = 0`), else zero.
+    pub fn solve_affine<P: NonlinearProblem<T>>(
+        &mut self,
+        problem: &mut P,
+        z: &mut [T],
+    ) -> Result<SolveReport<T>, NewtonError<P::Error>> {
+        let k = self.all.len();
+        let z = &mut z[..k];
+        z.iter_mut().for_each(|v| *v = T::zero());
+        let mut report = SolveReport::default();
+        problem
+            .residual(z, &mut self.f)
+            .map_err(NewtonError::Residual)?;
+        report.residual_evaluations += 1;
+        let raw = ops::norm_inf(&self.f);
+        if !raw.is_finite() {
+            return Err(NewtonError::NonFinite { iteration: 0 });
+        }
+        report.residual = raw;
+        if effective_residual(problem, &self.f) <= self.options.ftol {
+            return Ok(report);
+        }
+        self.jacobian(problem, z, &mut report)?;
+        report.factorizations += 1;
+        self.step(false)?;
+        z.copy_from_slice(&self.dz);
+        report.iterations = 1;
+        report.residual = T::zero();
+        Ok(report)
+    }
+}
+
 impl<T: Real> NonlinearSolver<T> for DiagonalNewton<T> {
     fn solve<P: NonlinearProblem<T>>(
         &mut self,

@@ -79,11 +79,28 @@ where
             fixed_point_max_iterations: self.fixed_point_max_iterations,
             fixed_point_tol: self.fixed_point_tol,
             tangent: false,
+            inverse_mass: self.inverse_mass.as_deref(),
         };
         let z = &mut z.as_mut_slice()[range];
         let result = match (mode, self.diagonal.as_mut(), self.newton_k1.as_mut()) {
+            // Mechanical form: affine, one division, `x_{k+1}` formed at the solution.
+            (Mode::LambdaK1, Some(d), _) if problem.inverse_mass.is_some() => {
+                let result = d.solve_affine(&mut problem, z);
+                if result.is_ok() {
+                    problem.end_point_explicit(z);
+                }
+                result
+            }
             (Mode::LambdaK | Mode::LambdaK1, Some(d), _) => {
+                // The quadratic model's root is exact from any start: from zero, the first
+                // evaluation needs no constraint force.
+                if mode == Mode::LambdaK && self.quadratic_k {
+                    ops::fill_zero(z);
+                }
                 let result = d.solve(&mut problem, z);
+                if mode == Mode::LambdaK {
+                    self.quadratic_k = matches!(&result, Ok(r) if r.quadratic_steps > 0);
+                }
                 // Without closed-form diagonals the kept, secant-updated Jacobians of `newton`
                 // and `newton_k1` cost less: from the next solve on.
                 if d.needs_differences() {

@@ -39,7 +39,8 @@ use crate::linalg::LinearSolver;
 use crate::nonlinear::{DiagonalNewton, Newton, SMALL_MAX};
 use crate::system::Model;
 use crate::system::{
-    Case, HolonomicConstraint, StructureMatrix, check_initial_state, probe_decoupled,
+    Case, HolonomicConstraint, MechanicalForm, StructureMatrix, check_initial_state,
+    half_step_keeps_jacobian, probe_decoupled,
 };
 use crate::vector::{Vector, ops, take};
 use entry::EntryCheck;
@@ -108,6 +109,11 @@ pub struct Projected<V: Vector, F, Sys, L = <V as Vector>::Solver> {
     /// the pattern of `G Gᵀ` is diagonal), solved by [`DiagonalNewton`] instead of `newton`
     /// and `newton_k1`.
     diagonal: Option<DiagonalNewton<V::Real>>,
+    /// With `diagonal`, the inverse masses of a model of mechanical form
+    /// ([`MechanicalForm`]): the `λ_{k+1}` system is affine and solved by one division.
+    inverse_mass: Option<Vec<V::Real>>,
+    /// The last `λ_k` solve took its quadratic model's root: the next starts from zero.
+    quadratic_k: bool,
     fixed_point_max_iterations: usize,
     /// Bound on `|g(x_{k+1}) − g(y)|` in the decoupled variant (exactly 0 when it applies).
     guard_tol: V::Real,
@@ -188,6 +194,18 @@ where
         let diagonal = pattern_m
             .filter(|p| p.iter().all(|&(r, c)| r == c))
             .map(|_| DiagonalNewton::new(m, options.newton));
+        // φ(y + (h/2) M Gᵀλ) = φ(y) − (h/2) G W⁻¹ Gᵀ λ for a model of mechanical form whose
+        // half-steps keep G (a declaration its evaluations contradict leaves the general
+        // solve).
+        let inverse_mass = diagonal
+            .as_ref()
+            .filter(|_| half_step_keeps_jacobian(&system, x0))
+            .and_then(|_| {
+                MechanicalForm::of(&system, system.hamiltonian(), x0)
+                    .ok()
+                    .flatten()
+            })
+            .map(|form| form.inverse_mass);
         let small = if grouped || scheme != Scheme::Decoupled {
             None
         } else {
@@ -229,6 +247,8 @@ where
             newton_k1,
             small,
             diagonal,
+            inverse_mass,
+            quadratic_k: false,
             fixed_point_max_iterations: options.fixed_point_max_iterations,
             guard_tol: options.newton.ftol,
             fixed_point_tol: options.newton.xtol,

@@ -47,6 +47,10 @@ pub(super) struct Stage<'a, V: Vector, F, Sys> {
     pub(super) g_y: &'a mut V,
     pub(super) fixed_point_max_iterations: usize,
     pub(super) fixed_point_tol: V::Real,
+    /// `W⁻¹ = diag(w)` of a model of mechanical form ([`MechanicalForm`](crate::system::MechanicalForm)):
+    /// the `λ_{k+1}` system is then `φ(y) − (h/2) G W⁻¹ Gᵀ λ_{k+1}`, affine, its Jacobian
+    /// formed without the Hamiltonian's Hessian.
+    pub(super) inverse_mass: Option<&'a [V::Real]>,
     /// The last `λ_k` group's directions in `hess_v` are the inner flow's exact tangents
     /// `DL_h M Gᵀ e` (not the approximation `(I + h M ∇²H) M Gᵀ e`).
     pub(super) tangent: bool,
@@ -71,14 +75,19 @@ where
         }
         *self.y_valid = false;
         let half = self.h * V::Real::lit(0.5);
-        self.system.constraint_force(self.x, a, self.t1, self.t2);
-        // x̂ = x + h/2 M Gᵀ a, written straight into y (the inner flow then steps it in place).
-        ops::add_scaled(
-            self.y.as_mut_slice(),
-            self.x.as_slice(),
-            half,
-            self.t2.as_slice(),
-        );
+        // x̂ = x + h/2 M Gᵀ a, written straight into y (the inner flow then steps it in place);
+        // x̂ = x at a = 0 (a solve started from zero) without forming the zero force.
+        if a.iter().all(|v| v.is_zero()) {
+            self.y.copy_from(self.x);
+        } else {
+            self.system.constraint_force(self.x, a, self.t1, self.t2);
+            ops::add_scaled(
+                self.y.as_mut_slice(),
+                self.x.as_slice(),
+                half,
+                self.t2.as_slice(),
+            );
+        }
         let mut ledger = self.ledger_in;
         // The λ_k system reads g(y), which a trailing kick cannot change: the inner flow's
         // lead alone (its tail follows the solve); the implicit end points need all of y.
@@ -97,8 +106,13 @@ where
         Ok(())
     }
 
-    /// `x' = y + h/2 M(y) G(y)ᵀ b` (decoupled: `M Gᵀ` at `y` equals `M Gᵀ` at `x'`).
-    fn end_point_explicit(&mut self, b: &[V::Real]) {
+    /// `x' = y + h/2 M(y) G(y)ᵀ b` (decoupled: `M Gᵀ` at `y` equals `M Gᵀ` at `x'`); `x' = y`
+    /// at `b = 0`.
+    pub(super) fn end_point_explicit(&mut self, b: &[V::Real]) {
+        if b.iter().all(|v| v.is_zero()) {
+            self.x_next.copy_from(self.y);
+            return;
+        }
         let half = self.h * V::Real::lit(0.5);
         self.system.constraint_force(&*self.y, b, self.t1, self.t2);
         ops::add_scaled(
@@ -199,6 +213,8 @@ where
                     return false;
                 }
             }
+            // Mechanical form: `G(x') = G(y)`, and no Hessian at `x'` is needed.
+            Mode::LambdaK1 if self.inverse_mass.is_some() => {}
             Mode::LambdaK1 => self.end_point_explicit(z),
             Mode::Coupled | Mode::Symmetric => return false,
         }
@@ -237,6 +253,18 @@ where
             }
             sys.constraint()
                 .jacobian_apply(&*self.y, &*self.hess_v, out);
+        } else if let Some(w) = self.inverse_mass {
+            // ∂φ/∂λ_{k+1} e = (h/2) G(y) W⁻¹ (M Gᵀ e)_p: the force's momentum part, scaled by
+            // W⁻¹ into the position slots (G reads positions alone).
+            sys.constraint_force(&*self.y, e, self.t1, self.t2);
+            let nq = w.len();
+            let (q, p) = self.m_hess_v.as_mut_slice().split_at_mut(nq);
+            for ((qi, &wi), &fi) in q.iter_mut().zip(w).zip(&self.t2.as_slice()[nq..]) {
+                *qi = wi * fi;
+            }
+            ops::fill_zero(p);
+            sys.constraint()
+                .jacobian_apply(&*self.y, &*self.m_hess_v, out);
         } else {
             sys.constraint_force(&*self.y, e, self.t1, self.t2);
             if !sys
