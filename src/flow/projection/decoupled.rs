@@ -82,7 +82,9 @@ where
             inverse_mass: self.inverse_mass.as_deref(),
         };
         let z = &mut z.as_mut_slice()[range];
-        let result = match (mode, self.diagonal.as_mut(), self.newton_k1.as_mut()) {
+        let active = self.diagonal_active;
+        let diagonal = self.diagonal.as_mut().filter(|_| active);
+        let result = match (mode, diagonal, self.newton_k1.as_mut()) {
             // Mechanical form: affine, one division, `x_{k+1}` formed at the solution.
             (Mode::LambdaK1, Some(d), _) if problem.inverse_mass.is_some() => {
                 let result = d.solve_affine(&mut problem, z);
@@ -104,7 +106,7 @@ where
                 // Without closed-form diagonals the kept, secant-updated Jacobians of `newton`
                 // and `newton_k1` cost less: from the next solve on.
                 if d.needs_differences() {
-                    self.diagonal = None;
+                    self.diagonal_active = false;
                 }
                 result
             }

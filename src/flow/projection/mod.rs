@@ -45,6 +45,7 @@ use crate::system::{
 use crate::vector::{Vector, ops, take};
 use entry::EntryCheck;
 pub(crate) use hidden::{Hidden, HiddenSolver};
+use num_traits::{One, Zero};
 use small::SmallPath;
 use stage::Mode;
 use warm::WarmStart;
@@ -112,6 +113,9 @@ pub struct Projected<V: Vector, F, Sys, L = <V as Vector>::Solver> {
     /// With `diagonal`, the inverse masses of a model of mechanical form
     /// ([`MechanicalForm`]): the `λ_{k+1}` system is affine and solved by one division.
     inverse_mass: Option<Vec<V::Real>>,
+    /// `diagonal` is in use: until a solve had to difference its diagonal (then `newton`'s
+    /// kept Jacobians cost less).
+    diagonal_active: bool,
     /// The last `λ_k` solve took its quadratic model's root: the next starts from zero.
     quadratic_k: bool,
     fixed_point_max_iterations: usize,
@@ -248,6 +252,7 @@ where
             small,
             diagonal,
             inverse_mass,
+            diagonal_active: true,
             quadratic_k: false,
             fixed_point_max_iterations: options.fixed_point_max_iterations,
             guard_tol: options.newton.ftol,
@@ -436,9 +441,13 @@ where
         }
         Ok(())
     }
+    /// The warm starts, the multipliers, and the two choices the next solves depend on (the
+    /// diagonal solver in use, `λ_k` from zero), then the inner flow's memory.
     fn save_memory(&mut self, out: &mut Vec<V::Real>) {
         self.w.warm.save(out);
         out.extend_from_slice(self.w.z.as_slice());
+        let flag = |b: bool| if b { V::Real::one() } else { V::Real::zero() };
+        out.extend([flag(self.diagonal_active), flag(self.quadratic_k)]);
         self.newton.invalidate_jacobian();
         if let Some(n) = self.newton_k1.as_mut() {
             n.invalidate_jacobian();
@@ -450,6 +459,10 @@ where
         let z = self.w.z.as_mut_slice();
         let saved = super::take_memory(from, z.len());
         z[..saved.len()].copy_from_slice(saved);
+        if let [active, quadratic] = *super::take_memory(from, 2) {
+            self.diagonal_active = !active.is_zero();
+            self.quadratic_k = !quadratic.is_zero();
+        }
         self.newton.invalidate_jacobian();
         if let Some(n) = self.newton_k1.as_mut() {
             n.invalidate_jacobian();
