@@ -295,8 +295,9 @@ pub struct IntegratorSpec {
     /// model only).
     #[serde(default)]
     pub scheme: Method,
-    /// The order for `auto` (2, 4, 6 or 8, default 2: compositions, or with damping the
-    /// extrapolated splitting) and for `extrapolation` (4, 6 or 8, default 4).
+    /// The order for `auto` (the even orders 2 to 16, default 2: compositions up to 8, or with
+    /// damping — and always from 10 — the extrapolated splitting) and for `extrapolation` (the
+    /// even orders 4 to 16, default 4).
     #[serde(default)]
     pub order: Option<u32>,
     /// Step size, positive.
