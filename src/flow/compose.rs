@@ -212,19 +212,15 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
         // One sub-flow: on failure it leaves the state and the ledger as they were.
         self.a.step_at(ledger, h * V::Real::lit(0.5), x)
     }
-    /// `b(h) ∘ a(h/2)`, with `a` a kick (which maps momentum directions to momentum
-    /// directions) and both affine along them; otherwise the whole step's property.
-    fn lead_is_affine_in_momenta(&self) -> bool {
-        if self.a.is_kick() {
-            self.a.is_affine_in_momenta() && self.b.is_affine_in_momenta()
-        } else {
-            self.is_affine_in_momenta()
-        }
-    }
-    /// A kick outside, between two of its half-steps a flow, all affine along momentum
-    /// directions (which the kick maps to momentum directions).
+    /// A kick outside (it maps momentum directions to momentum directions), between two of its
+    /// half-steps a flow, both affine along them.
     fn is_affine_in_momenta(&self) -> bool {
         self.a.is_kick() && self.a.is_affine_in_momenta() && self.b.is_affine_in_momenta()
+    }
+    /// The lead `b(h) ∘ a(h/2)` (or, without a kick outside, the whole step) is affine along
+    /// momentum directions under the same condition as the whole step.
+    fn lead_is_affine_in_momenta(&self) -> bool {
+        self.is_affine_in_momenta()
     }
     /// `D b(h) · D a(h/2) v`, each at the point of its last step (the lead's), when `a` is a
     /// kick and both apply their tangent maps ([`Flow::tangent_apply`]).

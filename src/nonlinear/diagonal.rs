@@ -1,7 +1,7 @@
 //! Newton's method for independent unknowns: a diagonal Jacobian, formed fresh at every
 //! iteration from one grouped product, and the root of each unknown's quadratic model.
 
-use super::newton::{NOISE_FACTOR, effective_residual};
+use super::stopping::{NOISE_FACTOR, converged_after_update, effective_residual};
 use super::{NewtonOptions, NonlinearProblem, NonlinearSolver, SolveReport};
 use crate::error::{LinearSolveError, NewtonError};
 use crate::real::Real;
@@ -24,8 +24,8 @@ use crate::vector::ops;
 /// cancellation): the exact root when `F_i` is quadratic, one iteration where Newton takes two.
 ///
 /// The convergence tests are [`Newton`](super::Newton)'s with a fresh Jacobian (the residual
-/// below `ftol`; within its noise floor and stalled or at the round-off of `z`), and a step
-/// that does not decrease the residual is halved. Allocates its workspace at construction.
+/// below `ftol`; the update test; within its noise floor and stalled or at the round-off of
+/// `z`), and a step that does not decrease the residual is halved. Allocates its workspace at construction.
 #[derive(Debug, Clone)]
 pub struct DiagonalNewton<T> {
     options: NewtonOptions<T>,
@@ -130,9 +130,7 @@ impl<T: Real> DiagonalNewton<T> {
         }
         Ok(())
     }
-}
 
-impl<T: Real> DiagonalNewton<T> {
     /// Solves a system whose residual is affine in `z` with a constant diagonal Jacobian,
     /// `F(z) = F(0) + diag(J) z`: from `z = 0`, one evaluation and one product, `z = −F(0)/J`.
     /// The residual is not evaluated at the solution (it is `F(0) + J z`, zero to rounding):
@@ -226,29 +224,8 @@ impl<T: Real> NonlinearSolver<T> for DiagonalNewton<T> {
             if r_new <= opts.ftol {
                 return Ok(report);
             }
-            // The update test (as `Newton`): a full step that reduced the residual and moved
-            // every unknown by less than its tolerance.
-            if (opts.atol > T::zero() || opts.rtol > T::zero())
-                && halvings == 0
-                && r_new < r
-                && self
-                    .dz
-                    .iter()
-                    .zip(z.iter())
-                    .all(|(&d, &zi)| d.abs() <= opts.atol + opts.rtol * zi.abs())
-            {
-                return Ok(report);
-            }
-            // At the residual's round-off floor: stalled, or an update at the round-off of z
-            // (as `Newton` with a fresh Jacobian).
-            let at_roundoff = ops::norm_inf(&self.dz) <= opts.xtol * (one + ops::norm_inf(z));
-            let stalled = r_new >= half * r;
-            if (r_new <= noise && (at_roundoff || stalled))
-                || (r_new <= T::lit(NOISE_FACTOR) * noise
-                    && halvings == 0
-                    && at_roundoff
-                    && stalled)
-            {
+            // Newton's tests with a fresh Jacobian.
+            if converged_after_update(&opts, r, r_new, halvings, true, &self.dz, z) {
                 return Ok(report);
             }
             r = r_new;

@@ -7,13 +7,14 @@ mod diagonal;
 mod newton;
 mod options;
 mod small;
+mod stopping;
 
 pub use diagonal::DiagonalNewton;
 pub use newton::Newton;
-pub(crate) use newton::{NOISE_FACTOR, effective_residual};
 pub use options::{JacobianUpdate, NewtonOptions, SolveReport};
 pub(crate) use small::solve_dense;
 pub use small::{SMALL_MAX, SmallNewton};
+pub(crate) use stopping::{NOISE_FACTOR, effective_residual};
 
 use crate::error::NewtonError;
 use crate::real::Real;

@@ -1,3 +1,4 @@
+use super::stopping::{NOISE_FACTOR, converged_after_update, effective_residual};
 use super::{JacobianUpdate, NewtonOptions, SolveReport};
 use super::{NonlinearProblem, NonlinearSolver};
 use crate::error::{LinearSolveError, NewtonError};
@@ -419,23 +420,6 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
     }
 }
 
-/// Residuals below `NOISE_FACTOR · ftol` are treated as possibly at their round-off floor.
-pub(crate) const NOISE_FACTOR: f64 = 100.0;
-
-/// The residual as the convergence test sees it: the rows the problem's noise floor applies to
-/// count as zero while within `4 · noise_floor`; the other rows count as they are.
-pub(crate) fn effective_residual<T: Real, P: NonlinearProblem<T>>(problem: &P, f: &[T]) -> T {
-    let (noisy, exact) = f.split_at(problem.noisy_rows().min(f.len()));
-    let r_noisy = ops::norm_inf(noisy);
-    let r_exact = ops::norm_inf(exact);
-    let r_noisy = if r_noisy <= T::lit(4.0) * problem.noise_floor() {
-        T::zero()
-    } else {
-        r_noisy
-    };
-    r_noisy.max(r_exact)
-}
-
 impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V, L> {
     fn solve<P: NonlinearProblem<V::Real>>(
         &mut self,
@@ -524,7 +508,6 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                 }
             }
             let dz = &self.dz.as_slice()[..k];
-            let step = ops::norm_inf(dz);
             if !raw.is_finite() && fresh {
                 return Err(NewtonError::NonFinite { iteration: it + 1 });
             }
@@ -532,41 +515,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
             if r_new <= opts.ftol {
                 return Ok(report);
             }
-            // The update test needs a full step that reduced the residual: a damped or
-            // worsening step is small without being accurate.
-            if (opts.atol > V::Real::zero() || opts.rtol > V::Real::zero())
-                && halvings == 0
-                && r_new < r
-                && dz
-                    .iter()
-                    .zip(z.iter())
-                    .all(|(&d, &zi)| d.abs() <= opts.atol + opts.rtol * zi.abs())
-            {
-                return Ok(report);
-            }
-            // Below `noise` the residual is dominated by its own round-off: an update at
-            // round-off, or a step with a fresh Jacobian that no longer decreases it, means the
-            // root is reached. With a kept Jacobian, slow progress is not evidence of that.
-            // Further up (to NOISE_FACTOR² ftol: a residual whose terms cancel, like the
-            // hidden constraint of a light body between heavy ones, rounds far above ε times
-            // its own size) only both together, for a full (undamped) step: the update is at
-            // round-off of z and did not halve the residual — no representable z does better.
-            let at_roundoff = step <= opts.xtol * (one + ops::norm_inf(z));
-            let stalled = r_new >= V::Real::lit(0.5) * r;
-            if fresh
-                && ((r_new <= noise && (at_roundoff || stalled))
-                    || (r_new <= V::Real::lit(NOISE_FACTOR) * noise
-                        && halvings == 0
-                        && at_roundoff
-                        && stalled))
-            {
-                return Ok(report);
-            }
-            // With a kept Jacobian, an update at the round-off of `z` that leaves the residual
-            // within its noise is the same evidence: the kept matrix has converged the
-            // iteration as far as `z` can be represented (a rebuild would cost a Jacobian to
-            // learn nothing).
-            if !fresh && r_new <= noise && at_roundoff {
+            if converged_after_update(&opts, r, r_new, halvings, fresh, dz, z) {
                 return Ok(report);
             }
             if !fresh && (r_new.is_nan() || r_new >= r) {

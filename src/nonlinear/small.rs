@@ -245,7 +245,7 @@ impl<T: Real> SmallNewton<T> {
         debug_assert_eq!(self.k, K, "solver built for another dimension");
         let opts = &self.options;
         let one = T::one();
-        let noise = T::lit(super::newton::NOISE_FACTOR) * opts.ftol;
+        let noise = T::lit(super::stopping::NOISE_FACTOR) * opts.ftol;
         let mut report = SolveReport::default();
         let mut f = [T::zero(); K];
         let mut r = evaluate(problem, z, &mut f, &mut report)?;
