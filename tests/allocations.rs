@@ -317,11 +317,11 @@ fn a_stepper_with_inputs_and_events_allocates_nothing_per_step() {
 }
 
 /// `ProjectedMidpoint` and `ConstrainedDiscreteGradient` on a model of mechanical form solve on
-/// `(δq, ν)`: dense for ten particles with pair forces, sparse for a 200-link chain; neither
-/// allocates per step.
+/// `(δq, ν)`, the Petrov–Galerkin scheme on its stages' momenta and multipliers: dense for ten
+/// particles with pair forces, sparse for a 200-link chain; none allocates per step.
 #[test]
 fn the_reduced_schemes_allocate_nothing_per_step() {
-    use lieflow::flow::ConstrainedDiscreteGradient;
+    use lieflow::flow::{ConstrainedDiscreteGradient, PetrovGalerkin};
     use lieflow::scene::Scene;
     let chain = "version = 1\ndim = 2\n[[chains]]\nname = \"c\"\nlinks = 200\n\
                  anchor = [0.0, 0.0]\ndirection = [1.0, -1.0]\nlength = 0.01\nmass = 0.01\n\
@@ -342,11 +342,18 @@ fn the_reduced_schemes_allocate_nothing_per_step() {
             ProjectedMidpoint::try_new(system(), model.clone(), &x, ProjectionOptions::default())
                 .unwrap();
         assert_eq!(allocations_per_run(&mut f, &mut x, h), 0);
-        let mut x = x0;
+        let mut x = x0.clone();
         let mut f: ConstrainedDiscreteGradient<faer::Col<f64>, _> =
             ConstrainedDiscreteGradient::try_new(system(), &x, ProjectionOptions::default())
                 .unwrap();
         assert!(format!("{f:?}").contains("mechanical: true"), "{f:?}");
         assert_eq!(allocations_per_run(&mut f, &mut x, h), 0);
+        for order in [4, 6] {
+            let mut x = x0.clone();
+            let mut f: PetrovGalerkin<faer::Col<f64>, _> =
+                PetrovGalerkin::try_new(system(), &x, order, ProjectionOptions::default()).unwrap();
+            assert!(format!("{f:?}").contains("mechanical: true"), "{f:?}");
+            assert_eq!(allocations_per_run(&mut f, &mut x, h), 0, "order {order}");
+        }
     }
 }

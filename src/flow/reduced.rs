@@ -47,13 +47,20 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
     /// `∇²V` (dense without a declared pattern) in the `δq` block, `G_qᵀ` in the `ν` columns
     /// and `G_q` in the constraint rows (dense without entries); with `curvature`, also the
     /// pattern of `Σᵢ νᵢ ∇²gᵢ` (the positions each constraint couples) in the `δq` block.
+    ///
+    /// With a `k × k` stage matrix `stage` the system has `k` stages (see [`SchurIteration`]):
+    /// `k (n_q + m)` unknowns, unknown `e` of stage `i` at `e k + i`, and the pattern above
+    /// with a dense `k × k` block for each entry. The midpoint rule and the discrete gradient
+    /// take `[½]`.
     pub(crate) fn new(
         form: MechanicalForm<T>,
         m: usize,
         options: NewtonOptions<T>,
         curvature: bool,
+        stage: &[T],
     ) -> Result<Self, LinearSolveError> {
         let nq = form.positions;
+        let k = super::schur::stages_of(stage);
         let mut pattern: Vec<(usize, usize)> = (0..nq).map(|i| (i, i)).collect();
         pattern.extend(form.momentum_block.iter().map(|&(r, c, _)| (r, c)));
         match &form.hessian_pattern {
@@ -85,33 +92,36 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
         }
         pattern.sort_unstable();
         pattern.dedup();
+        let pattern = super::schur::expand(&pattern, k);
+        let unknowns = k * (nq + m);
         // Simplified Newton: the matrix is kept while the iteration contracts, not updated by
         // secants (a rank-one update refactors a dense matrix; sparse storage has none).
         // The backend by this matrix's own structure (a solver forced for a projection's
         // multiplier systems fits those, not this one).
         let mut options = options.with_solver(crate::linalg::SolverChoice::Auto);
         options.broyden = false;
-        let newton = Newton::with_pattern(nq + m, options, Some(&pattern))?;
+        let newton = Newton::with_pattern(unknowns, options, Some(&pattern))?;
         let schur = SchurIteration::new(
             &form.inverse_mass,
             &form.momentum_block,
             m,
             form.constraint_pattern.as_deref(),
             options,
+            stage,
         )?;
         Ok(Self {
             nq,
             w: form.inverse_mass,
-            z: vec![T::zero(); nq + m],
+            z: vec![T::zero(); unknowns],
             scaled: vec![T::zero(); m],
             solver: KeptNewton {
                 schur,
                 newton,
                 h: T::zero(),
                 past: [
-                    vec![T::zero(); nq + m],
-                    vec![T::zero(); nq + m],
-                    vec![T::zero(); nq + m],
+                    vec![T::zero(); unknowns],
+                    vec![T::zero(); unknowns],
+                    vec![T::zero(); unknowns],
                 ],
                 count: 0,
             },
@@ -128,6 +138,7 @@ impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
     /// Forgets the kept Newton matrix and the past steps.
     pub(crate) fn invalidate(&mut self) {
         self.newton.invalidate_jacobian();
+        self.schur.forget();
         self.h = T::zero();
         self.count = 0;
     }

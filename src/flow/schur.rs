@@ -34,6 +34,13 @@
 //! [`NewtonOptions::max_contraction`] (stiff springs, strong coupling in `B`), the step goes on
 //! with Newton on the full, kept `J` from where the iteration stands, and the Schur iteration
 //! pauses for a number of steps that doubles with each consecutive failure.
+//!
+//! **Stages.** A collocation-type step with `k` stages (the Petrov–Galerkin scheme) has the
+//! same blocks on `k` copies of the positions and multipliers, coupled through a `k × k` stage
+//! matrix `Â`: position `d` of stage `i` at `d k + i`, constraint `a` of stage `i` at `a k + i`,
+//! and `D` block-diagonal with the blocks `D_d = I_k − h wᵢ bᵢ Â` (`k = 1`, `Â = [½]`: the
+//! midpoint rule's `D`). The Schur complement then has `k × k` blocks on the pattern of `G Gᵀ`
+//! in this order (banded for a chain), and every product is as above.
 
 use crate::error::{NewtonError, StepError};
 use crate::linalg::{ColumnGroups, LinearSolver, SolverChoice, Structure};
@@ -76,15 +83,24 @@ const MAX_PAUSE: usize = 1024;
 
 /// The Schur iteration's matrices and workspace (allocated at construction).
 pub(crate) struct SchurIteration<T: Real, L> {
+    /// `k n_q`: the position unknowns of all stages.
     nq: usize,
+    /// `k`.
+    k: usize,
+    /// `Â`, `k × k` row-major.
+    stage: Vec<T>,
     /// `diag W⁻¹`.
     w: Vec<T>,
     /// `diag B`.
     b: Vec<T>,
     /// The step size of `inv_d` (`0`: none).
     h: T,
-    /// `1 / D_ii`; empty when some `D_ii` is not safely invertible at this `h`.
+    /// `D_d⁻¹` (`k × k` row-major) for each position `d`; empty when some `D_d` is not safely
+    /// invertible at this `h`.
     inv_d: Vec<T>,
+    /// `k` entries of scratch for the blocks, and `2k²` for their inverses.
+    block: Vec<T>,
+    square: Vec<T>,
     /// `S`, factored.
     lin: L,
     groups: ColumnGroups,
@@ -101,15 +117,18 @@ pub(crate) struct SchurIteration<T: Real, L> {
 
 impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
     /// For `n_q` positions with `diag W⁻¹ = w`, the entries of `B`, and `m ≥ 1` constraints
-    /// whose rows touch the positions `g_pattern` (`(constraint, position)`; `None`: all).
+    /// whose rows touch the positions `g_pattern` (`(constraint, position)`; `None`: all), with
+    /// the `k × k` stage matrix `stage` (`[½]` for the midpoint rule).
     pub(crate) fn new(
         w: &[T],
         momentum_block: &[(usize, usize, T)],
         m: usize,
         g_pattern: Option<&[(usize, usize)]>,
         options: NewtonOptions<T>,
+        stage: &[T],
     ) -> Result<Self, crate::LinearSolveError> {
         let nq = w.len();
+        let k = stages_of(stage);
         let mut b = vec![T::zero(); nq];
         for &(r, c, v) in momentum_block {
             if r == c && r < nq {
@@ -135,13 +154,19 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             }
             None => (0..m).flat_map(|r| (0..m).map(move |c| (r, c))).collect(),
         };
+        let pattern = expand(&pattern, k);
+        let (nq, m) = (k * nq, k * m);
         let structure = Structure::of_pattern(&pattern);
         Ok(Self {
             nq,
+            k,
+            stage: stage.to_vec(),
             w: w.to_vec(),
             b,
             h: T::zero(),
-            inv_d: Vec::with_capacity(nq),
+            inv_d: Vec::with_capacity(nq * k),
+            block: vec![T::zero(); k],
+            square: vec![T::zero(); 2 * k * k],
             lin: L::with_structure(m, structure, SolverChoice::Auto)?,
             groups: ColumnGroups::new(m, &pattern),
             options,
@@ -155,6 +180,12 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         })
     }
 
+    /// Forgets the step size and the pauses: the next [`begin`](Self::begin) starts afresh
+    /// (a restored checkpoint continues as the run that saved it).
+    pub(crate) fn forget(&mut self) {
+        self.h = T::zero();
+    }
+
     /// Starts a step of size `h`: `D` for a new size (and the pauses forgotten).
     pub(crate) fn begin(&mut self, h: T) {
         if self.h == h {
@@ -164,19 +195,24 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         self.pause = 0;
         self.backoff = 1;
         self.inv_d.clear();
-        let half = h * T::lit(0.5);
-        let d = |(&w, &b): (&T, &T)| T::one() - half * w * b;
-        // A diagonal that nearly vanishes (energy supplied at the rate 2/h) would amplify
-        // every update: no Schur iteration at this size.
-        if self
-            .w
-            .iter()
-            .zip(&self.b)
-            .map(d)
-            .all(|d| d.is_finite() && d.abs() >= T::lit(0.125))
-        {
-            let inv = self.w.iter().zip(&self.b).map(|e| T::one() / d(e));
-            self.inv_d.extend(inv);
+        let k = self.k;
+        let (a, inv) = self.square.split_at_mut(k * k);
+        for (&w, &b) in self.w.iter().zip(&self.b) {
+            // D_d = I − h w b Â.
+            let c = h * w * b;
+            for (e, &s) in a.iter_mut().zip(&self.stage) {
+                *e = -(c * s);
+            }
+            for i in 0..k {
+                a[i * k + i] = a[i * k + i] + T::one();
+            }
+            // A block that is nearly singular (energy supplied at the rate 2/h, for the
+            // midpoint rule) would amplify every update: no Schur iteration at this size.
+            if !invert(a, inv, k) || inv_norm(inv, k) > T::lit(8.0) {
+                self.inv_d.clear();
+                return;
+            }
+            self.inv_d.extend_from_slice(inv);
         }
     }
 
@@ -233,12 +269,13 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         }
         report.factorizations += 1;
         let noise = T::lit(crate::nonlinear::NOISE_FACTOR) * opts.ftol;
+        // Whether an iteration of this solve has contracted by `max_contraction`.
+        let mut contracted = false;
         for _ in 0..opts.max_iterations {
             // u = D⁻¹F₁;  S Δν = F₂ − G u;  Δq = −u − D⁻¹C Δν.
-            let (f1, f2) = self.f.split_at(nq);
-            for ((u, &f), &d) in self.u.iter_mut().zip(f1).zip(&self.inv_d) {
-                *u = f * d;
-            }
+            self.u.copy_from_slice(&self.f[..nq]);
+            apply_blocks(self.k, &self.inv_d, &mut self.block, &mut self.u);
+            let f2 = &self.f[nq..];
             let (dq, dnu) = self.dz.split_at_mut(nq);
             problem.constraint_rows(&self.u, dnu);
             for (d, &f) in dnu.iter_mut().zip(f2) {
@@ -250,8 +287,9 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             }
             ops::fill_zero(dq);
             problem.multiplier_columns_add(dnu, dq);
-            for ((d, &u), &inv) in dq.iter_mut().zip(&self.u).zip(&self.inv_d) {
-                *d = -(u + *d * inv);
+            apply_blocks(self.k, &self.inv_d, &mut self.block, &mut self.dz[..nq]);
+            for (d, &u) in self.dz[..nq].iter_mut().zip(&self.u) {
+                *d = -(u + *d);
             }
             ops::axpy(z, one, &self.dz);
             report.iterations += 1;
@@ -264,6 +302,14 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 }
                 Err(_) => T::nan(),
             };
+            if raw.is_finite() && contracted && r_new <= noise && r_new >= T::lit(0.5) * r {
+                // An iteration that contracted by `max_contraction` a step ago and now does not
+                // halve a residual below the noise level has met the residual's round-off floor
+                // (a long chain's: its rows sum tensions that grow with its length), as with a
+                // fresh Newton matrix: no representable iterate does better.
+                report.residual = raw;
+                return Ok(true);
+            }
             if !(raw.is_finite() && r_new < r) {
                 // Worse (or not finite): back to the last iterate, whose residual Newton
                 // evaluates again.
@@ -285,6 +331,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 self.pause();
                 return Ok(false);
             }
+            contracted = true;
             r = r_new;
         }
         self.pause();
@@ -303,14 +350,97 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             }
             ops::fill_zero(&mut self.u);
             problem.multiplier_columns_add(&self.unit, &mut self.u);
-            for (u, &inv) in self.u.iter_mut().zip(&self.inv_d) {
-                *u = *u * inv;
-            }
+            apply_blocks(self.k, &self.inv_d, &mut self.block, &mut self.u);
             problem.constraint_rows(&self.u, &mut self.col);
             for &(i, j) in &groups.entries[groups.entry_ptr[c]..groups.entry_ptr[c + 1]] {
                 self.lin.add(i, j, self.col[i]);
             }
         }
         !self.unit.is_empty() && self.lin.factor().is_ok()
+    }
+}
+
+/// `k` from a `k × k` stage matrix.
+pub(crate) fn stages_of<T>(stage: &[T]) -> usize {
+    let k = (1..=stage.len())
+        .find(|k| k * k >= stage.len())
+        .unwrap_or(1);
+    assert_eq!(k * k, stage.len(), "a stage matrix is square");
+    k
+}
+
+/// The pattern of a `k`-stage system from the pattern of one stage: every entry `(r, c)`
+/// becomes the `k × k` block at `(r k, c k)` (unknown `e` of stage `i` is at `e k + i`).
+pub(crate) fn expand(pattern: &[(usize, usize)], k: usize) -> Vec<(usize, usize)> {
+    if k == 1 {
+        return pattern.to_vec();
+    }
+    pattern
+        .iter()
+        .flat_map(|&(r, c)| (0..k).flat_map(move |i| (0..k).map(move |j| (r * k + i, c * k + j))))
+        .collect()
+}
+
+/// `inv = a⁻¹` (`k × k`, row-major) by Gauss–Jordan elimination with partial pivoting; `a`
+/// is overwritten. `false` when a pivot vanishes or an entry is not finite.
+fn invert<T: Real>(a: &mut [T], inv: &mut [T], k: usize) -> bool {
+    ops::fill_zero(inv);
+    for i in 0..k {
+        inv[i * k + i] = T::one();
+    }
+    for col in 0..k {
+        let Some(piv) = (col..k).max_by(|&x, &y| {
+            a[x * k + col]
+                .abs()
+                .partial_cmp(&a[y * k + col].abs())
+                .unwrap_or(core::cmp::Ordering::Equal)
+        }) else {
+            return false;
+        };
+        let p = a[piv * k + col];
+        if !(p.is_finite() && p != T::zero()) {
+            return false;
+        }
+        for j in 0..k {
+            a.swap(col * k + j, piv * k + j);
+            inv.swap(col * k + j, piv * k + j);
+        }
+        let scale = T::one() / p;
+        for j in 0..k {
+            a[col * k + j] = a[col * k + j] * scale;
+            inv[col * k + j] = inv[col * k + j] * scale;
+        }
+        for r in (0..k).filter(|&r| r != col) {
+            let f = a[r * k + col];
+            for j in 0..k {
+                a[r * k + j] = a[r * k + j] - f * a[col * k + j];
+                inv[r * k + j] = inv[r * k + j] - f * inv[col * k + j];
+            }
+        }
+    }
+    inv.iter().all(|v| v.is_finite())
+}
+
+/// The max-row-sum norm of a `k × k` matrix.
+fn inv_norm<T: Real>(a: &[T], k: usize) -> T {
+    a.chunks_exact(k).fold(T::zero(), |m, row| {
+        m.max(row.iter().fold(T::zero(), |s, &v| s + v.abs()))
+    })
+}
+
+/// `v ← D⁻¹ v` with `D⁻¹` given by its `k × k` blocks `inv_d` (`block`: `k` entries of
+/// scratch).
+fn apply_blocks<T: Real>(k: usize, inv_d: &[T], block: &mut [T], v: &mut [T]) {
+    if k == 1 {
+        for (v, &inv) in v.iter_mut().zip(inv_d) {
+            *v = *v * inv;
+        }
+        return;
+    }
+    for (chunk, inv) in v.chunks_exact_mut(k).zip(inv_d.chunks_exact(k * k)) {
+        block.copy_from_slice(chunk);
+        for (i, o) in chunk.iter_mut().enumerate() {
+            *o = ops::dot(&inv[i * k..(i + 1) * k], block);
+        }
     }
 }

@@ -31,9 +31,10 @@ pub enum SolverChoice {
 /// - `k ≤ STACK_MAX` (8): [`StackLu`] — for a handful of unknowns the cost is overhead, not flops;
 /// - a diagonal structure (independent unknowns, such as particles each on its own sphere):
 ///   [`BandedLu`] with no off-diagonal, `k` divisions;
-/// - a banded structure with `k > SPARSE_MIN_DIM` (64) and at most [`BANDED_MAX`] (8)
-///   diagonals on either side: [`BandedLu`] — `O(k)` work with no symbolic phase and no
-///   indirection, the cheapest for chains and other topologies of small bandwidth;
+/// - a banded structure with at most [`BANDED_MAX`] (8) diagonals on either side and
+///   `k > SPARSE_MIN_DIM` (64), or a band at most a quarter as wide as `k`: [`BandedLu`] —
+///   `O(k)` work with no symbolic phase and no indirection, the cheapest for chains, for
+///   block-diagonal systems of a few unknowns a block, and other topologies of small bandwidth;
 /// - a sparse (or wider banded) structure with `k > SPARSE_MIN_DIM` and at most `k²/10`
 ///   entries: [`SparseLu`] — dense LU costs `2k³/3` flops, a tree-like sparse LU `O(nnz)`;
 /// - otherwise [`DenseLu`].
@@ -72,8 +73,12 @@ impl<T: Real + faer::traits::RealField + nalgebra::Scalar> AutoLu<T> {
             Structure::Banded {
                 lower: 0, upper: 0, ..
             } => SolverKind::Banded,
+            // A narrow band: O(k p (p + q)) flops against dense LU's 2k³/3; below 64 unknowns
+            // only when the band holds at most a quarter of each row.
             Structure::Banded { lower, upper, .. }
-                if k > SPARSE_MIN_DIM && lower <= BANDED_MAX && upper <= BANDED_MAX =>
+                if lower <= BANDED_MAX
+                    && upper <= BANDED_MAX
+                    && (k > SPARSE_MIN_DIM || 4 * (lower + upper + 1) <= k) =>
             {
                 SolverKind::Banded
             }

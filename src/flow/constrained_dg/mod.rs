@@ -162,7 +162,13 @@ where
             Case::NonDegenerate => None,
         };
         let mechanical = match MechanicalForm::of(&system, system.hamiltonian(), x0)? {
-            Some(form) if m > 0 => Some(Reduced::new(form, m, options.newton, true)?),
+            Some(form) if m > 0 => Some(Reduced::new(
+                form,
+                m,
+                options.newton,
+                true,
+                &[<V::Real as crate::real::Real>::lit(0.5)],
+            )?),
             _ => None,
         };
         let newton = match mechanical {

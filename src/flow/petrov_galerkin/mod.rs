@@ -3,20 +3,23 @@
 
 mod basis;
 mod problem;
+mod reduced;
 
 use super::projection::HiddenSolver;
+use super::reduced::Reduced;
 use super::{Flow, FlowStats, Ledger, ProjectionOptions};
 use crate::error::{SetupError, StepError};
 use crate::nonlinear::{Newton, NonlinearSolver, SMALL_MAX};
 use crate::real::Real;
 use crate::system::{
-    Case, Hamiltonian, HolonomicConstraint, Model, StructureMatrix, check_initial_state,
-    half_step_keeps_jacobian,
+    Case, Hamiltonian, HolonomicConstraint, MechanicalForm, Model, StructureMatrix,
+    check_initial_state, half_step_keeps_jacobian,
 };
 use crate::vector::{Vector, ops};
 use basis::Basis;
 use num_traits::Zero;
 use problem::{Problem, Scratch};
+use reduced::Stages;
 
 /// The basis tables in the scalar of the run.
 #[derive(Debug, Clone)]
@@ -27,19 +30,50 @@ pub(crate) struct Tables<T> {
     b: Vec<T>,
     ell: Vec<T>,
     a: Vec<T>,
+    /// `Â_ij = (1/β_i) Σ_r b_r ℓ_i(e_r) A_rj` (`k × k`): for a mechanical model the position
+    /// rows of (a) are `Y^q_i = h W⁻¹ (p_n + Σ_j Â_ij Y^p_j)` exactly.
+    ahat: Vec<T>,
+    /// `Σ_j ℓ_j(e_r) Â_jl` (`s × k`): `h x'_q(e_r)` from the momentum increments.
+    ell_ahat: Vec<T>,
 }
 
 impl<T: Real> Tables<T> {
     fn new(k: usize, s: usize) -> Self {
         let basis = Basis::new(k, s);
         let cast = |v: &[f64]| v.iter().map(|&x| T::lit(x)).collect::<Vec<T>>();
+        let (beta, b, ell, a) = (
+            cast(&basis.beta),
+            cast(&basis.b),
+            cast(&basis.ell),
+            cast(&basis.a),
+        );
+        // In the run's scalar from the cast tables, so that the eliminated rows agree with
+        // the full residual's to rounding.
+        let mut ahat = vec![T::zero(); k * k];
+        for i in 0..k {
+            for j in 0..k {
+                let sum = (0..s).fold(T::zero(), |acc, r| {
+                    acc + b[r] * ell[r * k + i] * a[r * k + j]
+                });
+                ahat[i * k + j] = sum / beta[i];
+            }
+        }
+        let mut ell_ahat = vec![T::zero(); s * k];
+        for r in 0..s {
+            for l in 0..k {
+                ell_ahat[r * k + l] =
+                    (0..k).fold(T::zero(), |acc, j| acc + ell[r * k + j] * ahat[j * k + l]);
+            }
+        }
         Self {
             k: basis.k,
             s: basis.s,
-            beta: cast(&basis.beta),
-            b: cast(&basis.b),
-            ell: cast(&basis.ell),
-            a: cast(&basis.a),
+            beta,
+            b,
+            ell,
+            a,
+            ahat,
+            ell_ahat,
         }
     }
 }
@@ -104,11 +138,17 @@ pub struct PetrovGalerkin<
 > {
     system: Sys,
     tables: Tables<V::Real>,
-    newton: Newton<W>,
+    /// Dense Newton on all `k (n + m)` unknowns, for a model without a mechanical form.
+    newton: Option<Newton<W>>,
+    /// The reduced solve of a model of mechanical form.
+    mechanical: Option<Reduced<V::Real, W::Solver>>,
     hidden: Option<HiddenSolver<V>>,
     u: W,
-    /// `u` with the multipliers zeroed (the `z`-part of the stages, for `D`).
-    uz: W,
+    /// The full residual, for the reduced solve.
+    f: W,
+    /// Where the last step ended (for the reduced solve's predictor), when `ended`.
+    end: V,
+    ended: bool,
     w: Scratch<V>,
     start: V,
     xe: V,
@@ -127,13 +167,17 @@ impl<V: Vector, Sys, W: Vector<Real = V::Real>> core::fmt::Debug for PetrovGaler
             .field("s", &self.tables.s)
             .field("n", &self.start.len())
             .field("m", &self.nu.len())
+            .field("mechanical", &self.mechanical.is_some())
             .field("stats", &self.stats)
             .finish_non_exhaustive()
     }
 }
 
-/// The largest `k` offered (order 8); beyond it the dense Newton matrix grows as `k²`.
+/// The largest `k` offered (order 8); beyond it the Newton matrix grows as `k²`.
 pub const MAX_STAGES: usize = 4;
+
+/// The most unknowns `k (n + m)` the dense Newton of a model without a mechanical form takes.
+pub const DENSE_MAX_UNKNOWNS: usize = 2048;
 
 impl<V, Sys, W> PetrovGalerkin<V, Sys, W>
 where
@@ -191,24 +235,48 @@ where
         } else {
             None
         };
+        let tables = Tables::new(k, k + 2);
+        // Stiffly damped momentum rows carry `c h/m`: equilibrated, their size does not make
+        // the multipliers' pivots look singular.
+        let mut newton_options = options.newton;
+        newton_options.equilibrate = true;
+        let form = match MechanicalForm::of(&system, system.hamiltonian(), x0)? {
+            Some(form) if m > 0 => Some(form),
+            _ => None,
+        };
+        let (newton, mechanical) = match form {
+            Some(form) => (
+                None,
+                Some(Reduced::new(form, m, newton_options, true, &tables.ahat)?),
+            ),
+            None => {
+                if k * (n + m) > DENSE_MAX_UNKNOWNS {
+                    return Err(SetupError::Scheme {
+                        what: format!(
+                            "the Petrov–Galerkin scheme of order {order} on a model without a mechanical form solves {} unknowns a step by dense Newton; at most {DENSE_MAX_UNKNOWNS}",
+                            k * (n + m)
+                        ),
+                    });
+                }
+                // The difference Jacobian costs `k (n + m)` residuals (each `s` gradients) and
+                // a dense factorization, a hundred iterations' worth on a mid-sized state: it
+                // is kept while an iteration contracts at all (a stale one, 0.5–0.9, is still
+                // far cheaper; a worse residual rebuilds it).
+                newton_options.max_contraction = V::Real::lit(0.9);
+                newton_options.broyden = false;
+                (Some(Newton::new(k * (n + m), newton_options)?), None)
+            }
+        };
         Ok(Self {
-            tables: Tables::new(k, k + 2),
-            // Stiffly damped momentum rows carry `c h/m`: equilibrated, their size does not make
-            // the multipliers' pivots look singular. The difference Jacobian costs `k (n + m)`
-            // residuals (each `s` gradients) and a dense factorization, a hundred iterations'
-            // worth on a mid-sized state: it is kept while an iteration contracts at all (a
-            // stale one, 0.5–0.9, is still far cheaper; a worse residual rebuilds it).
-            newton: Newton::new(k * (n + m), {
-                let mut newton = options.newton;
-                newton.equilibrate = true;
-                newton.max_contraction = V::Real::lit(0.9);
-                newton.broyden = false;
-                newton
-            })?,
+            tables,
+            newton,
+            mechanical,
             hidden,
             u: W::zeros(k * (n + m)),
-            uz: W::zeros(k * (n + m)),
-            w: Scratch::new(x0, k, m),
+            f: W::zeros(k * (n + m)),
+            end: x0.zeros_like(),
+            ended: false,
+            w: Scratch::new(x0, k, k + 2, m),
             start: x0.zeros_like(),
             xe: x0.zeros_like(),
             tmp: x0.zeros_like(),
@@ -234,7 +302,24 @@ where
             });
         }
         self.tables = Tables::new(k, s);
+        self.w.xs = vec![self.start.zeros_like(); s];
+        if let Some(reduced) = self.mechanical.as_mut() {
+            // Its stage matrix is the same (`Â` is exact for any `s ≥ k`); its past steps are not.
+            reduced.invalidate();
+        }
         Ok(self)
+    }
+
+    /// Forgets the kept Newton matrices and the past steps (after a failure, and at a
+    /// checkpoint, so that a restored run continues as the saved one).
+    fn forget(&mut self) {
+        if let Some(newton) = self.newton.as_mut() {
+            newton.invalidate_jacobian();
+        }
+        if let Some(reduced) = self.mechanical.as_mut() {
+            reduced.invalidate();
+        }
+        self.ended = false;
     }
 
     /// The energy account of the last step.
@@ -304,11 +389,34 @@ where
             g0: &self.g0,
             noise: V::Real::zero(),
         };
-        let report = match self.newton.solve(&mut problem, self.u.as_mut_slice()) {
+        let solved = if let Some(reduced) = self.mechanical.as_mut() {
+            let continued = self.ended && self.start.as_slice() == self.end.as_slice();
+            let Reduced { w, z, solver, .. } = reduced;
+            solver.begin(h, continued);
+            let mut stages = Stages {
+                full: &mut problem,
+                w,
+                u: self.u.as_mut_slice(),
+                f: self.f.as_mut_slice(),
+            };
+            stages.compress(z);
+            solver.predict(z);
+            let solved = solver.solve(&mut stages, z);
+            if solved.is_ok() {
+                stages.expand(z);
+                solver.record(z, continued);
+            }
+            solved
+        } else if let Some(newton) = self.newton.as_mut() {
+            newton.solve(&mut problem, self.u.as_mut_slice())
+        } else {
+            unreachable!("a Petrov–Galerkin scheme has a dense or a reduced solver")
+        };
+        let report = match solved {
             Ok(r) => r,
             Err(e) => {
                 ops::fill_zero(self.u.as_mut_slice());
-                self.newton.invalidate_jacobian();
+                self.forget();
                 return Err(StepError::from_newton("Petrov–Galerkin stages", e));
             }
         };
@@ -324,20 +432,7 @@ where
         // D = −h Σ_r b_r z_rᵀ M z_r with z_r = Σ_j ℓ_j(e_r) z(c_j), z(c_j) = acc_j(L = 0)/h.
         let mut damping = V::Real::zero();
         if self.system.structure().is_dissipative() {
-            self.uz.copy_from(&self.u);
-            self.uz.as_mut_slice()[k * n..]
-                .iter_mut()
-                .for_each(|v| *v = V::Real::zero());
-            let mut p = Problem {
-                h,
-                x: &self.start,
-                tables: &self.tables,
-                w: &mut self.w,
-                system: &self.system,
-                g0: &self.g0,
-                noise: V::Real::zero(),
-            };
-            p.accumulate(self.uz.as_slice(), None);
+            // The last residual was evaluated at the solution: `accz` holds its `h z(c_j)`.
             let t = &self.tables;
             for r in 0..t.s {
                 ops::fill_zero(self.tmp.as_mut_slice());
@@ -345,7 +440,7 @@ where
                     ops::axpy(
                         self.tmp.as_mut_slice(),
                         t.ell[r * k + j],
-                        self.w.acc[j].as_slice(),
+                        self.w.accz[j].as_slice(),
                     );
                 }
                 self.system
@@ -355,7 +450,11 @@ where
                 damping = damping - t.b[r] * zmz / h;
             }
         }
-        let before = self.system.hamiltonian().energy(&self.start);
+        // The last step's end energy, when this step starts where it ended.
+        let before = match self.last {
+            Some(last) if self.ended && self.start.as_slice() == self.end.as_slice() => last.after,
+            _ => self.system.hamiltonian().energy(&self.start),
+        };
         let after_step = self.system.hamiltonian().energy(&self.xe);
         let mut projection = V::Real::zero();
         if self.hidden.is_some() {
@@ -408,6 +507,7 @@ where
             };
             if let Err(e) = solved {
                 x.copy_from(&self.start);
+                self.ended = false;
                 if let Some(HiddenSolver::General(n)) = self.hidden.as_mut() {
                     n.invalidate_jacobian();
                 }
@@ -420,8 +520,11 @@ where
         if let Some(component) = ops::first_non_finite(x.as_slice()) {
             x.copy_from(&self.start);
             ops::fill_zero(self.u.as_mut_slice());
+            self.forget();
             return Err(StepError::NonFinite { component });
         }
+        self.end.copy_from(x);
+        self.ended = true;
         let after = self.system.hamiltonian().energy(x);
         let account = DiscreteDissipation {
             before,
@@ -452,12 +555,12 @@ where
     }
 
     fn save_memory(&mut self, out: &mut Vec<V::Real>) {
-        self.newton.invalidate_jacobian();
+        self.forget();
         out.extend_from_slice(self.u.as_slice());
     }
 
     fn restore_memory(&mut self, from: &mut &[V::Real]) {
-        self.newton.invalidate_jacobian();
+        self.forget();
         let saved = super::take_memory(from, self.u.len());
         self.u.as_mut_slice()[..saved.len()].copy_from_slice(saved);
     }

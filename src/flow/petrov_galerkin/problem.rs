@@ -22,21 +22,27 @@ pub(super) struct Scratch<V: Vector> {
     pub(super) f: V,
     /// `acc_i = (1/β_i) Σ_r b_r ℓ_i(e_r) (h ∇H(x_r) + G(x_r)ᵀ L(e_r))`, one per Gauss point.
     pub(super) acc: Vec<V>,
+    /// The `∇H` part of `acc_i`, `h z(c_i)`: what the damping acts on.
+    pub(super) accz: Vec<V>,
     /// `L(e_r)` and `G(x_r) h x'(e_r)`.
     pub(super) lr: Vec<V::Real>,
     pub(super) cr: Vec<V::Real>,
+    /// `x(e_r)` of the last residual, one per quadrature point.
+    pub(super) xs: Vec<V>,
 }
 
 impl<V: Vector> Scratch<V> {
-    pub(super) fn new(x0: &V, k: usize, m: usize) -> Self {
+    pub(super) fn new(x0: &V, k: usize, s: usize, m: usize) -> Self {
         Self {
             xr: x0.zeros_like(),
             grad: x0.zeros_like(),
             dr: x0.zeros_like(),
             f: x0.zeros_like(),
             acc: vec![x0.zeros_like(); k],
+            accz: vec![x0.zeros_like(); k],
             lr: vec![V::Real::zero(); m],
             cr: vec![V::Real::zero(); m],
+            xs: vec![x0.zeros_like(); s],
         }
     }
 }
@@ -67,14 +73,14 @@ pub(super) struct Problem<'a, V: Vector, Sys> {
 }
 
 impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
-    /// Fills `w.acc` (and, with `with_constraint`, the constraint rows into `out_c`) from `u`.
+    /// Fills `w.acc` and `w.accz` (and the constraint rows into `out_c`) from `u`.
     pub(super) fn accumulate(&mut self, u: &[V::Real], mut out_c: Option<&mut [V::Real]>) {
         let t = self.tables;
         let (k, s) = (t.k, t.s);
         let n = self.x.len();
         let m = self.w.lr.len();
         let (ys, ls) = u.split_at(k * n);
-        for acc in &mut self.w.acc {
+        for acc in self.w.acc.iter_mut().chain(&mut self.w.accz) {
             ops::fill_zero(acc.as_mut_slice());
         }
         if let Some(c) = out_c.as_deref_mut() {
@@ -94,17 +100,27 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
                 ops::axpy(self.w.dr.as_mut_slice(), row[j], yj);
                 ops::axpy(&mut self.w.lr, row[j], &ls[j * m..(j + 1) * m]);
             }
+            self.w.xs[r].copy_from(&self.w.xr);
             sys.hamiltonian().gradient(&self.w.xr, &mut self.w.grad);
             for gi in self.w.grad.as_mut_slice() {
                 *gi = *gi * self.h;
             }
+            for (i, acc) in self.w.accz.iter_mut().enumerate() {
+                let wgt = t.b[r] * row[i] / t.beta[i];
+                ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
+            }
             if m > 0 {
+                ops::fill_zero(self.w.grad.as_mut_slice());
                 sys.constraint().jacobian_transpose_apply_add(
                     &self.w.xr,
                     &self.w.lr,
                     V::Real::one(),
                     &mut self.w.grad,
                 );
+                for (i, acc) in self.w.acc.iter_mut().enumerate() {
+                    let wgt = t.b[r] * row[i] / t.beta[i];
+                    ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
+                }
                 if let Some(c) = out_c.as_deref_mut() {
                     sys.constraint()
                         .jacobian_apply(&self.w.xr, &self.w.dr, &mut self.w.cr);
@@ -114,10 +130,10 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
                     }
                 }
             }
-            for (i, acc) in self.w.acc.iter_mut().enumerate() {
-                let wgt = t.b[r] * row[i] / t.beta[i];
-                ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
-            }
+        }
+        // acc_i = accz_i + the multipliers' part (collected in acc during the loop).
+        for (acc, z) in self.w.acc.iter_mut().zip(&self.w.accz) {
+            ops::axpy(acc.as_mut_slice(), V::Real::one(), z.as_slice());
         }
     }
 }

@@ -193,16 +193,6 @@ pub(super) fn scheme_flow(
     let mut split = false;
     let flow: Box<dyn Flow<Col<f64>>> = if file.integrator.scheme == Method::PetrovGalerkin {
         let order = file.integrator.order.unwrap_or(4);
-        let unknowns = (order as usize / 2) * (x0.nrows() + m);
-        if unknowns > DENSE_MAX_DIM {
-            return Err(err(
-                SceneErrorKind::Unsupported,
-                root.key("integrator").key("scheme"),
-                format!(
-                    "the Petrov–Galerkin scheme of order {order} solves {unknowns} unknowns a step by dense Newton; at most {DENSE_MAX_DIM}"
-                ),
-            ));
-        }
         let system = System::new(model.clone(), model.clone(), model.clone());
         let options = projection_options(model, x0.as_slice(), f64::EPSILON);
         scheme_name = "energy-consistent Petrov–Galerkin with hidden-constraint projection";

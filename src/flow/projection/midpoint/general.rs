@@ -81,7 +81,13 @@ impl<T: Real, L: LinearSolver<T>> General<T, L> {
         let (newton, mechanical, k) = match form {
             Some(form) => (
                 None,
-                Some(crate::flow::reduced::Reduced::new(form, m, options, false)?),
+                Some(crate::flow::reduced::Reduced::new(
+                    form,
+                    m,
+                    options,
+                    false,
+                    &[T::lit(0.5)],
+                )?),
                 0,
             ),
             None => (Some(Newton::new(n + m, options)?), None, n + m),

@@ -1,0 +1,187 @@
+//! The Petrov–Galerkin step of a model of mechanical form ([`MechanicalForm`]): the position
+//! rows eliminated, Newton on the momentum increments and the multipliers, first by the Schur
+//! iteration of `k` stages (no force Jacobian), then by sparse Newton on its pattern
+//! ([`Reduced`]).
+//!
+//! For `H = ½ pᵀW⁻¹p + V(q)`, `M = [[0, I], [−I, B]]` and `g = g(q)`, the position rows of
+//! (a) are linear: `Y^q_i = (1/β_i) Σ_r b_r ℓ_i(e_r) h W⁻¹ p(e_r) = h W⁻¹ (p_n + Σ_j Â_ij Y^p_j)`
+//! (the quadrature is exact: `ℓ_i A_j` has degree `2k − 1`). What is left are the `k n_q`
+//! momentum rows and the `k m` constraint rows in `(Y^p, L)`,
+//!
+//! ```text
+//! F^p_i = Y^p_i + (1/β_i) Σ_r b_r ℓ_i(e_r) (h ∇V(q_r) + G(q_r)ᵀ L(e_r)) − B Y^q_i
+//! F^c_i = (1/β_i) Σ_r b_r ℓ_i(e_r) G(q_r) h q'(e_r) + g(q_n)
+//! ```
+//!
+//! (the full residual of [`Problem`], read at these rows), whose Newton matrix is
+//! `[[I − h Â ⊗ B W⁻¹ + O(h² ∇²V), C], [G, 0]]`: `C` the multipliers' columns
+//! `(1/β_i) Σ_r b_r ℓ_i(e_r) ℓ_j(e_r) G(q_r)ᵀ`, `G` the constraint rows through the eliminated
+//! `Y^q`. Without the force Jacobian and the constraints' curvature this is the
+//! [`SchurIteration`](crate::flow::schur) of `k` stages with `D_d = I_k − h w_d b_d Â`: for a
+//! shell of particles a `k × k` block per constraint, for a chain a band. Its contraction is
+//! of the size of `h² ‖Â‖² ‖W⁻¹∇²V‖ + h |q'| ‖∇²g‖`.
+//!
+//! Layout: momentum `d` of stage `i` at `d k + i`, multiplier `a` of stage `i` at
+//! `k n_q + a k + i`; the full problem's stage-major `u` is formed from it at every residual.
+
+use super::problem::Problem;
+use crate::error::StepError;
+use crate::flow::schur::ReducedBlocks;
+use crate::nonlinear::NonlinearProblem;
+use crate::system::{HolonomicConstraint, Model};
+use crate::vector::{Vector, ops};
+use num_traits::One;
+
+/// The reduced step problem over the full one.
+pub(super) struct Stages<'a, 'b, V: Vector, Sys> {
+    pub(super) full: &'b mut Problem<'a, V, Sys>,
+    /// `diag W⁻¹`.
+    pub(super) w: &'b [V::Real],
+    /// The full problem's unknowns and residual (stage-major).
+    pub(super) u: &'b mut [V::Real],
+    pub(super) f: &'b mut [V::Real],
+}
+
+impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
+    /// `(n_q, m, k)`.
+    fn dims(&self) -> (usize, usize, usize) {
+        (self.w.len(), self.full.g0.len(), self.full.tables.k)
+    }
+
+    /// The reduced `z` from the full `u` (its momentum increments and multipliers).
+    pub(super) fn compress(&self, z: &mut [V::Real]) {
+        let (nq, m, k) = self.dims();
+        let n = 2 * nq;
+        for i in 0..k {
+            let yp = &self.u[i * n + nq..(i + 1) * n];
+            for (d, &v) in yp.iter().enumerate() {
+                z[d * k + i] = v;
+            }
+        }
+        let (ls, zl) = (&self.u[k * n..], &mut z[k * nq..]);
+        for a in 0..m {
+            for i in 0..k {
+                zl[a * k + i] = ls[i * m + a];
+            }
+        }
+    }
+
+    /// The full `u` from the reduced `z`: `Y^p`, `Y^q = h W⁻¹ (p_n + Â Y^p)`, `L`.
+    pub(super) fn expand(&mut self, z: &[V::Real]) {
+        let (nq, m, k) = self.dims();
+        let n = 2 * nq;
+        let h = self.full.h;
+        let p0 = &self.full.x.as_slice()[nq..];
+        let t = self.full.tables;
+        for i in 0..k {
+            let row = &t.ahat[i * k..(i + 1) * k];
+            let (yq, yp) = self.u[i * n..(i + 1) * n].split_at_mut(nq);
+            for d in 0..nq {
+                let zd = &z[d * k..(d + 1) * k];
+                yp[d] = zd[i];
+                yq[d] = h * (self.w[d] * (p0[d] + ops::dot(row, zd)));
+            }
+        }
+        let (ls, zl) = (&mut self.u[k * n..], &z[k * nq..]);
+        for a in 0..m {
+            for i in 0..k {
+                ls[i * m + a] = zl[a * k + i];
+            }
+        }
+    }
+}
+
+impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Stages<'_, '_, V, Sys> {
+    type Error = StepError;
+
+    fn dim(&self) -> usize {
+        let (nq, m, k) = self.dims();
+        k * (nq + m)
+    }
+
+    fn noise_floor(&self) -> V::Real {
+        self.full.noise
+    }
+
+    fn noisy_rows(&self) -> usize {
+        let (nq, _, k) = self.dims();
+        k * nq
+    }
+
+    fn residual(&mut self, z: &[V::Real], out: &mut [V::Real]) -> Result<(), StepError> {
+        self.expand(z);
+        self.full.residual(self.u, self.f)?;
+        let (nq, m, k) = self.dims();
+        let n = 2 * nq;
+        for i in 0..k {
+            let fp = &self.f[i * n + nq..(i + 1) * n];
+            for (d, &v) in fp.iter().enumerate() {
+                out[d * k + i] = v;
+            }
+        }
+        let (fc, oc) = (&self.f[k * n..], &mut out[k * nq..]);
+        for a in 0..m {
+            for i in 0..k {
+                oc[a * k + i] = fc[i * m + a];
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys> {
+    /// `out_(d,i) += (1/β_i) Σ_r b_r ℓ_i(e_r) [G(q_r)ᵀ Σ_j ℓ_j(e_r) v_(·,j)]_d`.
+    fn multiplier_columns_add(&mut self, v: &[V::Real], out: &mut [V::Real]) {
+        let (nq, m, k) = self.dims();
+        let t = self.full.tables;
+        let sw = &mut *self.full.w;
+        for r in 0..t.s {
+            let row = &t.ell[r * k..(r + 1) * k];
+            for a in 0..m {
+                sw.lr[a] = ops::dot(row, &v[a * k..(a + 1) * k]);
+            }
+            ops::fill_zero(sw.grad.as_mut_slice());
+            self.full.system.constraint().jacobian_transpose_apply_add(
+                &sw.xs[r],
+                &sw.lr,
+                V::Real::one(),
+                &mut sw.grad,
+            );
+            let gq = &sw.grad.as_slice()[..nq];
+            for i in 0..k {
+                let wgt = t.b[r] * row[i] / t.beta[i];
+                for (d, &g) in gq.iter().enumerate() {
+                    out[d * k + i] = out[d * k + i] + wgt * g;
+                }
+            }
+        }
+    }
+
+    /// `out_(a,i) = (1/β_i) Σ_r b_r ℓ_i(e_r) [G(q_r) (h W⁻¹ Σ_l (ℓ(e_r)ᵀÂ)_l v_(·,l), 0)]_a`.
+    fn constraint_rows(&mut self, v: &[V::Real], out: &mut [V::Real]) {
+        let (nq, m, k) = self.dims();
+        let h = self.full.h;
+        let t = self.full.tables;
+        let sw = &mut *self.full.w;
+        ops::fill_zero(out);
+        for r in 0..t.s {
+            let la = &t.ell_ahat[r * k..(r + 1) * k];
+            let (dq, dp) = sw.dr.as_mut_slice().split_at_mut(nq);
+            for (d, o) in dq.iter_mut().enumerate() {
+                *o = h * (self.w[d] * ops::dot(la, &v[d * k..(d + 1) * k]));
+            }
+            ops::fill_zero(dp);
+            self.full
+                .system
+                .constraint()
+                .jacobian_apply(&sw.xs[r], &sw.dr, &mut sw.cr);
+            let row = &t.ell[r * k..(r + 1) * k];
+            for i in 0..k {
+                let wgt = t.b[r] * row[i] / t.beta[i];
+                for a in 0..m {
+                    out[a * k + i] = out[a * k + i] + wgt * sw.cr[a];
+                }
+            }
+        }
+    }
+}
