@@ -81,6 +81,10 @@ pub(crate) fn position_rows<V, C>(
 /// The longest pause (in steps) after which the Schur iteration is tried again.
 const MAX_PAUSE: usize = 1024;
 
+/// How much the first update of a solve may grow the residual before the iteration gives up
+/// (it must then contract by `max_contraction` from the second update on).
+const FIRST_GROWTH: f64 = 1e3;
+
 /// The Schur iteration's matrices and workspace (allocated at construction).
 pub(crate) struct SchurIteration<T: Real, L> {
     /// `k n_q`: the position unknowns of all stages.
@@ -107,6 +111,8 @@ pub(crate) struct SchurIteration<T: Real, L> {
     options: NewtonOptions<T>,
     f: Vec<T>,
     dz: Vec<T>,
+    /// `z` where the solve began.
+    start: Vec<T>,
     u: Vec<T>,
     unit: Vec<T>,
     col: Vec<T>,
@@ -172,6 +178,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             options,
             f: vec![T::zero(); nq + m],
             dz: vec![T::zero(); nq + m],
+            start: vec![T::zero(); nq + m],
             u: vec![T::zero(); nq],
             unit: vec![T::zero(); m],
             col: vec![T::zero(); m],
@@ -269,9 +276,13 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         }
         report.factorizations += 1;
         let noise = T::lit(crate::nonlinear::NOISE_FACTOR) * opts.ftol;
-        // Whether an iteration of this solve has contracted by `max_contraction`.
+        // Whether an iteration of this solve has contracted by `max_contraction`, and whether
+        // the first one was let grow the residual (then `start` holds where it began).
         let mut contracted = false;
-        for _ in 0..opts.max_iterations {
+        let mut grew = false;
+        self.start.copy_from_slice(z);
+        let r_start = r;
+        for iteration in 0..opts.max_iterations {
             // u = D⁻¹F₁;  S Δν = F₂ − G u;  Δq = −u − D⁻¹C Δν.
             self.u.copy_from_slice(&self.f[..nq]);
             apply_blocks(self.k, &self.inv_d, &mut self.block, &mut self.u);
@@ -310,10 +321,29 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 report.residual = raw;
                 return Ok(true);
             }
+            if iteration == 0
+                && raw.is_finite()
+                && r_new > opts.max_contraction * r
+                && r_new <= T::lit(FIRST_GROWTH) * r
+            {
+                // The first update is not judged by the residual: a predictor that satisfies
+                // some rows exactly (the explicit Euler start of a step without past steps
+                // satisfies the momentum rows, not the constraint rows) can see them grow on
+                // the way to a root the iteration then converges to. The next iteration must
+                // contract from here.
+                grew = r_new > r;
+                report.residual = raw;
+                r = r_new;
+                continue;
+            }
             if !(raw.is_finite() && r_new < r) {
                 // Worse (or not finite): back to the last iterate, whose residual Newton
-                // evaluates again.
-                ops::axpy(z, -one, &self.dz);
+                // evaluates again (or to the start, when the first update grew it).
+                if grew && iteration == 1 {
+                    z.copy_from_slice(&self.start);
+                } else {
+                    ops::axpy(z, -one, &self.dz);
+                }
                 self.pause();
                 return Ok(false);
             }
@@ -328,11 +358,17 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 return Ok(true);
             }
             if r_new > opts.max_contraction * r {
+                if grew && r_new > r_start {
+                    z.copy_from_slice(&self.start);
+                }
                 self.pause();
                 return Ok(false);
             }
             contracted = true;
             r = r_new;
+        }
+        if grew && r > r_start {
+            z.copy_from_slice(&self.start);
         }
         self.pause();
         Ok(false)
