@@ -51,19 +51,7 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
     /// The reduced `z` from the full `u` (its momentum increments and multipliers).
     pub(super) fn compress(&self, z: &mut [V::Real]) {
         let (nq, m, k) = self.dims();
-        let n = 2 * nq;
-        for i in 0..k {
-            let yp = &self.u[i * n + nq..(i + 1) * n];
-            for (d, &v) in yp.iter().enumerate() {
-                z[d * k + i] = v;
-            }
-        }
-        let (ls, zl) = (&self.u[k * n..], &mut z[k * nq..]);
-        for a in 0..m {
-            for i in 0..k {
-                zl[a * k + i] = ls[i * m + a];
-            }
-        }
+        gather(self.u, z, nq, m, k);
     }
 
     /// The full `u` from the reduced `z`: `Y^p`, `Y^q = h W⁻¹ (p_n + Â Y^p)`, `L`.
@@ -112,19 +100,7 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Stages<'_, '_, V, S
         self.expand(z);
         self.full.residual(self.u, self.f)?;
         let (nq, m, k) = self.dims();
-        let n = 2 * nq;
-        for i in 0..k {
-            let fp = &self.f[i * n + nq..(i + 1) * n];
-            for (d, &v) in fp.iter().enumerate() {
-                out[d * k + i] = v;
-            }
-        }
-        let (fc, oc) = (&self.f[k * n..], &mut out[k * nq..]);
-        for a in 0..m {
-            for i in 0..k {
-                oc[a * k + i] = fc[i * m + a];
-            }
-        }
+        gather(self.f, out, nq, m, k);
         Ok(())
     }
 }
@@ -182,6 +158,25 @@ impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys>
                     out[a * k + i] = out[a * k + i] + wgt * sw.cr[a];
                 }
             }
+        }
+    }
+}
+
+/// The momentum and multiplier parts of a stage-major vector of the full problem (stage `i`'s
+/// `(q, p)` at `i n`, its multipliers at `k n + i m`) in the reduced layout (momentum `d` of
+/// stage `i` at `d k + i`, multiplier `a` at `k n_q + a k + i`).
+fn gather<T: Copy>(full: &[T], out: &mut [T], nq: usize, m: usize, k: usize) {
+    let n = 2 * nq;
+    for i in 0..k {
+        let yp = &full[i * n + nq..(i + 1) * n];
+        for (d, &v) in yp.iter().enumerate() {
+            out[d * k + i] = v;
+        }
+    }
+    let (ls, ol) = (&full[k * n..], &mut out[k * nq..]);
+    for a in 0..m {
+        for i in 0..k {
+            ol[a * k + i] = ls[i * m + a];
         }
     }
 }
