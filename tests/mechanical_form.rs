@@ -228,11 +228,11 @@ fn a_long_damped_chain_runs_the_reduced_schemes_and_agrees_with_rattle() {
     }
 }
 
-/// A 3000-link chain falling from rest: the first step has no past steps to predict from, and
-/// its explicit Euler start satisfies the momentum rows exactly, so the first Schur update grows
-/// the residual on its way to the root (before the first update was let grow, every scheme
-/// here handed that step to the full Newton, which did not converge for Petrov–Galerkin). The
-/// first steps converge and keep the chain on its constraints.
+/// A 3000-link chain falling from rest: the first step has no past steps to predict from. For
+/// the Petrov–Galerkin scheme its explicit Euler start satisfies the momentum rows exactly, so
+/// the first Schur update grows the residual on its way to the root (before the first update
+/// was let grow, that step went to the full Newton, which did not converge). The first steps of
+/// every implicit scheme converge and keep the chain on its constraints.
 #[test]
 fn the_first_steps_of_a_long_chain_converge() {
     for (scheme, order) in [
