@@ -313,7 +313,8 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 }
                 Err(_) => T::nan(),
             };
-            if raw.is_finite() && contracted && r_new <= noise && r_new >= T::lit(0.5) * r {
+            let finite = raw.is_finite();
+            if finite && contracted && r_new <= noise && r_new >= T::lit(0.5) * r {
                 // An iteration that contracted by `max_contraction` a step ago and now does not
                 // halve a residual below the noise level has met the residual's round-off floor
                 // (a long chain's: its rows sum tensions that grow with its length), as with a
@@ -321,30 +322,17 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 report.residual = raw;
                 return Ok(true);
             }
-            if iteration == 0
-                && raw.is_finite()
-                && r_new > opts.max_contraction * r
-                && r_new <= T::lit(FIRST_GROWTH) * r
-            {
-                // The first update is not judged by the residual: a predictor that satisfies
-                // some rows exactly (the explicit Euler start of a step without past steps
-                // satisfies the momentum rows, not the constraint rows) can see them grow on
-                // the way to a root the iteration then converges to. The next iteration must
-                // contract from here.
-                grew = r_new > r;
-                report.residual = raw;
-                r = r_new;
-                continue;
-            }
-            if !(raw.is_finite() && r_new < r) {
+            // The first update is not judged by the residual: a predictor that satisfies some
+            // rows exactly (the explicit Euler start of a Petrov–Galerkin step without past
+            // steps satisfies the momentum rows, not the constraint rows) can see them grow on
+            // the way to a root the iteration then converges to. The next one must contract.
+            let lenient = iteration == 0 && finite && r_new <= T::lit(FIRST_GROWTH) * r;
+            let improved = finite && r_new < r;
+            if !(improved || lenient) {
                 // Worse (or not finite): back to the last iterate, whose residual Newton
-                // evaluates again (or to the start, when the first update grew it).
-                if grew && iteration == 1 {
-                    z.copy_from_slice(&self.start);
-                } else {
-                    ops::axpy(z, -one, &self.dz);
-                }
-                self.pause();
+                // evaluates again.
+                ops::axpy(z, -one, &self.dz);
+                self.hand_over(z, grew && r > r_start);
                 return Ok(false);
             }
             report.residual = raw;
@@ -352,26 +340,33 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 return Ok(true);
             }
             let step = ops::norm_inf(&self.dz);
-            if r_new <= noise && step <= opts.xtol * (one + ops::norm_inf(z)) {
+            if improved && r_new <= noise && step <= opts.xtol * (one + ops::norm_inf(z)) {
                 // The update is at the round-off of z and the residual within its noise: as
                 // for Newton with a kept matrix, no representable z does better.
                 return Ok(true);
             }
             if r_new > opts.max_contraction * r {
-                if grew && r_new > r_start {
-                    z.copy_from_slice(&self.start);
+                if !lenient {
+                    self.hand_over(z, grew && r_new > r_start);
+                    return Ok(false);
                 }
-                self.pause();
-                return Ok(false);
+                grew = r_new > r;
+            } else {
+                contracted = true;
             }
-            contracted = true;
             r = r_new;
         }
-        if grew && r > r_start {
+        self.hand_over(z, grew && r > r_start);
+        Ok(false)
+    }
+
+    /// Hands the solve over to Newton: from where it began when `restart` (the first update
+    /// grew the residual and the iteration did not bring it below the start's), and pauses.
+    fn hand_over(&mut self, z: &mut [T], restart: bool) {
+        if restart {
             z.copy_from_slice(&self.start);
         }
         self.pause();
-        Ok(false)
     }
 
     /// `S = G D⁻¹ C` at the last residual's `z`, by groups of columns that share no row, and
@@ -398,10 +393,8 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
 
 /// `k` from a `k × k` stage matrix.
 pub(crate) fn stages_of<T>(stage: &[T]) -> usize {
-    let k = (1..=stage.len())
-        .find(|k| k * k >= stage.len())
-        .unwrap_or(1);
-    assert_eq!(k * k, stage.len(), "a stage matrix is square");
+    let k = stage.len().isqrt();
+    debug_assert_eq!(k * k, stage.len(), "a stage matrix is square");
     k
 }
 

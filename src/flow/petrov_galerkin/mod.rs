@@ -387,6 +387,8 @@ where
             });
         }
         self.start.copy_from(x);
+        // Whether this step continues the last one (its predictor and its start energy).
+        let continued = self.ended && self.start.as_slice() == self.end.as_slice();
         self.guess(h, x);
         self.system.constraint().residual(x, &mut self.g0);
         let (k, n) = (self.tables.k, x.len());
@@ -400,7 +402,6 @@ where
             noise: V::Real::zero(),
         };
         let solved = if let Some(reduced) = self.mechanical.as_mut() {
-            let continued = self.ended && self.start.as_slice() == self.end.as_slice();
             let Reduced { w, z, solver, .. } = reduced;
             solver.begin(h, continued);
             let mut stages = Stages {
@@ -462,7 +463,7 @@ where
         }
         // The last step's end energy, when this step starts where it ended.
         let before = match self.last {
-            Some(last) if self.ended && self.start.as_slice() == self.end.as_slice() => last.after,
+            Some(last) if continued => last.after,
             _ => self.system.hamiltonian().energy(&self.start),
         };
         let after_step = self.system.hamiltonian().energy(&self.xe);
