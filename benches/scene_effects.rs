@@ -5,7 +5,8 @@
 //! and `scenes/damped_pendulum.toml` (with the model's unit gravity; compiled onto a stack
 //! state, as every splitting of one to three bodies is) against the same pendulum written as a
 //! Rust model (`models::DampedPendulum`, its exact damped flow projected), nothing observed on
-//! either side.
+//! either side — the model stepped bare by `Flow::step` and through the crate's `Stepper`, which
+//! guards a step as the scene's `Simulation::step` does.
 //! A switched-off effect has no term and no sub-flow, so each row adds only its own work.
 //!
 //! ```text
@@ -20,6 +21,7 @@ use lieflow::models::DampedPendulum;
 use lieflow::models::pendulum_chain::PendulumChain;
 use lieflow::prelude::ProjectionOptions;
 use lieflow::scene::Scene;
+use lieflow::stepper::Stepper;
 use nalgebra::SVector;
 use std::time::{Duration, Instant};
 
@@ -141,6 +143,32 @@ fn bench(c: &mut Criterion) {
                 let start = Instant::now();
                 for _ in 0..n {
                     flow.step(0.01, &mut x).expect("a step");
+                }
+                total += start.elapsed();
+                done += n;
+            }
+            total
+        })
+    });
+    // The same Rust model in the crate's step loop (`Stepper`: time, ledger, the rollback of a
+    // non-finite step), as `sim.step()` runs the scene: the difference to `rust_model` is the
+    // loop's own cost, the difference to `scene` the compiled scene's.
+    group.bench_function("rust_model_stepper", |b| {
+        b.iter_custom(|iters| {
+            let mut total = Duration::ZERO;
+            let mut done = 0;
+            while done < iters {
+                let x: SVector<f64, 4> = model.state(std::f64::consts::FRAC_PI_3, 0.0);
+                let flow = model
+                    .free_flow()
+                    .expect("a flow")
+                    .projected(model.system(), &x, ProjectionOptions::default())
+                    .expect("a projection");
+                let mut stepper = Stepper::new(flow, x, 0.0, 0.01).expect("a stepper");
+                let n = 1000.min(iters - done);
+                let start = Instant::now();
+                for _ in 0..n {
+                    stepper.step().expect("a step");
                 }
                 total += start.elapsed();
                 done += n;

@@ -36,7 +36,7 @@ pub trait Model<V: Vector> {
 
     /// The hidden constraint `φ(x) = ⟨g, H⟩ = G(x) M(x) ∇H(x)` (m entries).
     /// `t1`, `t2` are workspace of the state's length.
-    #[inline]
+    #[inline(always)]
     fn hidden_constraint(&self, x: &V, t1: &mut V, t2: &mut V, out: &mut [V::Real]) {
         if self.constraint().hidden_constraint_direct(x, out) {
             return;

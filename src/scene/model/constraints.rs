@@ -81,6 +81,7 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         self.m
     }
 
+    #[inline(always)]
     fn residual(&self, x: &V, out: &mut [T]) {
         let q = x.as_slice();
         let d = self.dim;
@@ -104,6 +105,7 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
 
     /// `out = G(q) v`, one row at a time (each row written once: no fill, no accumulation in
     /// memory).
+    #[inline(always)]
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [T]) {
         let v = v.as_slice();
         let _timer = self.timer(&self.constraint_counter);
@@ -112,6 +114,7 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
 
     /// `φ = G_q W⁻¹ p`: a scene's `M = [[0, I], [−I, K − R]]` has `q' = ∂H/∂p = W⁻¹ p`, and its
     /// constraints act on positions (see the trait method).
+    #[inline(always)]
     fn hidden_constraint_direct(&self, x: &V, out: &mut [T]) -> bool {
         let x = x.as_slice();
         let (q, p) = x.split_at(x.len() / 2);
@@ -122,6 +125,7 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
 
     /// `M Gᵀλ = (0, −G_qᵀλ)`: the scene's constraints read positions and its `M` is
     /// `[[0, I], [−I, K − R]]` (see the trait's docs).
+    #[inline(always)]
     fn constraint_force_direct(&self, x: &V, lambda: &[T], out: &mut V) -> bool {
         let out = out.as_mut_slice();
         let nq = out.len() / 2;

@@ -331,6 +331,7 @@ impl<T: Real> SceneModel<T> {
 
     /// [`free_flight`](Self::free_flight) with the coefficients of `t` kept in `cache` (computed
     /// only when `t` differs from the last call's).
+    #[inline(always)]
     pub fn free_flight_cached(&self, t: T, x: &mut [T], cache: &mut FlightCache<T>) -> T {
         if cache.t != Some(t) || cache.coefficients.len() != self.flights.len() {
             cache.switch(t, &self.flights);
@@ -377,7 +378,7 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
             .free_flight_cached(h, x.as_mut_slice(), &mut self.cache);
         Ok(())
     }
-    #[inline]
+    #[inline(always)]
     fn step_at(&mut self, ledger: &mut Ledger<T>, h: T, x: &mut V) -> Result<(), StepError> {
         let removed = self
             .model
@@ -406,6 +407,7 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
     fn is_affine_in_momenta(&self) -> bool {
         true
     }
+    #[inline(always)]
     fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
         if self.cache.t.is_none() || self.cache.coefficients.len() != self.model.flights.len() {
             return false;

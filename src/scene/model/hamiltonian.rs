@@ -69,6 +69,7 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for Arc<SceneModel<T>> {
         }
     }
 
+    #[inline(always)]
     fn hessian_apply(&self, x: &V, v: &V, out: &mut V) -> bool {
         let nq = self.dim * self.masses.len();
         let q = &x.as_slice()[..nq];

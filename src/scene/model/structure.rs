@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
     /// `out = M v`, written directly (no zero fill and add).
+    #[inline(always)]
     fn apply(&self, _x: &V, v: &V, out: &mut V) {
         let v = v.as_slice();
         let out = out.as_mut_slice();
@@ -25,6 +26,7 @@ impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
         self.apply_dissipative_and_magnetic(vp, T::one(), op);
     }
 
+    #[inline(always)]
     fn apply_add(&self, _x: &V, v: &V, alpha: T, out: &mut V) {
         let v = v.as_slice();
         let out = out.as_mut_slice();
@@ -96,7 +98,7 @@ impl<T: Real, V: Vector<Real = T>> StructureMatrix<V> for Arc<SceneModel<T>> {
 
 impl<T: Real> SceneModel<T> {
     /// `op += α (−R_pp + J_B) vp`: the damping and magnetic blocks of `M` on the momenta.
-    #[inline]
+    #[inline(always)]
     fn apply_dissipative_and_magnetic(&self, vp: &[T], alpha: T, op: &mut [T]) {
         let d = self.dim;
         if let Some(damping) = &self.damping {
