@@ -38,22 +38,37 @@ fn scene_with(on: usize) -> Scene {
     s
 }
 
-/// Times `iters` steps, recompiling (untimed) every `chunk` steps so that the state stays within
-/// the scene's first seconds whatever criterion's iteration count.
-fn time_steps(scene: &Scene, iters: u64, chunk: u64) -> Duration {
+/// Times `iters` calls of `step`, in chunks of at most `chunk` from a fresh `setup` (untimed),
+/// so that the state stays within the run's first seconds whatever criterion's iteration count.
+fn time_chunked<S>(
+    iters: u64,
+    chunk: u64,
+    mut setup: impl FnMut() -> S,
+    mut step: impl FnMut(&mut S),
+) -> Duration {
     let mut total = Duration::ZERO;
     let mut done = 0;
     while done < iters {
-        let mut sim = scene.compile().expect("compiles").simulation;
+        let mut state = setup();
         let n = chunk.min(iters - done);
         let start = Instant::now();
         for _ in 0..n {
-            sim.step().expect("a step");
+            step(&mut state);
         }
         total += start.elapsed();
         done += n;
     }
     total
+}
+
+/// Times `iters` steps of `scene`, recompiled (untimed) every `chunk` steps.
+fn time_steps(scene: &Scene, iters: u64, chunk: u64) -> Duration {
+    time_chunked(
+        iters,
+        chunk,
+        || scene.compile().expect("compiles").simulation,
+        |sim| sim.step().expect("a step"),
+    )
 }
 
 fn bench(c: &mut Criterion) {
@@ -89,24 +104,20 @@ fn bench(c: &mut Criterion) {
     let chain = PendulumChain::<f64>::uniform(2, links).expect("a chain");
     group.bench_function("built_in_model", |b| {
         b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut done = 0;
-            while done < iters {
-                let mut x: Col<f64> = chain.at_rest(|_| angle);
-                let mut flow = chain
-                    .kick()
-                    .strang(chain.drift())
-                    .projected(chain.system(), &x, chain.projection_options())
-                    .expect("a projection");
-                let n = 1000.min(iters - done);
-                let start = Instant::now();
-                for _ in 0..n {
-                    flow.step(1e-3, &mut x).expect("a step");
-                }
-                total += start.elapsed();
-                done += n;
-            }
-            total
+            time_chunked(
+                iters,
+                1000,
+                || {
+                    let x: Col<f64> = chain.at_rest(|_| angle);
+                    let flow = chain
+                        .kick()
+                        .strang(chain.drift())
+                        .projected(chain.system(), &x, chain.projection_options())
+                        .expect("a projection");
+                    (flow, x)
+                },
+                |(flow, x)| flow.step(1e-3, x).expect("a step"),
+            )
         })
     });
     group.finish();
@@ -128,26 +139,20 @@ fn bench(c: &mut Criterion) {
         b.iter_custom(|iters| time_steps(&scene, iters, 1000))
     });
     let model = DampedPendulum::try_new(0.5).expect("a model");
+    let projected = || {
+        let x: SVector<f64, 4> = model.state(std::f64::consts::FRAC_PI_3, 0.0);
+        let flow = model
+            .free_flow()
+            .expect("a flow")
+            .projected(model.system(), &x, ProjectionOptions::default())
+            .expect("a projection");
+        (flow, x)
+    };
     group.bench_function("rust_model", |b| {
         b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut done = 0;
-            while done < iters {
-                let mut x: SVector<f64, 4> = model.state(std::f64::consts::FRAC_PI_3, 0.0);
-                let mut flow = model
-                    .free_flow()
-                    .expect("a flow")
-                    .projected(model.system(), &x, ProjectionOptions::default())
-                    .expect("a projection");
-                let n = 1000.min(iters - done);
-                let start = Instant::now();
-                for _ in 0..n {
-                    flow.step(0.01, &mut x).expect("a step");
-                }
-                total += start.elapsed();
-                done += n;
-            }
-            total
+            time_chunked(iters, 1000, projected, |(flow, x)| {
+                flow.step(0.01, x).expect("a step")
+            })
         })
     });
     // The same Rust model in the crate's step loop (`Stepper`: time, ledger, the rollback of a
@@ -155,25 +160,15 @@ fn bench(c: &mut Criterion) {
     // loop's own cost, the difference to `scene` the compiled scene's.
     group.bench_function("rust_model_stepper", |b| {
         b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut done = 0;
-            while done < iters {
-                let x: SVector<f64, 4> = model.state(std::f64::consts::FRAC_PI_3, 0.0);
-                let flow = model
-                    .free_flow()
-                    .expect("a flow")
-                    .projected(model.system(), &x, ProjectionOptions::default())
-                    .expect("a projection");
-                let mut stepper = Stepper::new(flow, x, 0.0, 0.01).expect("a stepper");
-                let n = 1000.min(iters - done);
-                let start = Instant::now();
-                for _ in 0..n {
-                    stepper.step().expect("a step");
-                }
-                total += start.elapsed();
-                done += n;
-            }
-            total
+            time_chunked(
+                iters,
+                1000,
+                || {
+                    let (flow, x) = projected();
+                    Stepper::new(flow, x, 0.0, 0.01).expect("a stepper")
+                },
+                |stepper| stepper.step().expect("a step"),
+            )
         })
     });
     group.finish();
