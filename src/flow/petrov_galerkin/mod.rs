@@ -467,6 +467,9 @@ where
             _ => self.system.hamiltonian().energy(&self.start),
         };
         let after_step = self.system.hamiltonian().energy(&self.xe);
+        // `H(x_{n+1})`: the step's end, or the projection's (then evaluated once, for both the
+        // energy the projection removed and the ledger).
+        let mut after = after_step;
         let mut projection = V::Real::zero();
         if self.hidden.is_some() {
             // φ(x_{n+1} + M Gᵀν) = 0: the base is xe, the result goes to x.
@@ -524,7 +527,8 @@ where
                 }
                 return Err(StepError::from_newton("hidden-constraint projection", e));
             }
-            projection = after_step - self.system.hamiltonian().energy(x);
+            after = self.system.hamiltonian().energy(x);
+            projection = after_step - after;
         } else {
             x.copy_from(&self.xe);
         }
@@ -536,7 +540,6 @@ where
         }
         self.end.copy_from(x);
         self.ended = true;
-        let after = self.system.hamiltonian().energy(x);
         let account = DiscreteDissipation {
             before,
             after,
