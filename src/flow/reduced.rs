@@ -42,11 +42,22 @@ pub(crate) struct KeptNewton<T: Real, L> {
     count: usize,
 }
 
+/// The contraction a Schur iteration goes on with when the constraints' curvature enters the
+/// step (the discrete gradient, the Petrov–Galerkin scheme), and below which the kept Newton
+/// matrix is rebuilt. The curvature, `h² Â Σλ∇²g/m` — a taut chain of light links' geometric
+/// stiffness — is outside the iteration's matrix and slows it as the tension grows without
+/// stopping it, while what it hands over to costs a difference Jacobian (a residual per column
+/// group) and a sparse LU that fills in on a long chain: 0.5 instead of the default 0.1 took a
+/// Petrov–Galerkin step on a 1000-link chain of 1 g links from 11.7 to 2.6 ms, a discrete
+/// gradient step on 3000 links from 3.11 to 2.06 ms (docs/method.md §5c, §11).
+const CURVED_MAX_CONTRACTION: f64 = 0.5;
+
 impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
     /// The solver for `form` with `m` constraints. Its Jacobian pattern: the diagonal, `B`,
     /// `∇²V` (dense without a declared pattern) in the `δq` block, `G_qᵀ` in the `ν` columns
     /// and `G_q` in the constraint rows (dense without entries); with `curvature`, also the
-    /// pattern of `Σᵢ νᵢ ∇²gᵢ` (the positions each constraint couples) in the `δq` block.
+    /// pattern of `Σᵢ νᵢ ∇²gᵢ` (the positions each constraint couples) in the `δq` block, and
+    /// the looser contraction bound [`CURVED_MAX_CONTRACTION`].
     ///
     /// With a `k × k` stage matrix `stage` the system has `k` stages (see [`SchurIteration`]):
     /// `k (n_q + m)` unknowns, unknown `e` of stage `i` at `e k + i`, and the pattern above
@@ -100,6 +111,9 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
         // multiplier systems fits those, not this one).
         let mut options = options.with_solver(crate::linalg::SolverChoice::Auto);
         options.broyden = false;
+        if curvature {
+            options.max_contraction = T::lit(CURVED_MAX_CONTRACTION);
+        }
         let newton = Newton::with_pattern(unknowns, options, Some(&pattern))?;
         let schur = SchurIteration::new(
             &form.inverse_mass,

@@ -161,17 +161,11 @@ where
             )?),
             Case::NonDegenerate => None,
         };
-        // The Schur iteration goes on while it contracts by 0.5, as the Petrov–Galerkin
-        // scheme's: an iteration costs a residual and two block products, what it hands over to
-        // a difference Jacobian and a sparse LU, and a taut chain's geometric stiffness (outside
-        // its matrix) slows it without stopping it.
-        let mut reduced = options.newton;
-        reduced.max_contraction = <V::Real as crate::real::Real>::lit(0.5);
         let mechanical = match MechanicalForm::of(&system, system.hamiltonian(), x0)? {
             Some(form) if m > 0 => Some(Reduced::new(
                 form,
                 m,
-                reduced,
+                options.newton,
                 true,
                 &[<V::Real as crate::real::Real>::lit(0.5)],
             )?),

@@ -245,20 +245,12 @@ where
             _ => None,
         };
         let (newton, mechanical) = match form {
-            Some(form) => {
-                // A Schur iteration costs one residual and two block products; what it hands
-                // over to costs a difference Jacobian (a residual per column group, each `s`
-                // gradients) and a sparse LU. It goes on while it contracts by 0.5: the
-                // constraints' curvature, `h² Â λ/m` — a taut chain of light links' geometric
-                // stiffness, 0.1–0.3 on a 1000-link chain of 1 g links at h = 1e-4 — is
-                // outside its matrix (docs/method.md §5c: that chain 11.7 → 2.6 ms a step).
-                let mut reduced = newton_options;
-                reduced.max_contraction = V::Real::lit(0.5);
-                (
-                    None,
-                    Some(Reduced::new(form, m, reduced, true, &tables.ahat)?),
-                )
-            }
+            // With the constraints' curvature: the Schur iteration goes on while it contracts by
+            // 0.5 (`reduced::CURVED_MAX_CONTRACTION`).
+            Some(form) => (
+                None,
+                Some(Reduced::new(form, m, newton_options, true, &tables.ahat)?),
+            ),
             None => {
                 if k * (n + m) > DENSE_MAX_UNKNOWNS {
                     return Err(SetupError::Scheme {
