@@ -30,6 +30,10 @@ pub struct BandedLu<T> {
     /// upper`, `ld = 2·lower + upper + 1`.
     ab: Vec<T>,
     ipiv: Vec<usize>,
+    /// `1 / u_jj`: the back substitution multiplies by it, which takes a division (about
+    /// 13–20 cycles of latency against 4 for a multiplication) off its chain of dependent
+    /// rows — on a tridiagonal system the division is most of that chain.
+    inv_pivot: Vec<T>,
     /// The first entry added outside the band or the matrix, reported by `factor`.
     bad: Option<LinearSolveError>,
     factored: bool,
@@ -49,6 +53,7 @@ impl<T: Real> BandedLu<T> {
             upper,
             ab: vec![T::zero(); ld * k],
             ipiv: vec![0; k],
+            inv_pivot: vec![T::zero(); k],
             bad: None,
             factored: false,
         }
@@ -187,11 +192,15 @@ impl<T: Real> LinearSolver<T> for BandedLu<T> {
             }
         }
         check_pivots(k, |j| self.ab[j * ld + kv])?;
+        for (j, inv) in self.inv_pivot.iter_mut().enumerate() {
+            *inv = T::one() / self.ab[j * ld + kv];
+        }
         self.factored = true;
         Ok(())
     }
 
-    /// `x = U⁻¹ L⁻¹ P b` in place (LAPACK `gbtrs`, no transpose).
+    /// `x = U⁻¹ L⁻¹ P b` in place (LAPACK `gbtrs`, no transpose; multiplying by the stored
+    /// reciprocals of the pivots where `gbtrs` divides).
     fn solve_in_place(&mut self, b: &mut [T]) -> Result<(), LinearSolveError> {
         if !self.factored {
             return Err(LinearSolveError::NotFactored);
@@ -214,7 +223,7 @@ impl<T: Real> LinearSolver<T> for BandedLu<T> {
         }
         for j in (0..k).rev() {
             let col = j * ld + kv;
-            let t = b[j] / self.ab[col];
+            let t = b[j] * self.inv_pivot[j];
             b[j] = t;
             for i in 1..=kv.min(j) {
                 b[j - i] = b[j - i] - self.ab[col - i] * t;
