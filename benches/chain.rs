@@ -11,10 +11,15 @@
 //! ```text
 //! LIEFLOW_FIGURES=docs/figures cargo bench --bench chain
 //! ```
+//!
+//! Last, the Newton matrix of a chain's reduced implicit step, `[[A, C], [G, 0]]` with all
+//! positions before all multipliers (3000 planar links), factored and solved by faer's sparse
+//! LU and by `AutoLu` built from the pattern (the band solver on the reverse Cuthill–McKee
+//! renumbering), in the same process.
 
 use criterion::{Criterion, criterion_group};
 use faer::Col;
-use lieflow::linalg::{SolverChoice, SolverKind};
+use lieflow::linalg::{AutoLu, LinearSolver, Sink, SolverChoice, SolverKind, Structure};
 use lieflow::models::PendulumChain;
 use lieflow::prelude::*;
 use std::hint::black_box;
@@ -472,8 +477,89 @@ fn plot(
 
 criterion_group!(benches, bench);
 
+/// The entries of a planar `n`-link chain's reduced Newton matrix in block order: `A = I` plus
+/// the curvature couplings of the bodies a rod joins, `C = W⁻¹G_qᵀ`, `G` (rod `a` joins bodies
+/// `a − 1` and `a`, body −1 the anchor).
+fn kkt_entries(n: usize) -> Vec<(usize, usize, f64)> {
+    let nq = 2 * n;
+    let dir = [0.5, -0.866];
+    let mut e: Vec<(usize, usize, f64)> = (0..nq).map(|i| (i, i, 1.0 + 1e-3)).collect();
+    for a in 0..n {
+        let bodies = [a.checked_sub(1), Some(a)];
+        for (side, body) in bodies.iter().enumerate() {
+            let Some(b) = *body else { continue };
+            let sign = if side == 0 { -1.0 } else { 1.0 };
+            for (c, &d) in dir.iter().enumerate() {
+                let (q, row) = (2 * b + c, nq + a);
+                e.push((row, q, sign * d));
+                e.push((q, row, 1e3 * sign * d));
+                if let Some(other) = bodies[1 - side] {
+                    e.push((q, 2 * other + c, -1e-3));
+                }
+            }
+        }
+    }
+    e
+}
+
+/// Median ns of one assembly, factorization and solve of `lin` over 9 runs.
+fn time_kkt(lin: &mut AutoLu<f64>, entries: &[(usize, usize, f64)], k: usize) -> f64 {
+    let rhs: Vec<f64> = (0..k).map(|i| (i % 7) as f64 - 3.0).collect();
+    let mut x = rhs.clone();
+    let mut once = |lin: &mut AutoLu<f64>| {
+        lin.clear();
+        for &(r, c, v) in entries {
+            lin.add(r, c, v);
+        }
+        lin.factor().unwrap();
+        x.copy_from_slice(&rhs);
+        lin.solve_in_place(&mut x).unwrap();
+        black_box(&x);
+    };
+    once(lin);
+    let mut runs: Vec<f64> = (0..9)
+        .map(|_| {
+            let start = Instant::now();
+            for _ in 0..20 {
+                once(lin);
+            }
+            start.elapsed().as_nanos() as f64 / 20.0
+        })
+        .collect();
+    runs.sort_by(f64::total_cmp);
+    runs[4]
+}
+
+fn kkt_summary() {
+    let n = 3000;
+    let k = 3 * n;
+    let entries = kkt_entries(n);
+    let pattern: Vec<(usize, usize)> = entries.iter().map(|&(r, c, _)| (r, c)).collect();
+    let mut sparse = AutoLu::<f64>::with_structure(
+        k,
+        Structure::of_pattern(&pattern),
+        SolverChoice::Force(SolverKind::Sparse),
+    )
+    .unwrap();
+    let mut auto = AutoLu::<f64>::with_pattern(k, &pattern, SolverChoice::Auto).unwrap();
+    let (ts, ta) = (
+        time_kkt(&mut sparse, &entries, k),
+        time_kkt(&mut auto, &entries, k),
+    );
+    let band = match &auto {
+        AutoLu::Reordered(r) => format!("renumbered band {:?}", r.bandwidth()),
+        other => format!("{:?}", other.kind()),
+    };
+    println!(
+        "\nchain Newton matrix, {n} links ({k} unknowns, block order), assemble + factor + solve:\n\
+         sparse LU {ts:.0} ns, AutoLu from the pattern ({band}) {ta:.0} ns: {:.1}x",
+        ts / ta
+    );
+}
+
 fn main() {
     benches();
     Criterion::default().configure_from_args().final_summary();
     scaling_summary();
+    kkt_summary();
 }

@@ -184,3 +184,73 @@ fn auto_picks_the_band_solver_for_narrow_bands_and_diagonals() {
             .unwrap();
     assert_eq!(forced.kind(), SolverKind::Banded);
 }
+
+/// A chain's reduced Newton matrix `[[A, C], [G, 0]]` in block order — `n` bodies of two
+/// coordinates, rod `a` between bodies `a − 1` and `a` — has a band as wide as the chain, and
+/// `AutoLu` built from its pattern renumbers it into a narrow band: same solution as dense LU
+/// (the `[G, 0]` rows need pivoting), and a singular matrix is a typed error.
+#[test]
+fn auto_renumbers_a_chain_in_block_order_into_a_band() {
+    let n = 60;
+    let (nq, k) = (2 * n, 3 * n);
+    let mut entries: Vec<(usize, usize, f64)> = Vec::new();
+    for i in 0..nq {
+        entries.push((i, i, 1.0 + 0.1 * noise(i, i)));
+    }
+    for a in 0..n {
+        for b in [a.wrapping_sub(1), a] {
+            if b >= n {
+                continue;
+            }
+            for c in 0..2 {
+                let (q, row) = (2 * b + c, nq + a);
+                entries.push((row, q, noise(row, q)));
+                entries.push((q, row, noise(q, row)));
+                // Curvature: the positions a rod couples.
+                for c2 in 0..2 {
+                    let other = 2 * a.wrapping_sub(1).min(a) + c2;
+                    if other < nq && other != q {
+                        entries.push((q, other, 0.05 * noise(q, other)));
+                    }
+                }
+            }
+        }
+    }
+    let pattern: Vec<(usize, usize)> = entries.iter().map(|&(r, c, _)| (r, c)).collect();
+    assert!(matches!(
+        Structure::of_pattern(&pattern),
+        Structure::Banded { lower, .. } if lower >= n
+    ));
+    let mut auto = AutoLu::<f64>::with_pattern(k, &pattern, SolverChoice::Auto).unwrap();
+    assert!(matches!(auto, AutoLu::Reordered(_)), "{:?}", auto.kind());
+    let mut dense = DenseLu::<f64>::with_dim(k).unwrap();
+    for &(r, c, v) in &entries {
+        auto.add(r, c, v);
+        dense.add(r, c, v);
+    }
+    auto.factor().unwrap();
+    dense.factor().unwrap();
+    let b: Vec<f64> = (0..k).map(|i| noise(i, 3 * k)).collect();
+    let (mut xa, mut xd) = (b.clone(), b.clone());
+    auto.solve_in_place(&mut xa).unwrap();
+    dense.solve_in_place(&mut xd).unwrap();
+    let scale = 1.0 + xd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = xa
+        .iter()
+        .zip(&xd)
+        .fold(0.0f64, |m, (u, v)| m.max((u - v).abs()));
+    // Both backward stable: they agree to the conditioning times a few k ε.
+    assert!(
+        diff <= 1e-10 * scale,
+        "renumbered band and dense differ by {diff:e}"
+    );
+    // A rod whose row is all zero: singular.
+    auto.clear();
+    for &(r, c, v) in &entries {
+        auto.add(r, c, if r == nq + 7 { 0.0 } else { v });
+    }
+    match auto.factor() {
+        Err(LinearSolveError::Singular { .. }) => {}
+        other => panic!("expected a singular matrix, got {other:?}"),
+    }
+}

@@ -1,4 +1,4 @@
-use super::{BandedLu, DenseLu, LinearSolver, Sink, SparseLu, StackLu, Structure};
+use super::{BandedLu, DenseLu, LinearSolver, ReorderedBanded, Sink, SparseLu, StackLu, Structure};
 use crate::error::LinearSolveError;
 use crate::real::Real;
 
@@ -39,6 +39,11 @@ pub enum SolverChoice {
 ///   entries: [`SparseLu`] — dense LU costs `2k³/3` flops, a tree-like sparse LU `O(nnz)`;
 /// - otherwise [`DenseLu`].
 ///
+/// Created from a pattern ([`LinearSolver::with_pattern`]) whose natural order would take the
+/// sparse or dense backend, it first tries the reverse Cuthill–McKee renumbering: when that
+/// puts the pattern in a band of at most [`BANDED_MAX`] diagonals, [`ReorderedBanded`] —
+/// a chain's reduced Newton matrix, positions before multipliers, becomes banded.
+///
 /// [`SolverChoice::Force`] takes the named backend (a stack solver larger than 8 is a
 /// [`LinearSolveError::TooLarge`]). Created without structure ([`LinearSolver::with_dim`]) it
 /// assumes a dense matrix.
@@ -55,6 +60,8 @@ pub enum AutoLu<T: Real + faer::traits::RealField + nalgebra::Scalar> {
     Sparse(SparseLu<T>),
     /// Band storage.
     Banded(BandedLu<T>),
+    /// Band storage of the renumbered unknowns.
+    Reordered(ReorderedBanded<T>),
 }
 
 /// Largest system [`AutoLu`] solves on the stack.
@@ -99,6 +106,7 @@ macro_rules! each {
             AutoLu::Dense($s) => $e,
             AutoLu::Sparse($s) => $e,
             AutoLu::Banded($s) => $e,
+            AutoLu::Reordered($s) => $e,
         }
     };
 }
@@ -130,6 +138,25 @@ impl<T: Real + faer::traits::RealField + nalgebra::Scalar> LinearSolver<T> for A
             SolverKind::Sparse => AutoLu::Sparse(SparseLu::with_dim(k)?),
             SolverKind::Banded => AutoLu::Banded(BandedLu::with_structure(k, structure, choice)?),
         })
+    }
+
+    fn with_pattern(
+        k: usize,
+        pattern: &[(usize, usize)],
+        choice: SolverChoice,
+    ) -> Result<Self, LinearSolveError> {
+        let structure = Structure::of_pattern(pattern);
+        if choice == SolverChoice::Auto
+            && matches!(
+                Self::auto_kind(k, structure),
+                SolverKind::Sparse | SolverKind::Dense
+            )
+            && k > SPARSE_MIN_DIM
+            && let Some(solver) = ReorderedBanded::for_pattern(k, pattern, BANDED_MAX)
+        {
+            return Ok(AutoLu::Reordered(solver));
+        }
+        Self::with_structure(k, structure, choice)
     }
 
     fn dim(&self) -> usize {

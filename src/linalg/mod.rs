@@ -20,6 +20,8 @@ mod any_lu;
 mod banded_lu;
 mod coloring;
 mod dense_lu;
+mod ordering;
+mod reordered_banded;
 mod sparse_lu;
 mod stack_lu;
 
@@ -27,6 +29,7 @@ pub use any_lu::{AutoLu, BANDED_MAX, SolverChoice, SolverKind};
 pub use banded_lu::BandedLu;
 pub(crate) use coloring::ColumnGroups;
 pub use dense_lu::DenseLu;
+pub use reordered_banded::ReorderedBanded;
 pub use sparse_lu::SparseLu;
 pub use stack_lu::StackLu;
 
@@ -115,6 +118,17 @@ pub trait LinearSolver<T: Real>: Sized + Send + Sink<T> {
     ) -> Result<Self, LinearSolveError> {
         let _ = (structure, choice);
         Self::with_dim(k)
+    }
+    /// Creates a solver for `k × k` systems with this sparsity `pattern` of `(row, col)`
+    /// positions (duplicates allowed), which a solver may renumber ([`AutoLu`] does, to put a
+    /// pattern that is narrow only in another order into a band). Default:
+    /// [`with_structure`](Self::with_structure) of [`Structure::of_pattern`].
+    fn with_pattern(
+        k: usize,
+        pattern: &[(usize, usize)],
+        choice: SolverChoice,
+    ) -> Result<Self, LinearSolveError> {
+        Self::with_structure(k, Structure::of_pattern(pattern), choice)
     }
     /// The dimension `k`.
     fn dim(&self) -> usize;

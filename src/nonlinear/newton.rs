@@ -73,20 +73,14 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             return Err(crate::LinearSolveError::OutOfBounds { row, col, dim: k });
         }
         let groups = pattern.map(|p| ColumnGroups::new(k, p));
-        let structure = match (&groups, pattern) {
-            (Some(g), Some(p)) => match Structure::of_pattern(p) {
-                Structure::Banded { lower, upper, .. } => Structure::Banded {
-                    lower,
-                    upper,
-                    nnz: g.entries.len(),
-                },
-                other => other,
-            },
-            _ => Structure::Dense,
+        // The solver from the pattern itself, which it may renumber into a band.
+        let lin = match pattern {
+            Some(p) => L::with_pattern(k, p, options.solver)?,
+            None => L::with_structure(k, Structure::Dense, options.solver)?,
         };
         Ok(Self {
             k,
-            lin: L::with_structure(k, structure, options.solver)?,
+            lin,
             mark: if groups.is_some() {
                 vec![usize::MAX; k]
             } else {
