@@ -98,6 +98,30 @@ pub enum LinearSolveError {
     },
 }
 
+impl LinearSolveError {
+    /// The error of a matrix whose columns (and rows) a solver renumbered, in the caller's
+    /// numbering: `old(new)` maps a singular pivot's column and a non-finite entry's row and
+    /// column back.
+    pub(crate) fn renumbered(self, old: impl Fn(usize) -> usize) -> Self {
+        match self {
+            LinearSolveError::Singular {
+                pivot,
+                magnitude,
+                ratio,
+            } => LinearSolveError::Singular {
+                pivot: old(pivot),
+                magnitude,
+                ratio,
+            },
+            LinearSolveError::NonFinite { row, col } => LinearSolveError::NonFinite {
+                row: old(row),
+                col: old(col),
+            },
+            other => other,
+        }
+    }
+}
+
 /// Newton's method failed to solve a nonlinear system. `E` is the error of the problem's
 /// residual evaluation ([`NonlinearProblem::Error`](crate::nonlinear::NonlinearProblem::Error));
 /// the default, [`Infallible`](core::convert::Infallible), is Newton's own failures only (as

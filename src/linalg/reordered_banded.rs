@@ -45,27 +45,6 @@ impl<T: Real> ReorderedBanded<T> {
     pub fn bandwidth(&self) -> (usize, usize) {
         self.lu.bandwidth()
     }
-
-    /// An error of the renumbered matrix in the original numbering.
-    fn original(&self, e: LinearSolveError) -> LinearSolveError {
-        let old = |i: usize| self.order.get(i).copied().unwrap_or(i);
-        match e {
-            LinearSolveError::Singular {
-                pivot,
-                magnitude,
-                ratio,
-            } => LinearSolveError::Singular {
-                pivot: old(pivot),
-                magnitude,
-                ratio,
-            },
-            LinearSolveError::NonFinite { row, col } => LinearSolveError::NonFinite {
-                row: old(row),
-                col: old(col),
-            },
-            other => other,
-        }
-    }
 }
 
 impl<T: Real> Sink<T> for ReorderedBanded<T> {
@@ -108,11 +87,13 @@ impl<T: Real> LinearSolver<T> for ReorderedBanded<T> {
     }
 
     fn factor(&mut self) -> Result<(), LinearSolveError> {
-        self.lu.factor().map_err(|e| self.original(e))
+        let order = &self.order;
+        self.lu
+            .factor()
+            .map_err(|e| e.renumbered(|i| order.get(i).copied().unwrap_or(i)))
     }
 
     fn solve_in_place(&mut self, rhs: &mut [T]) -> Result<(), LinearSolveError> {
-        let k = self.order.len();
         for (w, &old) in self.work.iter_mut().zip(&self.order) {
             *w = rhs[old];
         }
@@ -120,7 +101,6 @@ impl<T: Real> LinearSolver<T> for ReorderedBanded<T> {
         for (&old, &w) in self.order.iter().zip(&self.work) {
             rhs[old] = w;
         }
-        debug_assert!(rhs.len() >= k);
         Ok(())
     }
 }

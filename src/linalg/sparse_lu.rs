@@ -255,20 +255,8 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for SparseLu<T> {
         })?;
         let u = self.lu.u_factor_unsorted();
         // U's pivot is the last entry of each (permuted) column.
-        check_pivots(k, |j| u.val_of_col(j).last().copied().unwrap_or(T::zero())).map_err(|e| {
-            match e {
-                LinearSolveError::Singular {
-                    pivot,
-                    magnitude,
-                    ratio,
-                } => LinearSolveError::Singular {
-                    pivot: symbolic.col_perm().arrays().0[pivot],
-                    magnitude,
-                    ratio,
-                },
-                other => other,
-            }
-        })?;
+        check_pivots(k, |j| u.val_of_col(j).last().copied().unwrap_or(T::zero()))
+            .map_err(|e| e.renumbered(|j| symbolic.col_perm().arrays().0[j]))?;
         self.factored = true;
         Ok(())
     }
