@@ -35,6 +35,20 @@
 //! with Newton on the full, kept `J` from where the iteration stands, and the Schur iteration
 //! pauses for a number of steps that doubles with each consecutive failure.
 //!
+//! **Relaxation.** The error of the iteration propagates as `e ← T e`, `T = −Ĵ⁻¹(J − Ĵ)`, and
+//! each update `Δ` with it. On a taut chain `J − Ĵ` is the constraints' curvature, and `T` is
+//! similar to `−P W⁻¹ Σνᵢ∇²gᵢ` on the tangent space (`P` the projection of `Ĵ⁻¹`): a
+//! geometric stiffness whose spectrum lies in `[μ, 0]`, `μ < 0` growing with the tension, so
+//! the updates alternate and shrink by `|μ|` (0.24 on a hanging chain of 3000 links of 1 g at
+//! `h = 10⁻⁴`). The relaxed update `ω Δ` propagates the error by `1 − ω + ω t` for each `t` in
+//! the spectrum; for a spectrum in the real interval between `0` and `μ` (of either sign) the
+//! factor that minimises the largest of them is `ω = 2/(2 − μ)`, with rate `|μ|/(2 − μ)`
+//! (0.24 → 0.11: Hageman & Young, *Applied Iterative Methods*, 1981, ch. 2, the extrapolated
+//! basic iterative method with `m = μ`, `M = 0`). `μ` is estimated from the last two unrelaxed
+//! position updates, `Δₖ₊₁·Δₖ / Δₖ·Δₖ = 1 − ωₖ + ωₖ μ` (a power iteration on the slowest mode),
+//! while the residual is above its noise, and clamped to `|μ| ≤ ½`. When the spectrum is
+//! complex (the stage coupling of a collocation step) the estimate stays small and `ω ≈ 1`.
+//!
 //! **Stages.** A collocation-type step with `k` stages (the Petrov–Galerkin scheme) has the
 //! same blocks on `k` copies of the positions and multipliers, coupled through a `k × k` stage
 //! matrix `Â`: position `d` of stage `i` at `d k + i`, constraint `a` of stage `i` at `a k + i`,
@@ -78,6 +92,10 @@ pub(crate) fn position_rows<V, C>(
     constraint.jacobian_apply(y, t, out);
 }
 
+/// The largest |μ| taken for the relaxation `ω = 2/(2 − μ)` (`ω ∈ [0.8, 4/3]`): an estimate
+/// beyond it is more likely noise than a mode the iteration would not contract anyway.
+const MAX_MU: f64 = 0.5;
+
 /// The longest pause (in steps) after which the Schur iteration is tried again.
 const MAX_PAUSE: usize = 1024;
 
@@ -119,6 +137,8 @@ pub(crate) struct SchurIteration<T: Real, L> {
     /// Steps left before the next try, and the pause the next failure sets.
     pause: usize,
     backoff: usize,
+    /// The last unrelaxed position update `Δq`.
+    last: Vec<T>,
 }
 
 impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
@@ -184,6 +204,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             col: vec![T::zero(); m],
             pause: 0,
             backoff: 1,
+            last: vec![T::zero(); nq],
         })
     }
 
@@ -282,6 +303,9 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         let mut grew = false;
         self.start.copy_from_slice(z);
         let r_start = r;
+        // The relaxation factor ω and |Δq|² of the last unrelaxed update (`last`).
+        let mut omega = one;
+        let mut last_n2 = T::zero();
         for iteration in 0..opts.max_iterations {
             // u = D⁻¹F₁;  S Δν = F₂ − G u;  Δq = −u − D⁻¹C Δν.
             self.u.copy_from_slice(&self.f[..nq]);
@@ -301,6 +325,22 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             apply_blocks(self.k, &self.inv_d, &mut self.block, &mut self.dz[..nq]);
             for (d, &u) in self.dz[..nq].iter_mut().zip(&self.u) {
                 *d = -(u + *d);
+            }
+            // Relaxed by the iteration's own spectrum, estimated from the last two updates
+            // while the residual is above its noise (module docs).
+            let d = &self.dz[..nq];
+            let n2 = ops::dot(d, d);
+            if iteration > 0 && last_n2 > T::zero() && r > noise {
+                let ratio = ops::dot(d, &self.last) / last_n2;
+                let mu = (one + (ratio - one) / omega)
+                    .max(-T::lit(MAX_MU))
+                    .min(T::lit(MAX_MU));
+                omega = T::lit(2.0) / (T::lit(2.0) - mu);
+            }
+            self.last.copy_from_slice(d);
+            last_n2 = n2;
+            if omega != one {
+                self.dz.iter_mut().for_each(|v| *v = *v * omega);
             }
             ops::axpy(z, one, &self.dz);
             report.iterations += 1;
@@ -473,3 +513,7 @@ fn apply_blocks<T: Real>(k: usize, inv_d: &[T], block: &mut [T], v: &mut [T]) {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "schur_tests.rs"]
+mod tests;

@@ -1,0 +1,87 @@
+//! The Schur iteration on a linear problem whose left-out block is known: the relaxation
+//! reaches the rate theory gives for the spectrum (module docs of `schur`).
+
+use super::{ReducedBlocks, SchurIteration};
+use crate::error::StepError;
+use crate::linalg::DenseLu;
+use crate::nonlinear::{NewtonOptions, NonlinearProblem, SolveReport};
+
+/// `F(z) = J z − b` on `(q₁, q₂, q₃, ν)`, `J = [[I + E, Gᵀ], [G, 0]]`, `G = [0, 0, 1]`,
+/// `E = diag(e, e, 0)`: the iteration's matrix has `I` where `J` has `I + E` (as a taut chain's
+/// has no geometric stiffness), so its error propagates by `−e` on the tangent directions.
+struct Linear {
+    e: f64,
+    b: [f64; 4],
+}
+
+impl NonlinearProblem<f64> for Linear {
+    type Error = StepError;
+    fn dim(&self) -> usize {
+        4
+    }
+    fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+        f[0] = (1.0 + self.e) * z[0] - self.b[0];
+        f[1] = (1.0 + self.e) * z[1] - self.b[1];
+        f[2] = z[2] + z[3] - self.b[2];
+        f[3] = z[2] - self.b[3];
+        Ok(())
+    }
+}
+
+impl ReducedBlocks<f64> for Linear {
+    fn multiplier_columns_add(&mut self, v: &[f64], out: &mut [f64]) {
+        out[2] += v[0];
+    }
+    fn constraint_rows(&mut self, v: &[f64], out: &mut [f64]) {
+        out[0] = v[2];
+    }
+}
+
+/// Iterations to the root from `z = 0`, and the largest error there.
+fn solve(e: f64) -> (usize, f64) {
+    let mut options = NewtonOptions::default();
+    options.max_contraction = 0.5;
+    options.max_iterations = 60;
+    let mut schur: SchurIteration<f64, DenseLu<f64>> =
+        SchurIteration::new(&[1.0; 3], &[], 1, Some(&[(0, 2)]), options, &[0.5]).unwrap();
+    schur.begin(0.1);
+    assert!(schur.ready());
+    let b = [1.0, -0.5, 0.5, 0.25];
+    let mut problem = Linear { e, b };
+    let mut z = [0.0; 4];
+    let mut report = SolveReport::default();
+    assert!(schur.solve(&mut problem, &mut z, &mut report).unwrap());
+    let exact = [b[0] / (1.0 + e), b[1] / (1.0 + e), b[3], b[2] - b[3]];
+    let err = z
+        .iter()
+        .zip(&exact)
+        .fold(0.0f64, |a, (z, x)| a.max((z - x).abs()));
+    (report.iterations, err)
+}
+
+/// `e = 0.4`: the unrelaxed iteration contracts by 0.4 and needs ≥ 35 iterations from a unit
+/// residual to `~7e-15` (ln(1.4e14)/ln 2.5); with `ω = 2/(2 + 0.4)` the rate is `0.4/2.4 = 1/6`
+/// once `μ` is estimated (after two updates): ≤ 2 + ln(1.4e14)/ln 6 ≈ 20.
+#[test]
+fn relaxation_contracts_an_alternating_error_at_the_optimal_rate() {
+    let (iterations, err) = solve(0.4);
+    assert!(err <= 1e-14, "error {err:e}");
+    assert!(iterations <= 24, "{iterations} iterations");
+}
+
+/// `e = −0.4` (a spectrum of the other sign, `+0.4`): `ω = 2/1.6` over-relaxes, rate `0.25`:
+/// ≤ 2 + ln(1.4e14)/ln 4 ≈ 26 against the unrelaxed ≥ 35.
+#[test]
+fn relaxation_contracts_a_monotone_error_faster() {
+    let (iterations, err) = solve(-0.4);
+    assert!(err <= 1e-14, "error {err:e}");
+    assert!(iterations <= 29, "{iterations} iterations");
+}
+
+/// Nothing left out (`e = 0`): the first update is the root.
+#[test]
+fn an_exact_iteration_matrix_converges_at_once() {
+    let (iterations, err) = solve(0.0);
+    assert!(err <= 1e-15, "error {err:e}");
+    assert!(iterations <= 2, "{iterations} iterations");
+}
