@@ -39,9 +39,11 @@ impl ReducedBlocks<f64> for Linear {
 
 /// Iterations to the root from `z = 0`, and the largest error there.
 fn solve(e: f64) -> (usize, f64) {
-    let mut options = NewtonOptions::default();
-    options.max_contraction = 0.5;
-    options.max_iterations = 60;
+    let options = NewtonOptions {
+        max_contraction: 0.5,
+        max_iterations: 60,
+        ..NewtonOptions::default()
+    };
     let mut schur: SchurIteration<f64, DenseLu<f64>> =
         SchurIteration::new(&[1.0; 3], &[], 1, Some(&[(0, 2)]), options, &[0.5]).unwrap();
     schur.begin(0.1);
