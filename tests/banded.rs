@@ -32,7 +32,9 @@ fn entry(kl: usize, ku: usize) -> impl Fn(usize, usize) -> f64 {
 fn banded_lu_matches_dense_lu() {
     for &(k, kl, ku) in &[
         (1, 0, 0),
+        (2, 1, 1),
         (7, 1, 1),
+        (1000, 1, 1),
         (50, 2, 1),
         (200, 1, 3),
         (300, 4, 4),

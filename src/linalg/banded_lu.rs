@@ -68,6 +68,41 @@ impl<T: Real> BandedLu<T> {
     fn ld(&self) -> usize {
         2 * self.lower + self.upper + 1
     }
+
+    /// The solve of a factored tridiagonal matrix (`lower = upper = 1`, `k ≥ 2`): the same
+    /// operations in the same order as the general loops (the same result to the bit), with the
+    /// row just computed carried in a register instead of stored and loaded again, which took a
+    /// store-to-load forwarding off the chain of dependent rows in both sweeps.
+    fn solve_tridiagonal(&self, b: &mut [T]) {
+        // ld = 4, kv = 2: L's multiplier of row j at ab[4j + 3], U[j, j+1] at ab[4(j+1) + 1],
+        // U[j, j+2] (the fill of an interchange) at ab[4(j+2)].
+        let k = b.len();
+        let ab = &self.ab;
+        let mut cur = b[0];
+        for j in 0..k - 1 {
+            let mut next = b[j + 1];
+            if self.ipiv[j] != j {
+                core::mem::swap(&mut cur, &mut next);
+            }
+            b[j] = cur;
+            cur = next - ab[4 * j + 3] * cur;
+        }
+        b[k - 1] = cur;
+        let (mut x1, mut x2) = (T::zero(), T::zero());
+        for j in (0..k).rev() {
+            let mut s = b[j];
+            if j + 2 < k {
+                s = s - ab[4 * (j + 2)] * x2;
+            }
+            if j + 1 < k {
+                s = s - ab[4 * (j + 1) + 1] * x1;
+            }
+            let x = s * self.inv_pivot[j];
+            b[j] = x;
+            x2 = x1;
+            x1 = x;
+        }
+    }
 }
 
 impl<T: Real> Sink<T> for BandedLu<T> {
@@ -206,9 +241,13 @@ impl<T: Real> LinearSolver<T> for BandedLu<T> {
             return Err(LinearSolveError::NotFactored);
         }
         let (k, kl) = (self.k, self.lower);
+        let b = &mut b[..k];
+        if kl == 1 && self.upper == 1 {
+            self.solve_tridiagonal(b);
+            return Ok(());
+        }
         let kv = kl + self.upper;
         let ld = self.ld();
-        let b = &mut b[..k];
         for j in 0..k.saturating_sub(1) {
             let km = kl.min(k - 1 - j);
             let l = self.ipiv[j];
