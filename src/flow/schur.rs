@@ -369,10 +369,11 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             let lenient = iteration == 0 && finite && r_new <= T::lit(FIRST_GROWTH) * r;
             let improved = finite && r_new < r;
             if !(improved || lenient) {
-                // Worse (or not finite): back to the last iterate, whose residual Newton
-                // evaluates again.
+                // Worse: back to the last iterate, whose residual Newton evaluates again. Not
+                // finite: subtracting the update may not give the last iterate back (an
+                // overflowed entry stays infinite), so Newton starts where the solve began.
                 ops::axpy(z, -one, &self.dz);
-                self.hand_over(z, grew && r > r_start);
+                self.hand_over(z, !finite || (grew && r > r_start));
                 return Ok(false);
             }
             report.residual = raw;

@@ -63,21 +63,22 @@ fn solve(e: f64) -> (usize, f64) {
 
 /// `e = 0.4`: the unrelaxed iteration contracts by 0.4 and needs ≥ 35 iterations from a unit
 /// residual to `~7e-15` (ln(1.4e14)/ln 2.5); with `ω = 2/(2 + 0.4)` the rate is `0.4/2.4 = 1/6`
-/// once `μ` is estimated (after two updates): ≤ 2 + ln(1.4e14)/ln 6 ≈ 20.
+/// once `μ` is estimated (after two updates): ≤ 2 + ln(1.4e14)/ln 6 ≈ 20.1. A wrong estimate
+/// (the relaxed update kept as the last one, or `μ` without the division by `ω`) takes more.
 #[test]
 fn relaxation_contracts_an_alternating_error_at_the_optimal_rate() {
     let (iterations, err) = solve(0.4);
     assert!(err <= 1e-14, "error {err:e}");
-    assert!(iterations <= 24, "{iterations} iterations");
+    assert!(iterations <= 21, "{iterations} iterations");
 }
 
 /// `e = −0.4` (a spectrum of the other sign, `+0.4`): `ω = 2/1.6` over-relaxes, rate `0.25`:
-/// ≤ 2 + ln(1.4e14)/ln 4 ≈ 26 against the unrelaxed ≥ 35.
+/// ≤ 2 + ln(1.4e14)/ln 4 ≈ 25.5 against the unrelaxed ≥ 35.
 #[test]
 fn relaxation_contracts_a_monotone_error_faster() {
     let (iterations, err) = solve(-0.4);
     assert!(err <= 1e-14, "error {err:e}");
-    assert!(iterations <= 29, "{iterations} iterations");
+    assert!(iterations <= 26, "{iterations} iterations");
 }
 
 /// Nothing left out (`e = 0`): the first update is the root.
