@@ -28,6 +28,13 @@ fn entry(kl: usize, ku: usize) -> impl Fn(usize, usize) -> f64 {
     }
 }
 
+/// `max |uᵢ − vᵢ|`: how far two solvers' solutions differ.
+fn max_abs_diff(u: &[f64], v: &[f64]) -> f64 {
+    u.iter()
+        .zip(v)
+        .fold(0.0f64, |m, (u, v)| m.max((u - v).abs()))
+}
+
 #[test]
 fn banded_lu_matches_dense_lu() {
     for &(k, kl, ku) in &[
@@ -73,10 +80,7 @@ fn banded_lu_matches_dense_lu() {
             res <= 16.0 * k as f64 * f64::EPSILON * scale,
             "k {k}: residual {res:e}"
         );
-        let diff = xb
-            .iter()
-            .zip(&xd)
-            .fold(0.0f64, |m, (u, v)| m.max((u - v).abs()));
+        let diff = max_abs_diff(&xb, &xd);
         assert!(
             diff <= 1e-9 * (1.0 + norm_x),
             "k {k}: band and dense differ by {diff:e}"
@@ -237,10 +241,7 @@ fn auto_renumbers_a_chain_in_block_order_into_a_band() {
     auto.solve_in_place(&mut xa).unwrap();
     dense.solve_in_place(&mut xd).unwrap();
     let scale = 1.0 + xd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let diff = xa
-        .iter()
-        .zip(&xd)
-        .fold(0.0f64, |m, (u, v)| m.max((u - v).abs()));
+    let diff = max_abs_diff(&xa, &xd);
     // Both backward stable: they agree to the conditioning times a few k ε.
     assert!(
         diff <= 1e-10 * scale,
