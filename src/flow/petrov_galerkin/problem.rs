@@ -70,6 +70,9 @@ pub(super) struct Problem<'a, V: Vector, Sys> {
     pub(super) g0: &'a [V::Real],
     /// The rounding noise of the last residual's state rows.
     pub(super) noise: V::Real,
+    /// The step's rounding floor of the state rows from the positions' rounding
+    /// ([`PetrovGalerkin::rounding_floor`](super::PetrovGalerkin)).
+    pub(super) floor: V::Real,
 }
 
 impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
@@ -178,7 +181,8 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Problem<'_, V, Sys>
             }
         }
         // Each row sums `s` quadrature terms of about this size.
-        self.noise = V::Real::lit(4.0 * self.tables.s as f64) * V::Real::epsilon() * scale;
+        self.noise =
+            (V::Real::lit(4.0 * self.tables.s as f64) * V::Real::epsilon() * scale).max(self.floor);
         if let Some(i) = ops::first_non_finite(out) {
             return Err(StepError::NonFinite { component: i });
         }
