@@ -285,10 +285,10 @@ where
     fn rounding_floor(&mut self, x: &V) -> V::Real {
         let m = self.nu.len();
         let (k, n) = (self.tables.k, x.len());
-        let u = self.u.as_slice();
-        if m == 0 || u.len() < k * (n + m) {
+        if m == 0 {
             return V::Real::zero();
         }
+        let u = self.u.as_slice();
         for (a, l) in self.nu.iter_mut().enumerate() {
             *l = (0..k).fold(V::Real::zero(), |acc, j| {
                 acc + self.tables.beta[j] * u[k * n + j * m + a]
@@ -308,12 +308,8 @@ where
         {
             // A bit of splitmix64's finaliser of the index: signs without the runs a plain
             // multiplicative hash has at the strides of a body-major state (2 and 3).
-            let up = scattered_bit(i as u64);
-            let d = if up {
-                eps * xi.abs()
-            } else {
-                -(eps * xi.abs())
-            };
+            let d = eps * xi.abs();
+            let d = if scattered_bit(i as u64) { d } else { -d };
             *p = xi + d;
             *q = xi - d;
         }

@@ -52,7 +52,7 @@ impl<T: Real> Tables<T> {
                     (0..k).fold(T::zero(), |acc, j| acc + ell[r * k + j] * ahat[j * k + l]);
             }
         }
-        let rows = (0..k).fold(T::zero(), |m, i| {
+        let rounding_weight = (0..k).fold(T::zero(), |m, i| {
             m.max((0..s).fold(T::zero(), |acc, r| {
                 acc + (b[r] * ell[r * k + i]).abs() / beta[i]
             }))
@@ -66,7 +66,7 @@ impl<T: Real> Tables<T> {
             a,
             ahat,
             ell_ahat,
-            rounding_weight: rows,
+            rounding_weight,
         }
     }
 }
