@@ -310,6 +310,26 @@ fn the_reduced_petrov_galerkin_step_is_the_same_map_as_the_dense_one() {
             reduced.step(0.02, &mut a).unwrap();
             dense.step(0.02, &mut b).unwrap();
             worst = worst.max((&a - &b).norm_max());
+            // The energy the hidden projection removes, `½|δp|²_W` with `δp = Gᵀν` (the
+            // projected momenta's `G W⁻¹ p` at its tolerance): the reduced step's kinetic
+            // difference against the dense step's difference of two energies, which rounds
+            // at a few `ε|H|`. The states' difference `d` moves `δp` by about `d` (unit
+            // masses), so the energy by `|δp| d`. Up to 1.2e-13 here: a sign or a factor
+            // wrong in either is well above this bound (`16ε|H|` ≈ 5e-14).
+            let (ra, rb) = (
+                reduced.last_dissipation().unwrap(),
+                dense.last_dissipation().unwrap(),
+            );
+            let d = (&a - &b).norm_max();
+            let tol = 16.0 * f64::EPSILON * ra.after.abs().max(1.0)
+                + 4.0 * (2.0 * ra.projection.abs()).sqrt() * d;
+            assert!(ra.projection >= -tol, "projection {:e}", ra.projection);
+            assert!(
+                (ra.projection - rb.projection).abs() <= tol,
+                "order {order}: projection {:e} (reduced) against {:e} (dense)",
+                ra.projection,
+                rb.projection
+            );
             assert!(
                 g_norm(&model, &a) <= 1e-14,
                 "|g| = {:e}",

@@ -81,6 +81,28 @@ fn relaxation_contracts_a_monotone_error_faster() {
     assert!(iterations <= 26, "{iterations} iterations");
 }
 
+/// `e = 0.8` (a hanging chain of 10⁴ links of 1 g at `h = 10⁻⁴` has `μ ≈ −0.8`): unrelaxed the
+/// error shrinks by 0.8, more than the bound 0.5 allows; with `ω = 2/2.8` by `0.8/2.8 = 2/7`.
+/// The first update is unrelaxed (it moves the error by `e`) and the next one relaxed by a
+/// first estimate: ≤ 3 + ln(1.4e14 · 0.8)/ln 3.5 ≈ 28.8 (measured 28). A clamp of the estimate
+/// at `μ = −½` (`ω = 0.8`, rate 0.44) takes 42.
+#[test]
+fn relaxation_keeps_a_strongly_alternating_error_in_the_iteration() {
+    let (iterations, err) = solve(0.8);
+    assert!(err <= 1e-14, "error {err:e}");
+    assert!(iterations <= 29, "{iterations} iterations");
+}
+
+/// `e = 1.5`: the unrelaxed iteration diverges (its error grows by 1.5); relaxed by
+/// `ω = 2/3.5` it contracts by `1.5/3.5 = 3/7`. As above, ≤ 3 + ln(1.4e14 · 1.5)/ln(7/3) ≈ 42.0
+/// (measured 41); with the clamp at `μ = −½` the iteration stops contracting and hands over.
+#[test]
+fn relaxation_contracts_an_error_the_plain_iteration_amplifies() {
+    let (iterations, err) = solve(1.5);
+    assert!(err <= 1e-14, "error {err:e}");
+    assert!(iterations <= 42, "{iterations} iterations");
+}
+
 /// Nothing left out (`e = 0`): the first update is the root.
 #[test]
 fn an_exact_iteration_matrix_converges_at_once() {

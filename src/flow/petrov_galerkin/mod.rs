@@ -28,7 +28,8 @@ use tables::Tables;
 pub struct DiscreteDissipation<T> {
     /// `H(x_n)`.
     pub before: T,
-    /// `H(x_{n+1})`.
+    /// `H(x_{n+1})`: the step's end energy less the energy the projection removed (for a
+    /// model of mechanical form the kinetic difference, so equal to `H(x_{n+1})` to rounding).
     pub after: T,
     /// `h ∫₀¹ zᵀ R z dτ ≥ 0`, by the quadrature: what the damping removed.
     pub damping: T,
@@ -461,8 +462,7 @@ where
             _ => self.system.hamiltonian().energy(&self.start),
         };
         let after_step = self.system.hamiltonian().energy(&self.xe);
-        // `H(x_{n+1})`: the step's end, or the projection's (then evaluated once, for both the
-        // energy the projection removed and the ledger).
+        // `H(x_{n+1})`: the step's end, less the energy the projection removes.
         let mut after = after_step;
         let mut projection = V::Real::zero();
         if self.hidden.is_some() {
@@ -521,8 +521,25 @@ where
                 }
                 return Err(StepError::from_newton("hidden-constraint projection", e));
             }
-            after = self.system.hamiltonian().energy(x);
-            projection = after_step - after;
+            projection = match self.mechanical.as_ref() {
+                // Only the momenta moved (`M Gᵀν` has no position rows): the kinetic energy
+                // removed, `Σ ½ w_d (p_d − p'_d)(p_d + p'_d)`, without a second potential.
+                Some(reduced) => {
+                    let nq = reduced.nq;
+                    let (pe, p) = (&self.xe.as_slice()[nq..], &x.as_slice()[nq..]);
+                    let half = V::Real::lit(0.5);
+                    reduced
+                        .w
+                        .iter()
+                        .zip(pe)
+                        .zip(p)
+                        .fold(V::Real::zero(), |acc, ((&w, &a), &b)| {
+                            acc + half * w * (a - b) * (a + b)
+                        })
+                }
+                None => after_step - self.system.hamiltonian().energy(x),
+            };
+            after = after_step - projection;
         } else {
             x.copy_from(&self.xe);
         }

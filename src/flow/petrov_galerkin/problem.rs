@@ -12,8 +12,6 @@ use num_traits::{Float as _, One as _, Zero};
 /// Scratch of the step (states of length `n`, multipliers of length `m`).
 #[derive(Debug, Clone)]
 pub(super) struct Scratch<V: Vector> {
-    /// `x(e_r)`.
-    pub(super) xr: V,
     /// `∇H(x(e_r))`, then `h ∇H + G(x_r)ᵀ L(e_r)`.
     pub(super) grad: V,
     /// `h x'(e_r) = Σ_j ℓ_j(e_r) Y_j`.
@@ -34,7 +32,6 @@ pub(super) struct Scratch<V: Vector> {
 impl<V: Vector> Scratch<V> {
     pub(super) fn new(x0: &V, k: usize, s: usize, m: usize) -> Self {
         Self {
-            xr: x0.zeros_like(),
             grad: x0.zeros_like(),
             dr: x0.zeros_like(),
             f: x0.zeros_like(),
@@ -93,18 +90,25 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
         for r in 0..s {
             let row = &t.ell[r * k..(r + 1) * k];
             let arow = &t.a[r * k..(r + 1) * k];
-            // x_r, h x'(e_r), L(e_r).
-            self.w.xr.copy_from(self.x);
-            ops::fill_zero(self.w.dr.as_mut_slice());
+            // x_r (kept for the Schur products) and h x'(e_r) in one pass, L(e_r).
+            let xr = self.w.xs[r].as_mut_slice();
+            let dr = self.w.dr.as_mut_slice();
+            for (d, (xo, dout)) in xr.iter_mut().zip(dr.iter_mut()).enumerate() {
+                let (mut xv, mut dv) = (self.x.as_slice()[d], V::Real::zero());
+                for j in 0..k {
+                    let y = ys[j * n + d];
+                    xv = xv + arow[j] * y;
+                    dv = dv + row[j] * y;
+                }
+                *xo = xv;
+                *dout = dv;
+            }
             self.w.lr.iter_mut().for_each(|v| *v = V::Real::zero());
             for j in 0..k {
-                let yj = &ys[j * n..(j + 1) * n];
-                ops::axpy(self.w.xr.as_mut_slice(), arow[j], yj);
-                ops::axpy(self.w.dr.as_mut_slice(), row[j], yj);
                 ops::axpy(&mut self.w.lr, row[j], &ls[j * m..(j + 1) * m]);
             }
-            self.w.xs[r].copy_from(&self.w.xr);
-            sys.hamiltonian().gradient(&self.w.xr, &mut self.w.grad);
+            let xr = &self.w.xs[r];
+            sys.hamiltonian().gradient(xr, &mut self.w.grad);
             for gi in self.w.grad.as_mut_slice() {
                 *gi = *gi * self.h;
             }
@@ -115,7 +119,7 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
             if m > 0 {
                 ops::fill_zero(self.w.grad.as_mut_slice());
                 sys.constraint().jacobian_transpose_apply_add(
-                    &self.w.xr,
+                    xr,
                     &self.w.lr,
                     V::Real::one(),
                     &mut self.w.grad,
@@ -126,7 +130,7 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
                 }
                 if let Some(c) = out_c.as_deref_mut() {
                     sys.constraint()
-                        .jacobian_apply(&self.w.xr, &self.w.dr, &mut self.w.cr);
+                        .jacobian_apply(xr, &self.w.dr, &mut self.w.cr);
                     for i in 0..k {
                         let wgt = t.b[r] * row[i] / t.beta[i];
                         ops::axpy(&mut c[i * m..(i + 1) * m], wgt, &self.w.cr);
