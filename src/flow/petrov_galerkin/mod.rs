@@ -4,6 +4,7 @@
 mod basis;
 mod problem;
 mod reduced;
+mod rounding;
 mod tables;
 
 use super::projection::HiddenSolver;
@@ -17,7 +18,7 @@ use crate::system::{
     check_initial_state, half_step_keeps_jacobian,
 };
 use crate::vector::{Vector, ops};
-use num_traits::{Float as _, Zero};
+use num_traits::Zero;
 use problem::{Problem, Scratch};
 use reduced::Stages;
 use tables::Tables;
@@ -272,62 +273,6 @@ where
     /// The energy account of the last step.
     pub fn last_dissipation(&self) -> Option<DiscreteDissipation<V::Real>> {
         self.last
-    }
-
-    /// The rounding floor of the residual's state rows at `x`. The positions of the quadrature
-    /// points round by up to an ulp, and the constraint forces `G(q)ᵀL` amplify that by their
-    /// curvature `Σ_a L_a ∇²g_a` — on a taut chain the tension over the link length, so that a
-    /// row rounds far above `ε` times its own size (a hanging chain of 10⁴ links of 1 g at
-    /// `h = 10⁻⁴`: 4e-15 against 1e-21). Measured, not bounded: `½ M (G(x + δ) − G(x − δ))ᵀ L̄`
-    /// with `δ_i = ±ε|x_i|/2` (which rounds to one ulp of `x_i`) in a pseudo-random sign pattern
-    /// (neighbours in a chain move apart as rounding moves them) and `L̄ = Σ_j β_j L_j` the last
-    /// step's multipliers, times the rounding weight of a row. Zero when there are no last
-    /// multipliers (the first step, the step after a failure) and when it is not finite.
-    fn rounding_floor(&mut self, x: &V) -> V::Real {
-        let m = self.nu.len();
-        let (k, n) = (self.tables.k, x.len());
-        if m == 0 {
-            return V::Real::zero();
-        }
-        let u = self.u.as_slice();
-        for (a, l) in self.nu.iter_mut().enumerate() {
-            *l = (0..k).fold(V::Real::zero(), |acc, j| {
-                acc + self.tables.beta[j] * u[k * n + j * m + a]
-            });
-        }
-        if self.nu.iter().all(|l| *l == V::Real::zero()) {
-            return V::Real::zero();
-        }
-        let eps = V::Real::epsilon() * V::Real::lit(0.5);
-        for (i, ((p, q), &xi)) in self
-            .tmp
-            .as_mut_slice()
-            .iter_mut()
-            .zip(self.t2.as_mut_slice())
-            .zip(x.as_slice())
-            .enumerate()
-        {
-            // A bit of splitmix64's finaliser of the index: signs without the runs a plain
-            // multiplicative hash has at the strides of a body-major state (2 and 3).
-            let d = eps * xi.abs();
-            let d = if scattered_bit(i as u64) { d } else { -d };
-            *p = xi + d;
-            *q = xi - d;
-        }
-        let half = V::Real::lit(0.5);
-        ops::fill_zero(self.xe.as_mut_slice());
-        let c = self.system.constraint();
-        c.jacobian_transpose_apply_add(&self.tmp, &self.nu, half, &mut self.xe);
-        c.jacobian_transpose_apply_add(&self.t2, &self.nu, -half, &mut self.xe);
-        // Into the residual's rows: the forces enter through `M` (the momentum rows of a
-        // mechanical model).
-        self.system.structure().apply(x, &self.xe, &mut self.tmp);
-        let floor = ops::norm_inf(self.tmp.as_slice()) * self.tables.rounding_weight;
-        if floor.is_finite() {
-            floor
-        } else {
-            V::Real::zero()
-        }
     }
 
     /// The initial guess: the explicit Euler increments `h M ∇H(x)` at every Gauss point, the
@@ -589,13 +534,4 @@ where
         let saved = super::take_memory(from, self.u.len());
         self.u.as_mut_slice()[..saved.len()].copy_from_slice(saved);
     }
-}
-
-/// Bit 63 of splitmix64's finaliser (Steele, Lea & Flood, OOPSLA 2014) of `i`: a sign pattern
-/// with no correlation between nearby indices.
-fn scattered_bit(i: u64) -> bool {
-    let mut z = i.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    (z ^ (z >> 31)) >> 63 == 1
 }
