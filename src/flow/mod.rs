@@ -17,6 +17,7 @@ mod implicit;
 mod ledger;
 mod linear;
 mod petrov_galerkin;
+mod predictor;
 mod projection;
 mod reduced;
 mod schur;

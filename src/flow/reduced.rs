@@ -2,8 +2,9 @@
 //! schemes whose momentum rows can be solved exactly (the implicit midpoint rule of
 //! [`ProjectedMidpoint`](super::ProjectedMidpoint), the constrained discrete gradient) eliminate
 //! the momenta and solve for `(δq, ν)`, `ν = (h²/2) λ`, `n_q + m` unknowns, with a sparse Newton
-//! matrix kept across steps and a predictor extrapolated from the last two steps.
+//! matrix kept across steps and a predictor extrapolated from the last steps ([`Predictor`]).
 
+use super::predictor::Predictor;
 use super::schur::{ReducedBlocks, SchurIteration};
 use crate::error::{LinearSolveError, NewtonError, StepError};
 use crate::linalg::LinearSolver;
@@ -36,10 +37,9 @@ pub(crate) struct KeptNewton<T: Real, L> {
     newton: Newton<DVector<T>, L>,
     /// The step size of the kept Newton matrix and of `past` (`0`: none).
     h: T,
-    /// `(δq, ν)` of the last three steps (newest first), when they were consecutive steps of
-    /// size `h` ending where the next one starts: `count` of them are valid.
-    past: [Vec<T>; 3],
-    count: usize,
+    /// The extrapolation of `(δq, ν)` from the last consecutive steps of size `h`, each ending
+    /// where the next one starts.
+    past: Predictor<T>,
 }
 
 /// The contraction a Schur iteration goes on with when the constraints' curvature enters the
@@ -132,12 +132,7 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
                 schur,
                 newton,
                 h: T::zero(),
-                past: [
-                    vec![T::zero(); unknowns],
-                    vec![T::zero(); unknowns],
-                    vec![T::zero(); unknowns],
-                ],
-                count: 0,
+                past: Predictor::new(unknowns),
             },
         })
     }
@@ -154,7 +149,7 @@ impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
         self.newton.invalidate_jacobian();
         self.schur.forget();
         self.h = T::zero();
-        self.count = 0;
+        self.past.forget();
     }
 
     /// Starts a step of size `h`: the kept matrix depends on `h` (not as a power of it), so a
@@ -166,29 +161,14 @@ impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
         }
         self.schur.begin(h);
         if !continued {
-            self.count = 0;
+            self.past.forget();
         }
     }
 
-    /// Replaces the predicted `z = (δq, ν)` by the extrapolation of the last steps' — the
-    /// quadratic `3 z₁ − 3 z₂ + z₃` (error `O(h⁴)` relative to `z`) after three, the linear
-    /// `2 z₁ − z₂` after two — when they are there.
+    /// Replaces the predicted `z = (δq, ν)` by the extrapolation of the last steps' (of the
+    /// degree that predicted the last step best, [`Predictor`]), when there are any.
     pub(crate) fn predict(&self, z: &mut [T]) {
-        let [a, b, c] = &self.past;
-        let (two, three) = (T::lit(2.0), T::lit(3.0));
-        match self.count {
-            3 => {
-                for (((d, &a), &b), &c) in z.iter_mut().zip(a).zip(b).zip(c) {
-                    *d = three * (a - b) + c;
-                }
-            }
-            2 => {
-                for ((d, &a), &b) in z.iter_mut().zip(a).zip(b) {
-                    *d = two * a - b;
-                }
-            }
-            _ => {}
-        }
+        self.past.predict(z);
     }
 
     /// Solves `problem` from the predictor in `z`: by the Schur iteration when it is ready and
@@ -230,12 +210,9 @@ impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
     /// Records the solved `z` of a step that continued the previous one
     /// (`continued`).
     pub(crate) fn record(&mut self, z: &[T], continued: bool) {
-        self.past.rotate_right(1);
-        self.past[0].copy_from_slice(z);
-        self.count = if continued {
-            (self.count + 1).min(3)
-        } else {
-            1
-        };
+        if !continued {
+            self.past.forget();
+        }
+        self.past.record(z);
     }
 }
