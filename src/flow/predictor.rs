@@ -12,8 +12,8 @@
 //! (`∇z_n = z_n − z_{n−1}`; Hairer, Nørsett & Wanner, *Solving ODEs I*, §III.1). The error of
 //! every degree is thus known exactly once the next step is solved — the `p`-th backward
 //! difference of the new solution — and each step extrapolates with the `p ≤` [`MAX_POINTS`]
-//! whose difference was smallest at the last one. High degrees where the solution is smooth at
-//! the scale `h`; low ones where it oscillates at a frequency the steps resolve poorly: the
+//! whose difference was smallest (in the max-norm, as the solve judges its rows) at the last
+//! one. High degrees where the solution is smooth at the scale `h`; low ones where it oscillates at a frequency the steps resolve poorly: the
 //! differences of `e^{iωt}` scale as `|2 sin(ωh/2)|ᵖ`, which grows with `p` beyond
 //! `ωh = π/3`, and noise as `2ᵖ` (a rounding floor of `2ᵖ ε |z|`).
 //!
@@ -31,24 +31,23 @@ pub(crate) const MAX_POINTS: usize = 6;
 /// number of them the next prediction uses.
 #[derive(Debug, Clone)]
 pub(crate) struct Predictor<T> {
-    diffs: [Vec<T>; MAX_POINTS],
+    /// `∇ʲ z_n` of entry `e` at `e MAX_POINTS + j`: a step reads and writes them in one pass
+    /// (one stream, where a vector per order made one pass per order).
+    diffs: Vec<T>,
     /// How many differences are valid (the solutions recorded since the last `forget`, at most
     /// [`MAX_POINTS`]).
     count: usize,
     /// The `p` of the next prediction: the degree whose last error was smallest.
     points: usize,
-    /// The differences of the new solution, one order at a time.
-    new: Vec<T>,
 }
 
 impl<T: Real> Predictor<T> {
     /// A predictor of solutions of length `len` (allocated here, not per step).
     pub(crate) fn new(len: usize) -> Self {
         Self {
-            diffs: core::array::from_fn(|_| vec![T::zero(); len]),
+            diffs: vec![T::zero(); len * MAX_POINTS],
             count: 0,
             points: 0,
-            new: vec![T::zero(); len],
         }
     }
 
@@ -64,35 +63,34 @@ impl<T: Real> Predictor<T> {
         if p == 0 {
             return;
         }
-        z.copy_from_slice(&self.diffs[0]);
-        for d in &self.diffs[1..p] {
-            for (v, &e) in z.iter_mut().zip(d) {
-                *v = *v + e;
+        for (v, row) in z.iter_mut().zip(self.diffs.chunks_exact(MAX_POINTS)) {
+            let mut sum = row[0];
+            for &d in &row[1..p] {
+                sum = sum + d;
             }
+            *v = sum;
         }
     }
 
     /// Records the solution `z_{n+1}` of the step after the last recorded one: updates the
     /// differences and picks the degree whose error `‖∇ᵖ z_{n+1}‖_∞` was smallest (the lower
-    /// one on a tie).
+    /// one on a tie): the largest entry's, as the solve's stop is judged by its largest row.
     pub(crate) fn record(&mut self, z: &[T]) {
         let c = self.count;
+        // `max_e |(∇ᵖ z_{n+1})_e|`.
         let mut err = [T::zero(); MAX_POINTS + 1];
-        // One order at a time (vectorizable): `new = ∇ʲ z_{n+1}` replaces `∇ʲ z_n`, and
-        // `∇ʲ⁺¹ z_{n+1} = ∇ʲ z_{n+1} − ∇ʲ z_n`.
-        self.new.copy_from_slice(z);
-        for (j, d) in self.diffs[..c].iter_mut().enumerate() {
-            let mut e = T::zero();
-            for (o, v) in d.iter_mut().zip(self.new.iter_mut()) {
-                let next = *v - *o;
-                *o = *v;
-                *v = next;
-                e = e.max(next.abs());
+        for (row, &v) in self.diffs.chunks_exact_mut(MAX_POINTS).zip(z) {
+            // `new = ∇ʲ z_{n+1}` replaces `∇ʲ z_n`, and `∇ʲ⁺¹ z_{n+1} = ∇ʲ z_{n+1} − ∇ʲ z_n`.
+            let mut new = v;
+            for (j, d) in row[..c].iter_mut().enumerate() {
+                let old = *d;
+                *d = new;
+                new = new - old;
+                err[j + 1] = err[j + 1].max(new.abs());
             }
-            err[j + 1] = e;
-        }
-        if c < MAX_POINTS {
-            self.diffs[c].copy_from_slice(&self.new);
+            if c < MAX_POINTS {
+                row[c] = new;
+            }
         }
         let mut best = 1;
         for p in 2..=c {

@@ -40,7 +40,8 @@ fn extrapolates_polynomials_exactly() {
 #[test]
 fn picks_the_degree_the_rotation_allows() {
     // z_n = (cos ωn, sin ωn): ‖∇ᵖ z‖_∞ lies between r/√2 and r, r = |2 sin(ω/2)|ᵖ, so the
-    // errors fall with p when 2 sin(ω/2) < 1/√2 and rise when 2 sin(ω/2) > √2.
+    // errors fall with p when 2 sin(ω/2) < 1/√2 (ω = 0.1: 0.1) and rise when it is above √2
+    // (ω = 3: 1.995).
     let rotation = |w: f64| move |n: f64| [(w * n).cos(), (w * n).sin()];
     for steps in MAX_POINTS + 1..20 {
         let (slow, z) = run(steps, rotation(0.1));
