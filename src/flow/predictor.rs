@@ -75,9 +75,13 @@ impl<T: Real> Predictor<T> {
     /// Records the solution `z_{n+1}` of the step after the last recorded one: updates the
     /// differences and picks the degree whose error `‖∇ᵖ z_{n+1}‖_∞` was smallest (the lower
     /// one on a tie): the largest entry's, as the solve's stop is judged by its largest row.
+    /// While the solutions are fewer than [`MAX_POINTS`] and the errors still fall with the
+    /// degree, the next prediction goes one degree higher, through all of them (the linear
+    /// extrapolation after two, the quadratic after three, as far as they keep improving);
+    /// after the first, there is none (the caller's own start stands).
     pub(crate) fn record(&mut self, z: &[T]) {
         let c = self.count;
-        // `max_e |(∇ᵖ z_{n+1})_e|`.
+        // `max_e |(∇ᵖ z_{n+1})_e|`, NaN if any entry is (`max` would drop it).
         let mut err = [T::zero(); MAX_POINTS + 1];
         for (row, &v) in self.diffs.chunks_exact_mut(MAX_POINTS).zip(z) {
             // `new = ∇ʲ z_{n+1}` replaces `∇ʲ z_n`, and `∇ʲ⁺¹ z_{n+1} = ∇ʲ z_{n+1} − ∇ʲ z_n`.
@@ -86,21 +90,31 @@ impl<T: Real> Predictor<T> {
                 let old = *d;
                 *d = new;
                 new = new - old;
-                err[j + 1] = err[j + 1].max(new.abs());
+                let a = new.abs();
+                if a > err[j + 1] || a.is_nan() {
+                    err[j + 1] = a;
+                }
             }
             if c < MAX_POINTS {
                 row[c] = new;
             }
         }
+        // A non-finite error (an overflowed difference) is never smaller; the lowest degree
+        // extrapolates with the last solution alone.
         let mut best = 1;
         for p in 2..=c {
-            // A non-finite error (an overflowed difference) is never smaller.
             if err[p] < err[best] {
                 best = p;
             }
         }
-        self.points = best;
         self.count = (c + 1).min(MAX_POINTS);
+        self.points = if c == 0 {
+            0
+        } else if best == c && err[c].is_finite() {
+            (c + 1).min(MAX_POINTS)
+        } else {
+            best
+        };
     }
 }
 
