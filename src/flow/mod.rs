@@ -11,6 +11,7 @@
 pub mod coefficients;
 mod compose;
 mod constrained_dg;
+mod contraction;
 mod exact;
 mod extrapolated;
 mod implicit;

@@ -152,6 +152,13 @@ impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
         self.past.forget();
     }
 
+    /// Lets the Schur iteration accept its first update on the contraction measured by an
+    /// earlier solve, unevaluated ([`ContractionEstimate`](super::contraction)): for a step
+    /// that needs nothing from the residual at its solution.
+    pub(crate) fn trust_contraction(&mut self) {
+        self.schur.trust_contraction();
+    }
+
     /// Starts a step of size `h`: the kept matrix depends on `h` (not as a power of it), so a
     /// new size builds it anew; the past steps predict only a step that `continued` them.
     pub(crate) fn begin(&mut self, h: T, continued: bool) {

@@ -62,6 +62,7 @@
 //! midpoint rule's `D`). The Schur complement then has `k × k` blocks on the pattern of `G Gᵀ`
 //! in this order (banded for a chain), and every product is as above.
 
+use super::contraction::ContractionEstimate;
 use crate::error::{NewtonError, StepError};
 use crate::linalg::{ColumnGroups, LinearSolver, SolverChoice, Structure};
 use crate::nonlinear::{NewtonOptions, NonlinearProblem, SolveReport, effective_residual};
@@ -151,6 +152,8 @@ pub(crate) struct SchurIteration<T: Real, L> {
     backoff: usize,
     /// The last unrelaxed position update `Δq`.
     last: Vec<T>,
+    /// The contraction of the first update, for solves that may stop on its prediction.
+    contraction: ContractionEstimate<T>,
 }
 
 impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
@@ -217,6 +220,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             pause: 0,
             backoff: 1,
             last: vec![T::zero(); nq],
+            contraction: ContractionEstimate::new(),
         })
     }
 
@@ -224,6 +228,14 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
     /// (a restored checkpoint continues as the run that saved it).
     pub(crate) fn forget(&mut self) {
         self.h = T::zero();
+        self.contraction.forget();
+    }
+
+    /// Lets a solve stop after its first update on the contraction measured by an earlier one
+    /// ([`ContractionEstimate`]): for a problem whose caller needs nothing from the residual at
+    /// the solution.
+    pub(crate) fn trust_contraction(&mut self) {
+        self.contraction.enable();
     }
 
     /// Starts a step of size `h`: `D` for a new size (and the pauses forgotten).
@@ -234,6 +246,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         self.h = h;
         self.pause = 0;
         self.backoff = 1;
+        self.contraction.forget();
         self.inv_d.clear();
         let k = self.k;
         let (a, inv) = self.square.split_at_mut(k * k);
@@ -271,6 +284,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
     /// Records a failure: the next `backoff` steps go to Newton, and the next pause is twice
     /// as long.
     fn pause(&mut self) {
+        self.contraction.forget();
         self.pause = self.backoff;
         self.backoff = (2 * self.backoff).min(MAX_PAUSE);
     }
@@ -356,6 +370,15 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             }
             ops::axpy(z, one, &self.dz);
             report.iterations += 1;
+            if iteration == 0
+                && let Some(predicted) =
+                    self.contraction
+                        .accepts(raw, ops::norm_inf(&self.dz), ops::norm_inf(z), &opts)
+            {
+                report.residual = predicted;
+                return Ok(true);
+            }
+            let raw_before = raw;
             let evaluated = problem.residual(z, &mut self.f);
             report.residual_evaluations += 1;
             let r_new = match evaluated {
@@ -366,6 +389,10 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 Err(_) => T::nan(),
             };
             let finite = raw.is_finite();
+            if iteration == 0 {
+                self.contraction
+                    .measured(raw_before, if finite { raw } else { T::nan() });
+            }
             if finite && contracted && r_new <= noise && r_new >= T::lit(0.5) * r {
                 // An iteration that contracted by `max_contraction` a step ago and now does not
                 // halve a residual below the noise level has met the residual's round-off floor

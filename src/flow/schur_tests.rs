@@ -110,3 +110,60 @@ fn an_exact_iteration_matrix_converges_at_once() {
     assert!(err <= 1e-15, "error {err:e}");
     assert!(iterations <= 2, "{iterations} iterations");
 }
+
+/// Solves from `x* + offset` for `solves` consecutive steps with the prediction trusted:
+/// the residual evaluations of each solve and the largest residual at what each returned.
+fn trusted(e: f64, offset: f64, solves: usize) -> (Vec<usize>, f64) {
+    let options = NewtonOptions {
+        max_contraction: 0.5,
+        ..NewtonOptions::default()
+    };
+    let mut schur: SchurIteration<f64, DenseLu<f64>> =
+        SchurIteration::new(&[1.0; 3], &[], 1, Some(&[(0, 2)]), options, &[0.5]).unwrap();
+    schur.trust_contraction();
+    schur.begin(0.1);
+    let b = [1.0, -0.5, 0.5, 0.25];
+    let exact = [b[0] / (1.0 + e), b[1] / (1.0 + e), b[3], b[2] - b[3]];
+    let mut problem = Linear { e, b };
+    let (mut evaluations, mut worst) = (Vec::new(), 0.0f64);
+    for _ in 0..solves {
+        assert!(schur.ready());
+        let mut z = exact;
+        for (i, v) in z.iter_mut().enumerate() {
+            *v += offset * [1.0, -1.0, 0.5, 0.3][i];
+        }
+        let mut report = SolveReport::default();
+        assert!(schur.solve(&mut problem, &mut z, &mut report).unwrap());
+        evaluations.push(report.residual_evaluations);
+        let mut f = [0.0; 4];
+        problem.residual(&z, &mut f).unwrap();
+        worst = f.iter().fold(worst, |a, v| a.max(v.abs()));
+    }
+    (evaluations, worst)
+}
+
+/// A contraction of `e = 10⁻⁴` from a start residual `~10⁻¹²`: after the first solve measured
+/// it, the next `CONFIRM_EVERY` stop after one update without evaluating it (its residual
+/// predicted at `~10⁻¹⁶`), and the one after is evaluated again. What they return passes
+/// Newton's round-off test (`‖F‖ ≤ NOISE_FACTOR · ftol`, 4.4e-14) when evaluated here.
+#[test]
+fn a_measured_contraction_stops_a_solve_without_the_confirming_residual() {
+    use crate::flow::contraction::CONFIRM_EVERY;
+    let (evaluations, worst) = trusted(1e-4, 1e-12, CONFIRM_EVERY + 2);
+    assert_eq!(evaluations[0], 2, "{evaluations:?}");
+    assert!(
+        evaluations[1..=CONFIRM_EVERY].iter().all(|&e| e == 1),
+        "{evaluations:?}"
+    );
+    assert_eq!(evaluations[CONFIRM_EVERY + 1], 2, "{evaluations:?}");
+    assert!(worst <= 100.0 * 2.0 * f64::EPSILON, "residual {worst:e}");
+}
+
+/// A contraction of 0.3 predicts a residual far above the tolerance: every solve is evaluated
+/// to the end, as without the estimate.
+#[test]
+fn a_slow_contraction_is_never_trusted() {
+    let (evaluations, worst) = trusted(0.3, 1e-12, 6);
+    assert!(evaluations.iter().all(|&e| e >= 3), "{evaluations:?}");
+    assert!(worst <= 100.0 * 2.0 * f64::EPSILON, "residual {worst:e}");
+}

@@ -167,6 +167,7 @@ pub struct SolveReport<T> {
     /// Iterations that took the root of the exact quadratic model instead of the Newton step
     /// (see [`NonlinearProblem::second_derivative`](super::NonlinearProblem::second_derivative)).
     pub quadratic_steps: usize,
-    /// `‖F(z)‖∞` at the returned `z`.
+    /// `‖F(z)‖∞` at the returned `z` (its prediction from the measured contraction when a
+    /// solve stopped without evaluating it).
     pub residual: T,
 }

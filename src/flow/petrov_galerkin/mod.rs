@@ -102,7 +102,9 @@ pub struct PetrovGalerkin<
     t2: V,
     nu: Vec<V::Real>,
     g0: Vec<V::Real>,
-    last: Option<DiscreteDissipation<V::Real>>,
+    /// The last step's damping and projection terms of `D_n` (its energies are evaluated
+    /// when asked for).
+    last: Option<(V::Real, V::Real)>,
     stats: FlowStats,
 }
 
@@ -193,10 +195,14 @@ where
         let (newton, mechanical) = match form {
             // With the constraints' curvature: the Schur iteration goes on while it contracts by
             // 0.5 (`reduced::CURVED_MAX_CONTRACTION`).
-            Some(form) => (
-                None,
-                Some(Reduced::new(form, m, newton_options, true, &tables.ahat)?),
-            ),
+            // The step reads nothing from the residual at the solution (its end and its
+            // dissipation follow from the unknowns alone): the iteration may stop on a
+            // predicted contraction.
+            Some(form) => {
+                let mut reduced = Reduced::new(form, m, newton_options, true, &tables.ahat)?;
+                reduced.solver.trust_contraction();
+                (None, Some(reduced))
+            }
             None => {
                 if k * (n + m) > DENSE_MAX_UNKNOWNS {
                     return Err(SetupError::Scheme {
@@ -270,9 +276,19 @@ where
         self.ended = false;
     }
 
-    /// The energy account of the last step.
+    /// The energy account of the last step (`None` before the first and after a failed one).
+    /// Its energies are evaluated here, from the step's start and its end before the
+    /// projection (both kept until the next step): a run that does not ask pays for no energy
+    /// evaluation.
     pub fn last_dissipation(&self) -> Option<DiscreteDissipation<V::Real>> {
-        self.last
+        let (damping, projection) = self.last?;
+        let energy = self.system.hamiltonian();
+        Some(DiscreteDissipation {
+            before: energy.energy(&self.start),
+            after: energy.energy(&self.xe) - projection,
+            damping,
+            projection,
+        })
     }
 
     /// The initial guess: the explicit Euler increments `h M ∇H(x)` at every Gauss point, the
@@ -324,6 +340,7 @@ where
                 got: x.len(),
             });
         }
+        self.last = None;
         self.start.copy_from(x);
         // Whether this step continues the last one (its predictor and its start energy).
         let continued = self.ended && self.start.as_slice() == self.end.as_slice();
@@ -340,6 +357,7 @@ where
             g0: &self.g0,
             noise: V::Real::zero(),
             floor,
+            split: self.mechanical.is_none(),
         };
         let solved = if let Some(reduced) = self.mechanical.as_mut() {
             let Reduced { w, z, solver, .. } = reduced;
@@ -383,7 +401,21 @@ where
         // D = −h Σ_r b_r z_rᵀ M z_r with z_r = Σ_j ℓ_j(e_r) z(c_j), z(c_j) = acc_j(L = 0)/h.
         let mut damping = V::Real::zero();
         if self.system.structure().is_dissipative() {
-            // The last residual was evaluated at the solution: `accz` holds its `h z(c_j)`.
+            if let Some(reduced) = self.mechanical.as_ref() {
+                // The momentum rows of `h z(c_j)` are `h W⁻¹` times the projection of `p`,
+                // which is `Y^q_j` exactly (`reduced.rs`); `M = [[0, I], [−I, B]]` pairs the
+                // position rows with them only in the skew part, which `zᵀMz` cancels. So
+                // `z_pᵀ B z_p` from the unknowns: the solve may have stopped without a residual
+                // at the solution.
+                let nq = reduced.nq;
+                for (j, acc) in self.w.accz.iter_mut().enumerate() {
+                    let (aq, ap) = acc.as_mut_slice().split_at_mut(nq);
+                    ops::fill_zero(aq);
+                    ap.copy_from_slice(&u[j * n..j * n + nq]);
+                }
+            }
+            // Otherwise the last residual was evaluated at the solution: `accz` holds its
+            // `h z(c_j)`.
             let t = &self.tables;
             for r in 0..t.s {
                 ops::fill_zero(self.tmp.as_mut_slice());
@@ -401,14 +433,6 @@ where
                 damping = damping - t.b[r] * zmz / h;
             }
         }
-        // The last step's end energy, when this step starts where it ended.
-        let before = match self.last {
-            Some(last) if continued => last.after,
-            _ => self.system.hamiltonian().energy(&self.start),
-        };
-        let after_step = self.system.hamiltonian().energy(&self.xe);
-        // `H(x_{n+1})`: the step's end, less the energy the projection removes.
-        let mut after = after_step;
         let mut projection = V::Real::zero();
         if self.hidden.is_some() {
             // φ(x_{n+1} + M Gᵀν) = 0: the base is xe, the result goes to x.
@@ -482,9 +506,11 @@ where
                             acc + half * w * (a - b) * (a + b)
                         })
                 }
-                None => after_step - self.system.hamiltonian().energy(x),
+                None => {
+                    let energy = self.system.hamiltonian();
+                    energy.energy(&self.xe) - energy.energy(x)
+                }
             };
-            after = after_step - projection;
         } else {
             x.copy_from(&self.xe);
         }
@@ -496,14 +522,8 @@ where
         }
         self.end.copy_from(x);
         self.ended = true;
-        let account = DiscreteDissipation {
-            before,
-            after,
-            damping,
-            projection,
-        };
-        ledger.dissipated = ledger.dissipated + account.total();
-        self.last = Some(account);
+        ledger.dissipated = ledger.dissipated + damping + projection;
+        self.last = Some((damping, projection));
         self.stats.projected_steps += 1;
         Ok(())
     }

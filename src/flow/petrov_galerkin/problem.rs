@@ -70,6 +70,9 @@ pub(super) struct Problem<'a, V: Vector, Sys> {
     /// The step's rounding floor of the state rows from the positions' rounding
     /// ([`PetrovGalerkin::rounding_floor`](super::PetrovGalerkin)).
     pub(super) floor: V::Real,
+    /// Whether `w.accz` keeps the `∇H` part of `acc` apart (the dense path reads it for the
+    /// damping; the reduced path has it from its unknowns and sums both parts at once).
+    pub(super) split: bool,
 }
 
 impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
@@ -80,8 +83,14 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
         let n = self.x.len();
         let m = self.w.lr.len();
         let (ys, ls) = u.split_at(k * n);
-        for acc in self.w.acc.iter_mut().chain(&mut self.w.accz) {
+        let split = self.split;
+        for acc in &mut self.w.acc {
             ops::fill_zero(acc.as_mut_slice());
+        }
+        if split {
+            for acc in &mut self.w.accz {
+                ops::fill_zero(acc.as_mut_slice());
+            }
         }
         if let Some(c) = out_c.as_deref_mut() {
             c.iter_mut().for_each(|v| *v = V::Real::zero());
@@ -112,12 +121,17 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
             for gi in self.w.grad.as_mut_slice() {
                 *gi = *gi * self.h;
             }
-            for (i, acc) in self.w.accz.iter_mut().enumerate() {
-                let wgt = t.b[r] * row[i] / t.beta[i];
-                ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
+            if split {
+                for (i, acc) in self.w.accz.iter_mut().enumerate() {
+                    let wgt = t.test[r * k + i];
+                    ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
+                }
             }
-            if m > 0 {
-                ops::fill_zero(self.w.grad.as_mut_slice());
+            if m > 0 || !split {
+                if split {
+                    ops::fill_zero(self.w.grad.as_mut_slice());
+                }
+                // `h ∇H + Gᵀ L` at once when the parts are not kept apart.
                 sys.constraint().jacobian_transpose_apply_add(
                     xr,
                     &self.w.lr,
@@ -125,22 +139,24 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
                     &mut self.w.grad,
                 );
                 for (i, acc) in self.w.acc.iter_mut().enumerate() {
-                    let wgt = t.b[r] * row[i] / t.beta[i];
+                    let wgt = t.test[r * k + i];
                     ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
                 }
                 if let Some(c) = out_c.as_deref_mut() {
                     sys.constraint()
                         .jacobian_apply(xr, &self.w.dr, &mut self.w.cr);
                     for i in 0..k {
-                        let wgt = t.b[r] * row[i] / t.beta[i];
+                        let wgt = t.test[r * k + i];
                         ops::axpy(&mut c[i * m..(i + 1) * m], wgt, &self.w.cr);
                     }
                 }
             }
         }
         // acc_i = accz_i + the multipliers' part (collected in acc during the loop).
-        for (acc, z) in self.w.acc.iter_mut().zip(&self.w.accz) {
-            ops::axpy(acc.as_mut_slice(), V::Real::one(), z.as_slice());
+        if split {
+            for (acc, z) in self.w.acc.iter_mut().zip(&self.w.accz) {
+                ops::axpy(acc.as_mut_slice(), V::Real::one(), z.as_slice());
+            }
         }
     }
 }

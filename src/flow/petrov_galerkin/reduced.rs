@@ -123,11 +123,11 @@ impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys>
                 V::Real::one(),
                 &mut sw.grad,
             );
+            let wgt = &t.test[r * k..(r + 1) * k];
             let gq = &sw.grad.as_slice()[..nq];
-            for i in 0..k {
-                let wgt = t.b[r] * row[i] / t.beta[i];
-                for (d, &g) in gq.iter().enumerate() {
-                    out[d * k + i] = out[d * k + i] + wgt * g;
+            for (od, &g) in out.chunks_exact_mut(k).zip(gq) {
+                for (o, &c) in od.iter_mut().zip(wgt) {
+                    *o = *o + c * g;
                 }
             }
         }
@@ -143,19 +143,18 @@ impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys>
         for r in 0..t.s {
             let la = &t.ell_ahat[r * k..(r + 1) * k];
             let (dq, dp) = sw.dr.as_mut_slice().split_at_mut(nq);
-            for (d, o) in dq.iter_mut().enumerate() {
-                *o = h * (self.w[d] * ops::dot(la, &v[d * k..(d + 1) * k]));
+            for ((o, vd), &w) in dq.iter_mut().zip(v.chunks_exact(k)).zip(self.w) {
+                *o = h * (w * ops::dot(la, vd));
             }
             ops::fill_zero(dp);
             self.full
                 .system
                 .constraint()
                 .jacobian_apply(&sw.xs[r], &sw.dr, &mut sw.cr);
-            let row = &t.ell[r * k..(r + 1) * k];
-            for i in 0..k {
-                let wgt = t.b[r] * row[i] / t.beta[i];
-                for a in 0..m {
-                    out[a * k + i] = out[a * k + i] + wgt * sw.cr[a];
+            let wgt = &t.test[r * k..(r + 1) * k];
+            for (oa, &g) in out[..m * k].chunks_exact_mut(k).zip(&sw.cr) {
+                for (o, &c) in oa.iter_mut().zip(wgt) {
+                    *o = *o + c * g;
                 }
             }
         }

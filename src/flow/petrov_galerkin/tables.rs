@@ -19,6 +19,9 @@ pub(crate) struct Tables<T> {
     pub(super) ahat: Vec<T>,
     /// `Σ_j ℓ_j(e_r) Â_jl` (`s × k`): `h x'_q(e_r)` from the momentum increments.
     pub(super) ell_ahat: Vec<T>,
+    /// The test weights `b_r ℓ_i(e_r) / β_i` (`s × k`): what quadrature point `r` adds to
+    /// the rows of Gauss point `i`.
+    pub(super) test: Vec<T>,
     /// `max_i Σ_r |b_r ℓ_i(e_r)|/β_i`: how many roundings of a constraint force at one
     /// quadrature point a state row of the residual sums.
     pub(super) rounding_weight: T,
@@ -57,7 +60,11 @@ impl<T: Real> Tables<T> {
                 acc + (b[r] * ell[r * k + i]).abs() / beta[i]
             }))
         });
+        let test = (0..s * k)
+            .map(|e| b[e / k] * ell[e] / beta[e % k])
+            .collect();
         Self {
+            test,
             k: basis.k,
             s: basis.s,
             beta,
