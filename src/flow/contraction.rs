@@ -15,21 +15,30 @@
 //! integration tolerance.
 //!
 //! `θ` is the ratio of the raw residuals `‖F(z₁)‖∞ / ‖F(z₀)‖∞` of the last first update that was
-//! evaluated: a residual at its rounding floor makes it an overestimate, never an
-//! underestimate of the contraction. It is measured again at least every [`CONFIRM_EVERY`]
-//! solves, and whenever a prediction fails the tests.
+//! evaluated (a residual at its rounding floor makes it an overestimate). It is trusted for at
+//! most [`CONFIRM_EVERY`] solves in a row (the next one is evaluated and measures it again),
+//! only from start residuals within `START_GROWTH` of the one it was measured from (the linear
+//! model holds near that size), and it is measured again whenever a prediction fails the
+//! tests; a step that does not continue the last one, a new step size and a failure forget it.
 
 use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
 
-/// The most solves in a row accepted on a predicted contraction before one is evaluated again.
+/// The most solves in a row accepted on a predicted contraction; the next one is evaluated.
 pub(crate) const CONFIRM_EVERY: usize = 8;
+
+/// How much larger than the one `θ` was measured from a start residual may be for `θ` to be
+/// trusted: the linear model `‖F(z₁)‖ ≈ θ‖F(z₀)‖` holds near that size, and from a much worse
+/// start the quadratic terms take over.
+const START_GROWTH: f64 = 10.0;
 
 /// `θ` and how many more solves may rely on it (off unless [`enable`](Self::enable)d).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct ContractionEstimate<T> {
     on: bool,
     theta: T,
+    /// The raw start residual `θ` was measured from.
+    start: T,
     left: usize,
 }
 
@@ -39,6 +48,7 @@ impl<T: Real> ContractionEstimate<T> {
         Self {
             on: false,
             theta: T::zero(),
+            start: T::zero(),
             left: 0,
         }
     }
@@ -66,7 +76,11 @@ impl<T: Real> ContractionEstimate<T> {
         z_norm: T,
         options: &NewtonOptions<T>,
     ) -> Option<T> {
-        if !self.on || self.left == 0 || self.theta <= T::zero() {
+        if !self.on
+            || self.left == 0
+            || self.theta <= T::zero()
+            || raw0 > T::lit(START_GROWTH) * self.start
+        {
             return None;
         }
         let predicted = self.theta * raw0;
@@ -82,13 +96,16 @@ impl<T: Real> ContractionEstimate<T> {
         Some(predicted)
     }
 
-    /// Records the evaluated first update of a solve: raw residuals `raw0` before, `raw1` after.
+    /// Records the evaluated first update of a solve: raw residuals `raw0` before, `raw1` after
+    /// (not finite when the evaluation failed). An update that did not reduce the residual
+    /// (the lenient first update of a solve from a poor start) leaves nothing to trust.
     pub(crate) fn measured(&mut self, raw0: T, raw1: T) {
         if !self.on {
             return;
         }
-        if raw0 > T::zero() && raw1.is_finite() {
+        if raw0 > T::zero() && raw1.is_finite() && raw1 < raw0 {
             self.theta = (raw1 / raw0).max(T::epsilon());
+            self.start = raw0;
             self.left = CONFIRM_EVERY;
         } else {
             self.forget();

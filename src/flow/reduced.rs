@@ -169,6 +169,7 @@ impl<T: Real, L: LinearSolver<T>> KeptNewton<T, L> {
         self.schur.begin(h);
         if !continued {
             self.past.forget();
+            self.schur.forget_contraction();
         }
     }
 

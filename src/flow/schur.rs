@@ -238,6 +238,12 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         self.contraction.enable();
     }
 
+    /// Forgets the measured contraction (a step that does not continue the last one starts
+    /// from a poorer predictor).
+    pub(crate) fn forget_contraction(&mut self) {
+        self.contraction.forget();
+    }
+
     /// Starts a step of size `h`: `D` for a new size (and the pauses forgotten).
     pub(crate) fn begin(&mut self, h: T) {
         if self.h == h {
@@ -390,8 +396,13 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             };
             let finite = raw.is_finite();
             if iteration == 0 {
-                self.contraction
-                    .measured(raw_before, if finite { raw } else { T::nan() });
+                // A failed evaluation (`r_new` NaN) leaves `raw` at the start's.
+                let after = if finite && !r_new.is_nan() {
+                    raw
+                } else {
+                    T::nan()
+                };
+                self.contraction.measured(raw_before, after);
             }
             if finite && contracted && r_new <= noise && r_new >= T::lit(0.5) * r {
                 // An iteration that contracted by `max_contraction` a step ago and now does not

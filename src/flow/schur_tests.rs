@@ -111,9 +111,10 @@ fn an_exact_iteration_matrix_converges_at_once() {
     assert!(iterations <= 2, "{iterations} iterations");
 }
 
-/// Solves from `x* + offset` for `solves` consecutive steps with the prediction trusted:
-/// the residual evaluations of each solve and the largest residual at what each returned.
-fn trusted(e: f64, offset: f64, solves: usize) -> (Vec<usize>, f64) {
+/// Solves from `x* + offset` for each of `offsets`, consecutive steps with the prediction
+/// trusted: the residual evaluations of each solve and the largest residual at what each
+/// returned.
+fn trusted(e: f64, offsets: &[f64]) -> (Vec<usize>, f64) {
     let options = NewtonOptions {
         max_contraction: 0.5,
         ..NewtonOptions::default()
@@ -126,7 +127,7 @@ fn trusted(e: f64, offset: f64, solves: usize) -> (Vec<usize>, f64) {
     let exact = [b[0] / (1.0 + e), b[1] / (1.0 + e), b[3], b[2] - b[3]];
     let mut problem = Linear { e, b };
     let (mut evaluations, mut worst) = (Vec::new(), 0.0f64);
-    for _ in 0..solves {
+    for &offset in offsets {
         assert!(schur.ready());
         let mut z = exact;
         for (i, v) in z.iter_mut().enumerate() {
@@ -149,7 +150,7 @@ fn trusted(e: f64, offset: f64, solves: usize) -> (Vec<usize>, f64) {
 #[test]
 fn a_measured_contraction_stops_a_solve_without_the_confirming_residual() {
     use crate::flow::contraction::CONFIRM_EVERY;
-    let (evaluations, worst) = trusted(1e-4, 1e-12, CONFIRM_EVERY + 2);
+    let (evaluations, worst) = trusted(1e-4, &[1e-12; CONFIRM_EVERY + 2]);
     assert_eq!(evaluations[0], 2, "{evaluations:?}");
     assert!(
         evaluations[1..=CONFIRM_EVERY].iter().all(|&e| e == 1),
@@ -163,7 +164,18 @@ fn a_measured_contraction_stops_a_solve_without_the_confirming_residual() {
 /// to the end, as without the estimate.
 #[test]
 fn a_slow_contraction_is_never_trusted() {
-    let (evaluations, worst) = trusted(0.3, 1e-12, 6);
+    let (evaluations, worst) = trusted(0.3, &[1e-12; 6]);
     assert!(evaluations.iter().all(|&e| e >= 3), "{evaluations:?}");
+    assert!(worst <= 100.0 * 2.0 * f64::EPSILON, "residual {worst:e}");
+}
+
+/// A start residual 10³ times the one the contraction was measured from is beyond the linear
+/// model's reach (`START_GROWTH` = 10): that solve is evaluated. From `~10⁻⁹` one update
+/// leaves `~10⁻¹³` (`e` times the start), above `ftol` and the noise `4.4e-14`, so it takes a
+/// second update (three residuals), and the next solve from there, predicted at `10⁻¹³`, too.
+#[test]
+fn a_much_worse_start_is_evaluated() {
+    let (evaluations, worst) = trusted(1e-4, &[1e-12, 1e-12, 1e-9, 1e-9]);
+    assert_eq!(evaluations, [2, 1, 3, 3], "{evaluations:?}");
     assert!(worst <= 100.0 * 2.0 * f64::EPSILON, "residual {worst:e}");
 }
