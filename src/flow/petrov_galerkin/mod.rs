@@ -342,7 +342,7 @@ where
         }
         self.last = None;
         self.start.copy_from(x);
-        // Whether this step continues the last one (its predictor and its start energy).
+        // Whether this step continues the last one (its predictor and measured contraction).
         let continued = self.ended && self.start.as_slice() == self.end.as_slice();
         self.guess(h, x);
         let floor = self.rounding_floor(x);

@@ -127,11 +127,12 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
                     ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
                 }
             }
+            // Into `acc`: `Gᵀ L` alone when `∇H` went to `accz` (nothing without constraints),
+            // `h ∇H + Gᵀ L` in one vector when the parts are not kept apart.
             if m > 0 || !split {
                 if split {
                     ops::fill_zero(self.w.grad.as_mut_slice());
                 }
-                // `h ∇H + Gᵀ L` at once when the parts are not kept apart.
                 sys.constraint().jacobian_transpose_apply_add(
                     xr,
                     &self.w.lr,
