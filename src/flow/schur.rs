@@ -64,7 +64,7 @@
 
 use super::contraction::ContractionEstimate;
 use crate::error::{NewtonError, StepError};
-use crate::linalg::{ColumnGroups, LinearSolver, SolverChoice, Structure};
+use crate::linalg::{ColumnGroups, LinearSolver, Sink, SolverChoice, Structure};
 use crate::nonlinear::{NewtonOptions, NonlinearProblem, SolveReport, effective_residual};
 use crate::real::Real;
 use crate::system::HolonomicConstraint;
@@ -78,6 +78,13 @@ pub(crate) trait ReducedBlocks<T: Real>: NonlinearProblem<T> {
     fn multiplier_columns_add(&mut self, v: &[T], out: &mut [T]);
     /// `out = G v`: the constraint rows applied to positions `v` (`n_q` entries; `out` has `m`).
     fn constraint_rows(&mut self, v: &[T], out: &mut [T]);
+    /// Adds `S = G D⁻¹ C` to `sink` directly, `D⁻¹` given by its `k × k` blocks `inv_d`
+    /// (position after position), and returns `true`; or adds nothing and returns `false`
+    /// (the default), and the iteration assembles `S` by grouped products.
+    fn schur_complement_add(&mut self, inv_d: &[T], sink: &mut dyn Sink<T>) -> bool {
+        let _ = (inv_d, sink);
+        false
+    }
 }
 
 /// `out = G(y) (v, 0)`: the rows of a constraint on positions applied to the positions `v`
@@ -464,6 +471,9 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
     /// its factorization; `false` when it is singular.
     fn factor_schur<P: ReducedBlocks<T>>(&mut self, problem: &mut P) -> bool {
         self.lin.clear();
+        if problem.schur_complement_add(&self.inv_d, &mut self.lin) {
+            return self.lin.factor().is_ok();
+        }
         let groups = &self.groups;
         for c in 0..groups.groups() {
             ops::fill_zero(&mut self.unit);

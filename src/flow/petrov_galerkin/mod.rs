@@ -2,6 +2,7 @@
 //! balance) for `x' = (J − R)(∇H + Gᵀλ)`, `g(x) = 0`.
 
 mod basis;
+mod blocks;
 mod problem;
 mod reduced;
 mod rounding;
@@ -18,6 +19,7 @@ use crate::system::{
     check_initial_state, half_step_keeps_jacobian,
 };
 use crate::vector::{Vector, ops};
+use blocks::ConstraintBlocks;
 use num_traits::Zero;
 use problem::{Problem, Scratch};
 use reduced::Stages;
@@ -88,6 +90,8 @@ pub struct PetrovGalerkin<
     newton: Option<Newton<W>>,
     /// The reduced solve of a model of mechanical form.
     mechanical: Option<Reduced<V::Real, W::Solver>>,
+    /// The reduced solve's constraint blocks, when the constraint lists its Jacobian entries.
+    blocks: Option<ConstraintBlocks<V::Real>>,
     hidden: Option<HiddenSolver<V>>,
     u: W,
     /// The full residual, for the reduced solve.
@@ -221,10 +225,14 @@ where
                 (Some(Newton::new(k * (n + m), newton_options)?), None)
             }
         };
+        let blocks = mechanical.as_ref().and_then(|reduced| {
+            ConstraintBlocks::new(system.constraint(), x0, reduced.nq, &tables)
+        });
         Ok(Self {
             tables,
             newton,
             mechanical,
+            blocks,
             hidden,
             u: W::zeros(k * (n + m)),
             f: W::zeros(k * (n + m)),
@@ -258,6 +266,12 @@ where
         self.tables = Tables::new(k, s);
         self.w.xs = vec![self.start.zeros_like(); s];
         if let Some(reduced) = self.mechanical.as_mut() {
+            self.blocks = ConstraintBlocks::new(
+                self.system.constraint(),
+                &self.start,
+                reduced.nq,
+                &self.tables,
+            );
             // Its stage matrix is the same (`Â` is exact for any `s ≥ k`); its past steps are not.
             reduced.invalidate();
         }
@@ -367,6 +381,7 @@ where
                 w,
                 u: self.u.as_mut_slice(),
                 f: self.f.as_mut_slice(),
+                blocks: self.blocks.as_mut(),
             };
             stages.compress(z);
             solver.predict(z);

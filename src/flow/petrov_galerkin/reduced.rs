@@ -24,9 +24,11 @@
 //! Layout: momentum `d` of stage `i` at `d k + i`, multiplier `a` of stage `i` at
 //! `k n_q + a k + i`; the full problem's stage-major `u` is formed from it at every residual.
 
+use super::blocks::ConstraintBlocks;
 use super::problem::Problem;
 use crate::error::StepError;
 use crate::flow::schur::ReducedBlocks;
+use crate::linalg::Sink;
 use crate::nonlinear::NonlinearProblem;
 use crate::system::{HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
@@ -40,6 +42,8 @@ pub(super) struct Stages<'a, 'b, V: Vector, Sys> {
     /// The full problem's unknowns and residual (stage-major).
     pub(super) u: &'b mut [V::Real],
     pub(super) f: &'b mut [V::Real],
+    /// The constraint blocks from Jacobian entries, for a constraint that lists them.
+    pub(super) blocks: Option<&'b mut ConstraintBlocks<V::Real>>,
 }
 
 impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
@@ -52,6 +56,16 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
     pub(super) fn compress(&self, z: &mut [V::Real]) {
         let (nq, m, k) = self.dims();
         gather(self.u, z, nq, m, k);
+    }
+
+    /// The constraint blocks at the last residual's points, filled if they are stale; `None`
+    /// when the constraint does not list its entries (the products go through the model).
+    fn blocks(&mut self) -> Option<&mut ConstraintBlocks<V::Real>> {
+        let blocks = self.blocks.as_deref_mut()?;
+        let full = &*self.full;
+        blocks
+            .refresh(full.system.constraint(), &full.w.xs, full.h, self.w)
+            .then_some(blocks)
     }
 
     /// The full `u` from the reduced `z`: `Y^p`, `Y^q = h W⁻¹ (p_n + Â Y^p)`, `L`.
@@ -98,6 +112,9 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Stages<'_, '_, V, S
 
     fn residual(&mut self, z: &[V::Real], out: &mut [V::Real]) -> Result<(), StepError> {
         self.expand(z);
+        if let Some(blocks) = self.blocks.as_deref_mut() {
+            blocks.stale();
+        }
         self.full.residual(self.u, self.f)?;
         let (nq, m, k) = self.dims();
         gather(self.f, out, nq, m, k);
@@ -108,6 +125,10 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Stages<'_, '_, V, S
 impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys> {
     /// `out_(d,i) += (1/β_i) Σ_r b_r ℓ_i(e_r) [G(q_r)ᵀ Σ_j ℓ_j(e_r) v_(·,j)]_d`.
     fn multiplier_columns_add(&mut self, v: &[V::Real], out: &mut [V::Real]) {
+        if let Some(blocks) = self.blocks() {
+            blocks.columns_add(v, out);
+            return;
+        }
         let (nq, m, k) = self.dims();
         let t = self.full.tables;
         let sw = &mut *self.full.w;
@@ -135,6 +156,10 @@ impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys>
 
     /// `out_(a,i) = (1/β_i) Σ_r b_r ℓ_i(e_r) [G(q_r) (h W⁻¹ Σ_l (ℓ(e_r)ᵀÂ)_l v_(·,l), 0)]_a`.
     fn constraint_rows(&mut self, v: &[V::Real], out: &mut [V::Real]) {
+        if let Some(blocks) = self.blocks() {
+            blocks.rows_apply(v, out);
+            return;
+        }
         let (nq, m, k) = self.dims();
         let h = self.full.h;
         let t = self.full.tables;
@@ -157,6 +182,17 @@ impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys>
                     *o = *o + c * g;
                 }
             }
+        }
+    }
+
+    /// `S = Σ_d G_(b,d) D_d⁻¹ C_(a,d)` from the blocks of the Jacobian entries.
+    fn schur_complement_add(&mut self, inv_d: &[V::Real], sink: &mut dyn Sink<V::Real>) -> bool {
+        match self.blocks() {
+            Some(blocks) => {
+                blocks.schur_add(inv_d, sink);
+                true
+            }
+            None => false,
         }
     }
 }

@@ -1,0 +1,285 @@
+//! The constraint blocks of the reduced Petrov–Galerkin system ([`Stages`](super::reduced)),
+//! assembled from the constraint's Jacobian entries at the `s` quadrature points: a symbolic
+//! part fixed at construction (the entries' positions, the pairs that meet in the Schur
+//! complement) and a numeric part filled once per residual.
+//!
+//! For an entry `e = (a, d)` of `G_q` with values `g_r(e)` at the quadrature points `x_r`, the
+//! multiplier columns and the constraint rows of the reduced Newton matrix are `k × k` blocks
+//!
+//! ```text
+//! C_e[i][j] = Σ_r t_ri ℓ_j(e_r) g_r(e)                (columns of multiplier a at momentum d)
+//! G_e[i][l] = h w_d Σ_r t_ri (ℓ(e_r)ᵀÂ)_l g_r(e)      (rows of constraint a at momentum d)
+//! ```
+//!
+//! (`t_ri = b_r ℓ_i(e_r)/β_i` the test weights, `w_d` the inverse mass), and the Schur
+//! complement of the iteration (`D_d` its stage blocks) is a sum over the entries that share a
+//! column,
+//!
+//! ```text
+//! S_(b,a) = Σ_d G_(b,d) D_d⁻¹ C_(a,d).
+//! ```
+//!
+//! Filling them costs `s` passes of the constraint's entries and `2 s k²` products an entry;
+//! the products with `C` and `G` that the iteration then takes cost `k²` an entry and no pass
+//! through the model, and `S` is summed directly instead of by `2k` grouped products of `s`
+//! constraint passes each.
+
+use super::Tables;
+use crate::linalg::{Sink, Triplets};
+use crate::real::Real;
+use crate::system::HolonomicConstraint;
+use crate::vector::{Vector, ops};
+
+/// The blocks `C_e`, `G_e` of every Jacobian entry at the last residual's quadrature points.
+#[derive(Debug, Clone)]
+pub(super) struct ConstraintBlocks<T> {
+    k: usize,
+    /// The entries' rows and columns, in the order the constraint lists them.
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    /// The pairs `(e₁, e₂)` of entries in one column, grouped by their rows `(b, a)`: group
+    /// `c` is `pairs[group_ptr[c]..group_ptr[c + 1]]` and adds to the block `group_rows[c]`.
+    pairs: Vec<(usize, usize)>,
+    group_ptr: Vec<usize>,
+    group_rows: Vec<(usize, usize)>,
+    /// `t_ri ℓ_j(e_r)` and `t_ri (ℓ(e_r)ᵀÂ)_l` (`s × k × k`).
+    wc: Vec<T>,
+    wg: Vec<T>,
+    /// `g_r(e)`, point after point (`r nnz + e`): the order the constraint lists them in.
+    vals: Vec<T>,
+    /// `h w_d` of each entry's column.
+    hw: Vec<T>,
+    /// `C_e[i][j]` and `G_e[i][j]` at `(i k + j) nnz + e`: component after component, so that
+    /// filling them is a sum of `s k²` vector updates over the entries.
+    c: Vec<T>,
+    g: Vec<T>,
+    /// Whether `c` and `g` are those of the last residual's points.
+    fresh: bool,
+    /// Whether the constraint listed the same entries at every point so far.
+    usable: bool,
+}
+
+/// A [`Sink`] that writes the values of a known pattern in order, and notes any entry that
+/// is not the one expected.
+struct Fill<'a, T> {
+    rows: &'a [usize],
+    cols: &'a [usize],
+    vals: &'a mut [T],
+    next: usize,
+    same: bool,
+}
+
+impl<T> Sink<T> for Fill<'_, T> {
+    #[inline]
+    fn add(&mut self, row: usize, col: usize, value: T) {
+        let e = self.next;
+        if e < self.vals.len() && self.rows[e] == row && self.cols[e] == col {
+            self.vals[e] = value;
+        } else {
+            self.same = false;
+        }
+        self.next += 1;
+    }
+}
+
+impl<T: Real> ConstraintBlocks<T> {
+    /// The symbolic part from the constraint's entries at `x0` (`n_q` positions); `None` when
+    /// it lists no entries or one on a momentum.
+    pub(super) fn new<V, C>(constraint: &C, x0: &V, nq: usize, tables: &Tables<T>) -> Option<Self>
+    where
+        V: Vector<Real = T>,
+        C: HolonomicConstraint<V>,
+    {
+        let mut entries = Triplets::default();
+        if !constraint.jacobian_entries(x0, &mut entries)
+            || entries.entries.is_empty()
+            || entries.entries.iter().any(|&(_, c, _)| c >= nq)
+        {
+            return None;
+        }
+        let rows: Vec<usize> = entries.entries.iter().map(|e| e.0).collect();
+        let cols: Vec<usize> = entries.entries.iter().map(|e| e.1).collect();
+        let mut of_col: Vec<Vec<usize>> = vec![Vec::new(); nq];
+        for (e, &d) in cols.iter().enumerate() {
+            of_col[d].push(e);
+        }
+        let mut keyed: Vec<((usize, usize), (usize, usize))> = Vec::new();
+        for es in &of_col {
+            for &e1 in es {
+                keyed.extend(es.iter().map(|&e2| ((rows[e1], rows[e2]), (e1, e2))));
+            }
+        }
+        keyed.sort_unstable();
+        let mut group_ptr = vec![0];
+        let mut group_rows = Vec::new();
+        for (i, &(key, _)) in keyed.iter().enumerate() {
+            if group_rows.last() != Some(&key) {
+                if i > 0 {
+                    group_ptr.push(i);
+                }
+                group_rows.push(key);
+            }
+        }
+        group_ptr.push(keyed.len());
+        let (k, s) = (tables.k, tables.s);
+        let kk = k * k;
+        let mut wc = vec![T::zero(); s * kk];
+        let mut wg = vec![T::zero(); s * kk];
+        for r in 0..s {
+            for i in 0..k {
+                let t = tables.test[r * k + i];
+                for j in 0..k {
+                    wc[r * kk + i * k + j] = t * tables.ell[r * k + j];
+                    wg[r * kk + i * k + j] = t * tables.ell_ahat[r * k + j];
+                }
+            }
+        }
+        let nnz = rows.len();
+        Some(Self {
+            k,
+            pairs: keyed.into_iter().map(|(_, p)| p).collect(),
+            group_ptr,
+            group_rows,
+            wc,
+            wg,
+            vals: vec![T::zero(); s * nnz],
+            hw: vec![T::zero(); nnz],
+            c: vec![T::zero(); kk * nnz],
+            g: vec![T::zero(); kk * nnz],
+            fresh: false,
+            usable: true,
+            rows,
+            cols,
+        })
+    }
+
+    /// The points moved: the blocks are filled again when next asked for.
+    pub(super) fn stale(&mut self) {
+        self.fresh = false;
+    }
+
+    /// Fills the blocks at the quadrature points `xs` (step `h`, inverse masses `w`) unless
+    /// they are fresh; `false` when the constraint lists other entries than at construction
+    /// (then and from then on: its products must be taken through the model).
+    pub(super) fn refresh<V, C>(&mut self, constraint: &C, xs: &[V], h: T, w: &[T]) -> bool
+    where
+        V: Vector<Real = T>,
+        C: HolonomicConstraint<V>,
+    {
+        if self.fresh || !self.usable {
+            return self.usable;
+        }
+        let nnz = self.rows.len();
+        let kk = self.k * self.k;
+        for (x, vals) in xs.iter().zip(self.vals.chunks_exact_mut(nnz)) {
+            let mut fill = Fill {
+                rows: &self.rows,
+                cols: &self.cols,
+                vals,
+                next: 0,
+                same: true,
+            };
+            if !constraint.jacobian_entries(x, &mut fill) || !fill.same || fill.next != nnz {
+                self.usable = false;
+                return false;
+            }
+        }
+        ops::fill_zero(&mut self.c);
+        ops::fill_zero(&mut self.g);
+        for ((v, wc), wg) in self
+            .vals
+            .chunks_exact(nnz)
+            .zip(self.wc.chunks_exact(kk))
+            .zip(self.wg.chunks_exact(kk))
+        {
+            for ((c, &a), (g, &b)) in self
+                .c
+                .chunks_exact_mut(nnz)
+                .zip(wc)
+                .zip(self.g.chunks_exact_mut(nnz).zip(wg))
+            {
+                ops::axpy(c, a, v);
+                ops::axpy(g, b, v);
+            }
+        }
+        for (hw, &d) in self.hw.iter_mut().zip(&self.cols) {
+            *hw = h * w[d];
+        }
+        for g in self.g.chunks_exact_mut(nnz) {
+            for (g, &hw) in g.iter_mut().zip(&self.hw) {
+                *g = *g * hw;
+            }
+        }
+        self.fresh = true;
+        true
+    }
+
+    /// `out_(d,·) += Σ_(a,d) C_(a,d) v_(a,·)`: the multiplier columns applied to `v`.
+    pub(super) fn columns_add(&self, v: &[T], out: &mut [T]) {
+        let (k, nnz) = (self.k, self.rows.len());
+        for (ij, c) in self.c.chunks_exact(nnz).enumerate() {
+            let (i, j) = (ij / k, ij % k);
+            for ((&c, &a), &d) in c.iter().zip(&self.rows).zip(&self.cols) {
+                out[d * k + i] = out[d * k + i] + c * v[a * k + j];
+            }
+        }
+    }
+
+    /// `out_(a,·) = Σ_(a,d) G_(a,d) v_(d,·)`: the constraint rows applied to momenta `v`.
+    pub(super) fn rows_apply(&self, v: &[T], out: &mut [T]) {
+        let (k, nnz) = (self.k, self.rows.len());
+        ops::fill_zero(out);
+        for (il, g) in self.g.chunks_exact(nnz).enumerate() {
+            let (i, l) = (il / k, il % k);
+            for ((&g, &a), &d) in g.iter().zip(&self.rows).zip(&self.cols) {
+                out[a * k + i] = out[a * k + i] + g * v[d * k + l];
+            }
+        }
+    }
+
+    /// Adds `S = G D⁻¹ C` to `sink` (`inv_d`: the `k × k` blocks `D_d⁻¹`, position after
+    /// position), block `(b, a)` at rows `b k …`, columns `a k …`.
+    pub(super) fn schur_add(&self, inv_d: &[T], sink: &mut dyn Sink<T>) {
+        match self.k {
+            1 => self.schur_add_k::<1>(inv_d, sink),
+            2 => self.schur_add_k::<2>(inv_d, sink),
+            3 => self.schur_add_k::<3>(inv_d, sink),
+            4 => self.schur_add_k::<4>(inv_d, sink),
+            k => unreachable!("a Petrov–Galerkin step has at most 4 stages, not {k}"),
+        }
+    }
+
+    /// [`schur_add`](Self::schur_add) with `k = K` known to the compiler.
+    fn schur_add_k<const K: usize>(&self, inv_d: &[T], sink: &mut dyn Sink<T>) {
+        let nnz = self.rows.len();
+        let block_of = |m: &[T], e: usize| -> [[T; K]; K] {
+            core::array::from_fn(|i| core::array::from_fn(|j| m[(i * K + j) * nnz + e]))
+        };
+        for (c, &(b, a)) in self.group_rows.iter().enumerate() {
+            let mut block = [[T::zero(); K]; K];
+            for &(e1, e2) in &self.pairs[self.group_ptr[c]..self.group_ptr[c + 1]] {
+                let d = self.cols[e1];
+                let inv = &inv_d[d * K * K..(d + 1) * K * K];
+                let (g, cm) = (block_of(&self.g, e1), block_of(&self.c, e2));
+                // block += G_e1 D_d⁻¹ C_e2.
+                for (row, g) in block.iter_mut().zip(&g) {
+                    let gd: [T; K] = core::array::from_fn(|m| {
+                        (0..K).fold(T::zero(), |s, l| s + g[l] * inv[l * K + m])
+                    });
+                    for (j, o) in row.iter_mut().enumerate() {
+                        *o = (0..K).fold(*o, |s, m| s + gd[m] * cm[m][j]);
+                    }
+                }
+            }
+            for (i, row) in block.iter().enumerate() {
+                for (j, &v) in row.iter().enumerate() {
+                    sink.add(b * K + i, a * K + j, v);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+#[path = "blocks_tests.rs"]
+mod tests;

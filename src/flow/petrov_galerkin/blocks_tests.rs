@@ -1,0 +1,167 @@
+//! The blocks from Jacobian entries against the products through the model that they replace.
+
+use super::super::problem::{Problem, Scratch};
+use super::super::reduced::Stages;
+use super::super::tables::Tables;
+use super::ConstraintBlocks;
+use crate::flow::schur::ReducedBlocks;
+use crate::linalg::Triplets;
+use crate::models::{PendulumChain, SphereParticles};
+use crate::system::{HolonomicConstraint, Model};
+use nalgebra::DVector;
+
+/// A deterministic, irregular value for index `i` of sequence `seed`, in `[−1, 1]`.
+fn wave(seed: usize, i: usize) -> f64 {
+    (1.7 * seed as f64 + 0.37 * i as f64 + 0.013 * (i * i) as f64).sin()
+}
+
+/// What the blocks give and what the model passes give for `C v`, `G v` and `S = G D⁻¹ C`:
+/// `(blocks, model)` for each, `S` dense.
+struct Both {
+    columns: [Vec<f64>; 2],
+    rows: [Vec<f64>; 2],
+    schur: [Vec<f64>; 2],
+}
+
+fn both<Sys: Model<DVector<f64>>>(system: &Sys, x0: &DVector<f64>, k: usize) -> Both {
+    let (n, m) = (x0.len(), system.constraint().dim());
+    let nq = n / 2;
+    let s = k + 2;
+    let tables = Tables::<f64>::new(k, s);
+    let mut blocks = ConstraintBlocks::new(system.constraint(), x0, nq, &tables)
+        .expect("the model lists its Jacobian entries");
+    let mut w = Scratch::new(x0, k, s, m);
+    // Quadrature points off x0, as within a step.
+    for (r, x) in w.xs.iter_mut().enumerate() {
+        *x = x0.clone();
+        x.iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v += 0.05 * wave(r, i));
+    }
+    let inv_mass: Vec<f64> = (0..nq)
+        .map(|d| 1.0 / (1.0 + 0.3 * wave(7, d).abs()))
+        .collect();
+    let g0 = vec![0.0; m];
+    let mut problem = Problem {
+        h: 0.03,
+        x: x0,
+        tables: &tables,
+        w: &mut w,
+        system,
+        g0: &g0,
+        noise: 0.0,
+        floor: 0.0,
+        split: false,
+    };
+    let (mut u, mut f) = (vec![0.0; k * (n + m)], vec![0.0; k * (n + m)]);
+    let vm: Vec<f64> = (0..k * m).map(|i| wave(3, i)).collect();
+    let vq: Vec<f64> = (0..k * nq).map(|i| wave(5, i)).collect();
+    // D_d⁻¹: near the identity, as for a resolved step.
+    let inv_d: Vec<f64> = (0..nq * k * k)
+        .map(|e| f64::from(u8::from((e % (k * k)).is_multiple_of(k + 1))) + 0.2 * wave(9, e))
+        .collect();
+    let mut results: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = Vec::new();
+    for with_blocks in [true, false] {
+        let mut stages = Stages {
+            full: &mut problem,
+            w: &inv_mass,
+            u: &mut u,
+            f: &mut f,
+            blocks: if with_blocks { Some(&mut blocks) } else { None },
+        };
+        let mut columns = vec![0.5; k * nq];
+        stages.multiplier_columns_add(&vm, &mut columns);
+        let mut rows = vec![0.0; k * m];
+        stages.constraint_rows(&vq, &mut rows);
+        let mut schur = vec![0.0; k * m * k * m];
+        if with_blocks {
+            let mut entries = Triplets::default();
+            assert!(stages.schur_complement_add(&inv_d, &mut entries));
+            for (i, j, v) in entries.entries {
+                schur[i * k * m + j] += v;
+            }
+        } else {
+            assert!(!stages.schur_complement_add(&inv_d, &mut Triplets::default()));
+            // Column by column: G D⁻¹ C e_j.
+            let (mut unit, mut col) = (vec![0.0; k * m], vec![0.0; k * m]);
+            for j in 0..k * m {
+                unit.iter_mut().for_each(|v| *v = 0.0);
+                unit[j] = 1.0;
+                let mut c = vec![0.0; k * nq];
+                stages.multiplier_columns_add(&unit, &mut c);
+                let mut dc = vec![0.0; k * nq];
+                for d in 0..nq {
+                    for i in 0..k {
+                        dc[d * k + i] = (0..k)
+                            .map(|l| inv_d[d * k * k + i * k + l] * c[d * k + l])
+                            .sum();
+                    }
+                }
+                stages.constraint_rows(&dc, &mut col);
+                for (i, &v) in col.iter().enumerate() {
+                    schur[i * k * m + j] = v;
+                }
+            }
+        }
+        results.push((columns, rows, schur));
+    }
+    let (b, p) = (results.remove(0), results.remove(0));
+    Both {
+        columns: [b.0, p.0],
+        rows: [b.1, p.1],
+        schur: [b.2, p.2],
+    }
+}
+
+/// `max |a − b| / max |b|`.
+fn relative(pair: &[Vec<f64>; 2]) -> f64 {
+    let scale = pair[1].iter().fold(0.0f64, |s, v| s.max(v.abs()));
+    assert!(scale > 0.0, "a product that vanishes tests nothing");
+    let diff = pair[0]
+        .iter()
+        .zip(&pair[1])
+        .fold(0.0f64, |s, (a, b)| s.max((a - b).abs()));
+    diff / scale
+}
+
+/// Both sum the same `O(s k²)` products of `O(1)` factors per entry, in another order: they
+/// agree to a few hundred roundings.
+const TOL: f64 = 256.0 * f64::EPSILON;
+
+fn check(both: &Both) {
+    for (what, pair) in [
+        ("C v", &both.columns),
+        ("G v", &both.rows),
+        ("S", &both.schur),
+    ] {
+        let e = relative(pair);
+        assert!(e <= TOL, "{what}: blocks and model passes differ by {e:e}");
+    }
+}
+
+#[test]
+fn blocks_agree_with_model_passes_on_particles_on_spheres() {
+    // Block-diagonal S: each constraint touches its own particle.
+    let model = SphereParticles::<f64>::row(4, 0.5).unwrap();
+    let x0: DVector<f64> = model.at_rest(|i| 0.3 + 0.2 * i as f64, |i| 0.1 * i as f64);
+    for k in [1, 2, 3] {
+        check(&both(&model.system(), &x0, k));
+    }
+}
+
+#[test]
+fn blocks_agree_with_model_passes_on_a_chain() {
+    // Banded S: consecutive rods share a body, so off-diagonal blocks (b ≠ a) appear.
+    let model = PendulumChain::<f64>::uniform(3, 5).unwrap();
+    let x0: DVector<f64> = model.at_rest(|i| 0.2 + 0.1 * i as f64);
+    for k in [1, 2, 3] {
+        let both = both(&model.system(), &x0, k);
+        let km = k * model.constraints();
+        let off = (0..km)
+            .flat_map(|i| (0..km).map(move |j| (i, j)))
+            .filter(|&(i, j)| i / k != j / k)
+            .any(|(i, j)| both.schur[1][i * km + j] != 0.0);
+        assert!(off, "the chain's S couples neighbouring rods");
+        check(&both);
+    }
+}
