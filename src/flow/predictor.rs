@@ -92,10 +92,9 @@ impl<T: Real> Predictor<T> {
                 let old = *d;
                 *d = new;
                 new = new - old;
-                let a = new.abs();
-                if a > err[j + 1] || a.is_nan() {
-                    err[j + 1] = a;
-                }
+                // A select on both tests at once (`|`, not `||`): no jump per entry.
+                let (a, e) = (new.abs(), err[j + 1]);
+                err[j + 1] = if (a > e) | a.is_nan() { a } else { e };
             }
             if c < MAX_POINTS {
                 row[c] = new;

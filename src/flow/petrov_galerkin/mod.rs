@@ -414,6 +414,9 @@ where
             ops::axpy(self.xe.as_mut_slice(), t.beta[j], &u[j * n..(j + 1) * n]);
         }
         // D = −h Σ_r b_r z_rᵀ M z_r with z_r = Σ_j ℓ_j(e_r) z(c_j), z(c_j) = acc_j(L = 0)/h.
+        // `zᵀMz` is a polynomial of degree 2k − 2 in t, which the k-point Gauss rule at the
+        // c_j integrates exactly as the s-point rule does: D = −h Σ_j β_j z(c_j)ᵀ M z(c_j),
+        // k products with M instead of s (and ≥ 0 term by term for M = J − R, β_j > 0).
         let mut damping = V::Real::zero();
         if self.system.structure().is_dissipative() {
             if let Some(reduced) = self.mechanical.as_ref() {
@@ -431,21 +434,12 @@ where
             }
             // Otherwise the last residual was evaluated at the solution: `accz` holds its
             // `h z(c_j)`.
-            let t = &self.tables;
-            for r in 0..t.s {
-                ops::fill_zero(self.tmp.as_mut_slice());
-                for j in 0..k {
-                    ops::axpy(
-                        self.tmp.as_mut_slice(),
-                        t.ell[r * k + j],
-                        self.w.accz[j].as_slice(),
-                    );
-                }
+            for (acc, &beta) in self.w.accz.iter().zip(&self.tables.beta) {
                 self.system
                     .structure()
-                    .apply(&self.start, &self.tmp, &mut self.t2);
-                let zmz = ops::dot(self.tmp.as_slice(), self.t2.as_slice());
-                damping = damping - t.b[r] * zmz / h;
+                    .apply(&self.start, acc, &mut self.t2);
+                let zmz = ops::dot(acc.as_slice(), self.t2.as_slice());
+                damping = damping - beta * zmz / h;
             }
         }
         let mut projection = V::Real::zero();

@@ -198,7 +198,11 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Problem<'_, V, Sys>
                 .zip(self.w.f.as_slice())
             {
                 *o = y - f;
-                scale = scale.max(y.abs()).max(f.abs());
+                // Selects, not `max`: no NaN handling in the loop (a non-finite row is
+                // reported below).
+                let (ya, fa) = (y.abs(), f.abs());
+                scale = if ya > scale { ya } else { scale };
+                scale = if fa > scale { fa } else { scale };
             }
         }
         // Each row sums `s` quadrature terms of about this size.

@@ -11,7 +11,6 @@ pub(crate) struct Tables<T> {
     pub(super) k: usize,
     pub(super) s: usize,
     pub(super) beta: Vec<T>,
-    pub(super) b: Vec<T>,
     pub(super) ell: Vec<T>,
     pub(super) a: Vec<T>,
     /// `Â_ij = (1/β_i) Σ_r b_r ℓ_i(e_r) A_rj` (`k × k`): for a mechanical model the position
@@ -68,7 +67,6 @@ impl<T: Real> Tables<T> {
             k: basis.k,
             s: basis.s,
             beta,
-            b,
             ell,
             a,
             ahat,
