@@ -53,6 +53,13 @@ pub(super) struct ConstraintBlocks<T> {
     /// filling them is a sum of `s k²` vector updates over the entries.
     c: Vec<T>,
     g: Vec<T>,
+    /// Rows that share no column, colour after colour: `colors[color_ptr[c]..color_ptr[c + 1]]`
+    /// are the entries of colour `c`, whose values one product `G_rᵀ 1_c` gives at once
+    /// (`ones`: `1_c`, `m` entries a colour). Empty when the constraint lists an entry twice
+    /// (its values are then taken through the entries themselves).
+    colors: Vec<usize>,
+    color_ptr: Vec<usize>,
+    ones: Vec<T>,
     /// Whether `c` and `g` are those of the last residual's points.
     fresh: bool,
     /// Whether the constraint listed the same entries at every point so far.
@@ -134,6 +141,7 @@ impl<T: Real> ConstraintBlocks<T> {
                 }
             }
         }
+        let (colors, color_ptr, ones) = color_rows(&rows, &of_col, constraint.dim());
         let nnz = rows.len();
         Some(Self {
             k,
@@ -146,6 +154,9 @@ impl<T: Real> ConstraintBlocks<T> {
             hw: vec![T::zero(); nnz],
             c: vec![T::zero(); kk * nnz],
             g: vec![T::zero(); kk * nnz],
+            colors,
+            color_ptr,
+            ones,
             fresh: false,
             usable: true,
             rows,
@@ -153,15 +164,36 @@ impl<T: Real> ConstraintBlocks<T> {
         })
     }
 
+    /// The same blocks with their values taken through the listed entries, not by colour.
+    #[cfg(test)]
+    pub(super) fn by_entries(mut self) -> Self {
+        (self.colors, self.color_ptr, self.ones) = (Vec::new(), vec![0], Vec::new());
+        self
+    }
+
+    /// The number of colours (`0`: the values are taken through the listed entries).
+    #[cfg(test)]
+    pub(super) fn colors(&self) -> usize {
+        self.color_ptr.len() - 1
+    }
+
     /// The points moved: the blocks are filled again when next asked for.
     pub(super) fn stale(&mut self) {
         self.fresh = false;
     }
 
-    /// Fills the blocks at the quadrature points `xs` (step `h`, inverse masses `w`) unless
-    /// they are fresh; `false` when the constraint lists other entries than at construction
-    /// (then and from then on: its products must be taken through the model).
-    pub(super) fn refresh<V, C>(&mut self, constraint: &C, xs: &[V], h: T, w: &[T]) -> bool
+    /// Fills the blocks at the quadrature points `xs` (step `h`, inverse masses `w`; `scratch`
+    /// a state-sized vector) unless they are fresh; `false` when the constraint lists other
+    /// entries than at construction (then and from then on: its products must be taken
+    /// through the model).
+    pub(super) fn refresh<V, C>(
+        &mut self,
+        constraint: &C,
+        xs: &[V],
+        h: T,
+        w: &[T],
+        scratch: &mut V,
+    ) -> bool
     where
         V: Vector<Real = T>,
         C: HolonomicConstraint<V>,
@@ -171,17 +203,31 @@ impl<T: Real> ConstraintBlocks<T> {
         }
         let nnz = self.rows.len();
         let kk = self.k * self.k;
+        let m = self.ones.len() / (self.color_ptr.len() - 1).max(1);
         for (x, vals) in xs.iter().zip(self.vals.chunks_exact_mut(nnz)) {
-            let mut fill = Fill {
-                rows: &self.rows,
-                cols: &self.cols,
-                vals,
-                next: 0,
-                same: true,
-            };
-            if !constraint.jacobian_entries(x, &mut fill) || !fill.same || fill.next != nnz {
-                self.usable = false;
-                return false;
+            if self.colors.is_empty() {
+                let mut fill = Fill {
+                    rows: &self.rows,
+                    cols: &self.cols,
+                    vals,
+                    next: 0,
+                    same: true,
+                };
+                if !constraint.jacobian_entries(x, &mut fill) || !fill.same || fill.next != nnz {
+                    self.usable = false;
+                    return false;
+                }
+                continue;
+            }
+            // One product `G(x)ᵀ 1_c` a colour: its rows share no column, so each of their
+            // entries is alone in its component.
+            for (c, ones) in self.ones.chunks_exact(m).enumerate() {
+                ops::fill_zero(scratch.as_mut_slice());
+                constraint.jacobian_transpose_apply_add(x, ones, T::one(), scratch);
+                let gq = scratch.as_slice();
+                for &e in &self.colors[self.color_ptr[c]..self.color_ptr[c + 1]] {
+                    vals[e] = gq[self.cols[e]];
+                }
             }
         }
         ops::fill_zero(&mut self.c);
@@ -278,6 +324,49 @@ impl<T: Real> ConstraintBlocks<T> {
             }
         }
     }
+}
+
+/// A colouring of the constraint rows such that rows of one colour share no column (greedy,
+/// in row order): the entries of each colour (`colors`, `color_ptr`) and its indicator vector
+/// over the `m` rows (`ones`). All empty when an entry is listed twice.
+fn color_rows<T: Real>(
+    rows: &[usize],
+    of_col: &[Vec<usize>],
+    m: usize,
+) -> (Vec<usize>, Vec<usize>, Vec<T>) {
+    let mut neighbours: Vec<Vec<usize>> = vec![Vec::new(); m];
+    for es in of_col {
+        let mut rs: Vec<usize> = es.iter().map(|&e| rows[e]).collect();
+        let listed = rs.len();
+        rs.sort_unstable();
+        rs.dedup();
+        if rs.len() != listed || rs.last().is_some_and(|&r| r >= m) {
+            // A row lists this column twice (or a row out of range): take the entries.
+            return (Vec::new(), vec![0], Vec::new());
+        }
+        for &a in &rs {
+            neighbours[a].extend(rs.iter().filter(|&&b| b != a));
+        }
+    }
+    let mut color = vec![usize::MAX; m];
+    let mut taken = Vec::new();
+    for a in 0..m {
+        taken.clear();
+        taken.extend(neighbours[a].iter().map(|&b| color[b]));
+        color[a] = (0..).find(|c| !taken.contains(c)).unwrap_or(0);
+    }
+    let count = color.iter().map(|&c| c + 1).max().unwrap_or(0);
+    let mut ones = vec![T::zero(); count * m];
+    for (a, &c) in color.iter().enumerate() {
+        ones[c * m + a] = T::one();
+    }
+    let mut colors = Vec::with_capacity(rows.len());
+    let mut color_ptr = vec![0];
+    for c in 0..count {
+        colors.extend((0..rows.len()).filter(|&e| color[rows[e]] == c));
+        color_ptr.push(colors.len());
+    }
+    (colors, color_ptr, ones)
 }
 
 #[cfg(test)]

@@ -23,13 +23,22 @@ struct Both {
     schur: [Vec<f64>; 2],
 }
 
-fn both<Sys: Model<DVector<f64>>>(system: &Sys, x0: &DVector<f64>, k: usize) -> Both {
+/// `by_entries`: the blocks' values through the listed entries rather than by colour.
+fn both<Sys: Model<DVector<f64>>>(
+    system: &Sys,
+    x0: &DVector<f64>,
+    k: usize,
+    by_entries: bool,
+) -> Both {
     let (n, m) = (x0.len(), system.constraint().dim());
     let nq = n / 2;
     let s = k + 2;
     let tables = Tables::<f64>::new(k, s);
     let mut blocks = ConstraintBlocks::new(system.constraint(), x0, nq, &tables)
         .expect("the model lists its Jacobian entries");
+    if by_entries {
+        blocks = blocks.by_entries();
+    }
     let mut w = Scratch::new(x0, k, s, m);
     // Quadrature points off x0, as within a step.
     for (r, x) in w.xs.iter_mut().enumerate() {
@@ -144,8 +153,8 @@ fn blocks_agree_with_model_passes_on_particles_on_spheres() {
     // Block-diagonal S: each constraint touches its own particle.
     let model = SphereParticles::<f64>::row(4, 0.5).unwrap();
     let x0: DVector<f64> = model.at_rest(|i| 0.3 + 0.2 * i as f64, |i| 0.1 * i as f64);
-    for k in [1, 2, 3] {
-        check(&both(&model.system(), &x0, k));
+    for (k, by_entries) in [(1, false), (2, false), (3, false), (2, true)] {
+        check(&both(&model.system(), &x0, k, by_entries));
     }
 }
 
@@ -154,8 +163,8 @@ fn blocks_agree_with_model_passes_on_a_chain() {
     // Banded S: consecutive rods share a body, so off-diagonal blocks (b ≠ a) appear.
     let model = PendulumChain::<f64>::uniform(3, 5).unwrap();
     let x0: DVector<f64> = model.at_rest(|i| 0.2 + 0.1 * i as f64);
-    for k in [1, 2, 3] {
-        let both = both(&model.system(), &x0, k);
+    for (k, by_entries) in [(1, false), (2, false), (3, false), (2, true)] {
+        let both = both(&model.system(), &x0, k, by_entries);
         let km = k * model.constraints();
         let off = (0..km)
             .flat_map(|i| (0..km).map(move |j| (i, j)))
@@ -163,5 +172,36 @@ fn blocks_agree_with_model_passes_on_a_chain() {
             .any(|(i, j)| both.schur[1][i * km + j] != 0.0);
         assert!(off, "the chain's S couples neighbouring rods");
         check(&both);
+    }
+}
+
+/// A scene's entries: the blocks take them at every point, by colour and entry by entry (no
+/// fallback to the model passes), and agree with those passes.
+#[cfg(feature = "scene")]
+#[test]
+fn blocks_agree_with_model_passes_on_scenes() {
+    let chain = include_str!("../../../scenes/chain1000.toml").replace("links = 1000", "links = 8");
+    for text in [include_str!("../../../scenes/shell_damped.toml"), &chain] {
+        let compiled = crate::scene::Scene::from_toml(text, "test.toml")
+            .and_then(|s| s.compile())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let x0 = DVector::from_column_slice(compiled.simulation.state());
+        let model = compiled.model.expect("a scene of bodies");
+        let model = crate::system::System::new(model.clone(), model.clone(), model);
+        let (k, nq) = (2, x0.len() / 2);
+        let tables = Tables::<f64>::new(k, k + 2);
+        let constraint = Model::<DVector<f64>>::constraint(&model);
+        let mut blocks = ConstraintBlocks::new(constraint, &x0, nq, &tables)
+            .expect("a scene of more than four constraints lists its entries");
+        // Spheres: one colour; a chain's rods share a body with their neighbours: two.
+        assert!((1..=2).contains(&blocks.colors()), "{}", blocks.colors());
+        let xs = vec![x0.clone(); k + 2];
+        let mut scratch = x0.clone();
+        assert!(blocks.refresh(constraint, &xs, 0.01, &vec![1.0; nq], &mut scratch));
+        let mut entries = blocks.clone().by_entries();
+        entries.stale();
+        assert!(entries.refresh(constraint, &xs, 0.01, &vec![1.0; nq], &mut scratch));
+        check(&both(&model, &x0, k, false));
+        check(&both(&model, &x0, k, true));
     }
 }

@@ -62,9 +62,11 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
     /// when the constraint does not list its entries (the products go through the model).
     fn blocks(&mut self) -> Option<&mut ConstraintBlocks<V::Real>> {
         let blocks = self.blocks.as_deref_mut()?;
-        let full = &*self.full;
+        let full = &mut *self.full;
+        let (h, system) = (full.h, full.system);
+        // `grad` is the residual's scratch, free between residuals.
         blocks
-            .refresh(full.system.constraint(), &full.w.xs, full.h, self.w)
+            .refresh(system.constraint(), &full.w.xs, h, self.w, &mut full.w.grad)
             .then_some(blocks)
     }
 
