@@ -98,9 +98,10 @@ impl<T: Real> ConstraintBlocks<T> {
         C: HolonomicConstraint<V>,
     {
         let mut entries = Triplets::default();
+        let m = constraint.dim();
         if !constraint.jacobian_entries(x0, &mut entries)
             || entries.entries.is_empty()
-            || entries.entries.iter().any(|&(_, c, _)| c >= nq)
+            || entries.entries.iter().any(|&(r, c, _)| c >= nq || r >= m)
         {
             return None;
         }
@@ -130,18 +131,8 @@ impl<T: Real> ConstraintBlocks<T> {
         group_ptr.push(keyed.len());
         let (k, s) = (tables.k, tables.s);
         let kk = k * k;
-        let mut wc = vec![T::zero(); s * kk];
-        let mut wg = vec![T::zero(); s * kk];
-        for r in 0..s {
-            for i in 0..k {
-                let t = tables.test[r * k + i];
-                for j in 0..k {
-                    wc[r * kk + i * k + j] = t * tables.ell[r * k + j];
-                    wg[r * kk + i * k + j] = t * tables.ell_ahat[r * k + j];
-                }
-            }
-        }
-        let (colors, color_ptr, ones) = color_rows(&rows, &of_col, constraint.dim());
+        let (wc, wg) = weights(tables);
+        let (colors, color_ptr, ones) = color_rows(&rows, &of_col, m);
         let nnz = rows.len();
         Some(Self {
             k,
@@ -177,6 +168,14 @@ impl<T: Real> ConstraintBlocks<T> {
         self.color_ptr.len() - 1
     }
 
+    /// The same entries for the tables of another quadrature (`s` points, the same `k`).
+    pub(super) fn for_quadrature(&mut self, tables: &Tables<T>) {
+        debug_assert_eq!(tables.k, self.k, "the stage count is fixed");
+        (self.wc, self.wg) = weights(tables);
+        self.vals = vec![T::zero(); tables.s * self.rows.len()];
+        self.fresh = false;
+    }
+
     /// The points moved: the blocks are filled again when next asked for.
     pub(super) fn stale(&mut self) {
         self.fresh = false;
@@ -203,6 +202,7 @@ impl<T: Real> ConstraintBlocks<T> {
         }
         let nnz = self.rows.len();
         let kk = self.k * self.k;
+        debug_assert_eq!(xs.len() * nnz, self.vals.len(), "one point of values per x");
         let m = self.ones.len() / (self.color_ptr.len() - 1).max(1);
         for (x, vals) in xs.iter().zip(self.vals.chunks_exact_mut(nnz)) {
             if self.colors.is_empty() {
@@ -326,9 +326,34 @@ impl<T: Real> ConstraintBlocks<T> {
     }
 }
 
+/// `t_ri ℓ_j(e_r)` and `t_ri (ℓ(e_r)ᵀÂ)_l` (`s × k × k`) from the tables.
+fn weights<T: Real>(tables: &Tables<T>) -> (Vec<T>, Vec<T>) {
+    let (k, s) = (tables.k, tables.s);
+    let kk = k * k;
+    let mut wc = vec![T::zero(); s * kk];
+    let mut wg = vec![T::zero(); s * kk];
+    for r in 0..s {
+        for i in 0..k {
+            let t = tables.test[r * k + i];
+            for j in 0..k {
+                wc[r * kk + i * k + j] = t * tables.ell[r * k + j];
+                wg[r * kk + i * k + j] = t * tables.ell_ahat[r * k + j];
+            }
+        }
+    }
+    (wc, wg)
+}
+
+/// The most colours whose products fill the values; beyond them the listed entries do.
+const MAX_COLORS: usize = 4;
+
+// `schur_add` has a kernel for each stage count up to four.
+const _: () = assert!(super::MAX_STAGES <= 4);
+
 /// A colouring of the constraint rows such that rows of one colour share no column (greedy,
 /// in row order): the entries of each colour (`colors`, `color_ptr`) and its indicator vector
-/// over the `m` rows (`ones`). All empty when an entry is listed twice.
+/// over the `m` rows (`ones`). All empty when an entry is listed twice or more than
+/// [`MAX_COLORS`] colours are needed.
 fn color_rows<T: Real>(
     rows: &[usize],
     of_col: &[Vec<usize>],
@@ -340,13 +365,17 @@ fn color_rows<T: Real>(
         let listed = rs.len();
         rs.sort_unstable();
         rs.dedup();
-        if rs.len() != listed || rs.last().is_some_and(|&r| r >= m) {
-            // A row lists this column twice (or a row out of range): take the entries.
+        if rs.len() != listed {
+            // A row lists this column twice: take the entries.
             return (Vec::new(), vec![0], Vec::new());
         }
         for &a in &rs {
             neighbours[a].extend(rs.iter().filter(|&&b| b != a));
         }
+    }
+    for n in &mut neighbours {
+        n.sort_unstable();
+        n.dedup();
     }
     let mut color = vec![usize::MAX; m];
     let mut taken = Vec::new();
@@ -356,6 +385,11 @@ fn color_rows<T: Real>(
         color[a] = (0..).find(|c| !taken.contains(c)).unwrap_or(0);
     }
     let count = color.iter().map(|&c| c + 1).max().unwrap_or(0);
+    if count > MAX_COLORS {
+        // A body many constraints share (a hub): a product per colour at every point would
+        // cost more than the one pass of the listed entries.
+        return (Vec::new(), vec![0], Vec::new());
+    }
     let mut ones = vec![T::zero(); count * m];
     for (a, &c) in color.iter().enumerate() {
         ones[c * m + a] = T::one();

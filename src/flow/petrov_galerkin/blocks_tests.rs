@@ -153,7 +153,7 @@ fn blocks_agree_with_model_passes_on_particles_on_spheres() {
     // Block-diagonal S: each constraint touches its own particle.
     let model = SphereParticles::<f64>::row(4, 0.5).unwrap();
     let x0: DVector<f64> = model.at_rest(|i| 0.3 + 0.2 * i as f64, |i| 0.1 * i as f64);
-    for (k, by_entries) in [(1, false), (2, false), (3, false), (2, true)] {
+    for (k, by_entries) in [(1, false), (2, false), (3, false), (4, false), (2, true)] {
         check(&both(&model.system(), &x0, k, by_entries));
     }
 }
@@ -163,7 +163,7 @@ fn blocks_agree_with_model_passes_on_a_chain() {
     // Banded S: consecutive rods share a body, so off-diagonal blocks (b ≠ a) appear.
     let model = PendulumChain::<f64>::uniform(3, 5).unwrap();
     let x0: DVector<f64> = model.at_rest(|i| 0.2 + 0.1 * i as f64);
-    for (k, by_entries) in [(1, false), (2, false), (3, false), (2, true)] {
+    for (k, by_entries) in [(1, false), (2, false), (3, false), (4, false), (2, true)] {
         let both = both(&model.system(), &x0, k, by_entries);
         let km = k * model.constraints();
         let off = (0..km)
@@ -204,4 +204,56 @@ fn blocks_agree_with_model_passes_on_scenes() {
         check(&both(&model, &x0, k, false));
         check(&both(&model, &x0, k, true));
     }
+}
+
+/// The blocks follow the points of the last residual: filled at one `z`, a residual at
+/// another makes the next product fill them again (a product that kept the first points
+/// would differ by the points' change).
+#[test]
+fn products_follow_the_last_residual() {
+    use crate::nonlinear::NonlinearProblem;
+    let model = PendulumChain::<f64>::uniform(3, 5).unwrap();
+    let x0: DVector<f64> = model.at_rest(|i| 0.2 + 0.1 * i as f64);
+    let system = model.system();
+    let (n, m, k) = (x0.len(), model.constraints(), 2);
+    let (nq, s) = (n / 2, k + 2);
+    let tables = Tables::<f64>::new(k, s);
+    let constraint = Model::<DVector<f64>>::constraint(&system);
+    let mut blocks = ConstraintBlocks::new(constraint, &x0, nq, &tables).unwrap();
+    let mut w = Scratch::new(&x0, k, s, m);
+    let inv_mass = vec![1.0; nq];
+    let g0 = vec![0.0; m];
+    let mut problem = Problem {
+        h: 0.03,
+        x: &x0,
+        tables: &tables,
+        w: &mut w,
+        system: &system,
+        g0: &g0,
+        noise: 0.0,
+        floor: 0.0,
+        split: false,
+    };
+    let (mut u, mut f) = (vec![0.0; k * (n + m)], vec![0.0; k * (n + m)]);
+    let dim = k * (nq + m);
+    let z1: Vec<f64> = (0..dim).map(|i| 0.3 * wave(11, i)).collect();
+    let z2: Vec<f64> = (0..dim).map(|i| 0.3 * wave(13, i)).collect();
+    let vm: Vec<f64> = (0..k * m).map(|i| wave(3, i)).collect();
+    let mut out = vec![0.0; dim];
+    let mut columns = [vec![0.0; k * nq], vec![0.0; k * nq]];
+    for (with_blocks, columns) in [true, false].into_iter().zip(&mut columns) {
+        let mut stages = Stages {
+            full: &mut problem,
+            w: &inv_mass,
+            u: &mut u,
+            f: &mut f,
+            blocks: if with_blocks { Some(&mut blocks) } else { None },
+        };
+        stages.residual(&z1, &mut out).unwrap();
+        stages.multiplier_columns_add(&vm, &mut vec![0.0; k * nq]);
+        stages.residual(&z2, &mut out).unwrap();
+        stages.multiplier_columns_add(&vm, columns);
+    }
+    let e = relative(&columns);
+    assert!(e <= TOL, "blocks at stale points: {e:e}");
 }

@@ -265,13 +265,10 @@ where
         }
         self.tables = Tables::new(k, s);
         self.w.xs = vec![self.start.zeros_like(); s];
+        if let Some(blocks) = self.blocks.as_mut() {
+            blocks.for_quadrature(&self.tables);
+        }
         if let Some(reduced) = self.mechanical.as_mut() {
-            self.blocks = ConstraintBlocks::new(
-                self.system.constraint(),
-                &self.start,
-                reduced.nq,
-                &self.tables,
-            );
             // Its stage matrix is the same (`Â` is exact for any `s ≥ k`); its past steps are not.
             reduced.invalidate();
         }
