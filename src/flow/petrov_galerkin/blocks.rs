@@ -34,6 +34,8 @@ use crate::vector::{Vector, ops};
 #[derive(Debug, Clone)]
 pub(super) struct ConstraintBlocks<T> {
     k: usize,
+    /// The number of constraints.
+    m: usize,
     /// The entries' rows and columns, in the order the constraint lists them.
     rows: Vec<usize>,
     cols: Vec<usize>,
@@ -47,8 +49,6 @@ pub(super) struct ConstraintBlocks<T> {
     wg: Vec<T>,
     /// `g_r(e)`, point after point (`r nnz + e`): the order the constraint lists them in.
     vals: Vec<T>,
-    /// `h w_d` of each entry's column.
-    hw: Vec<T>,
     /// `C_e[i][j]` and `G_e[i][j]` at `(i k + j) nnz + e`: component after component, so that
     /// filling them is a sum of `s k²` vector updates over the entries.
     c: Vec<T>,
@@ -56,7 +56,8 @@ pub(super) struct ConstraintBlocks<T> {
     /// Rows that share no column, colour after colour: `colors[color_ptr[c]..color_ptr[c + 1]]`
     /// are the entries of colour `c`, whose values one product `G_rᵀ 1_c` gives at once
     /// (`ones`: `1_c`, `m` entries a colour). Empty when the constraint lists an entry twice
-    /// (its values are then taken through the entries themselves).
+    /// or needs more than [`MAX_COLORS`] colours (its values are then taken through the
+    /// listed entries).
     colors: Vec<usize>,
     color_ptr: Vec<usize>,
     ones: Vec<T>,
@@ -136,13 +137,13 @@ impl<T: Real> ConstraintBlocks<T> {
         let nnz = rows.len();
         Some(Self {
             k,
+            m,
             pairs: keyed.into_iter().map(|(_, p)| p).collect(),
             group_ptr,
             group_rows,
             wc,
             wg,
             vals: vec![T::zero(); s * nnz],
-            hw: vec![T::zero(); nnz],
             c: vec![T::zero(); kk * nnz],
             g: vec![T::zero(); kk * nnz],
             colors,
@@ -203,7 +204,7 @@ impl<T: Real> ConstraintBlocks<T> {
         let nnz = self.rows.len();
         let kk = self.k * self.k;
         debug_assert_eq!(xs.len() * nnz, self.vals.len(), "one point of values per x");
-        let m = self.ones.len() / (self.color_ptr.len() - 1).max(1);
+        let m = self.m;
         for (x, vals) in xs.iter().zip(self.vals.chunks_exact_mut(nnz)) {
             if self.colors.is_empty() {
                 let mut fill = Fill {
@@ -248,12 +249,9 @@ impl<T: Real> ConstraintBlocks<T> {
                 ops::axpy(g, b, v);
             }
         }
-        for (hw, &d) in self.hw.iter_mut().zip(&self.cols) {
-            *hw = h * w[d];
-        }
         for g in self.g.chunks_exact_mut(nnz) {
-            for (g, &hw) in g.iter_mut().zip(&self.hw) {
-                *g = *g * hw;
+            for (g, &d) in g.iter_mut().zip(&self.cols) {
+                *g = *g * (h * w[d]);
             }
         }
         self.fresh = true;

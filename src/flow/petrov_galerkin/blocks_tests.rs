@@ -15,6 +15,27 @@ fn wave(seed: usize, i: usize) -> f64 {
     (1.7 * seed as f64 + 0.37 * i as f64 + 0.013 * (i * i) as f64).sin()
 }
 
+/// The step problem of `system` from `x0` at `h = 0.03`, on the manifold (`g0`).
+fn problem<'a, Sys>(
+    x0: &'a DVector<f64>,
+    tables: &'a Tables<f64>,
+    w: &'a mut Scratch<DVector<f64>>,
+    system: &'a Sys,
+    g0: &'a [f64],
+) -> Problem<'a, DVector<f64>, Sys> {
+    Problem {
+        h: 0.03,
+        x: x0,
+        tables,
+        w,
+        system,
+        g0,
+        noise: 0.0,
+        floor: 0.0,
+        split: false,
+    }
+}
+
 /// What the blocks give and what the model passes give for `C v`, `G v` and `S = G D⁻¹ C`:
 /// `(blocks, model)` for each, `S` dense.
 struct Both {
@@ -51,17 +72,7 @@ fn both<Sys: Model<DVector<f64>>>(
         .map(|d| 1.0 / (1.0 + 0.3 * wave(7, d).abs()))
         .collect();
     let g0 = vec![0.0; m];
-    let mut problem = Problem {
-        h: 0.03,
-        x: x0,
-        tables: &tables,
-        w: &mut w,
-        system,
-        g0: &g0,
-        noise: 0.0,
-        floor: 0.0,
-        split: false,
-    };
+    let mut problem = problem(x0, &tables, &mut w, system, &g0);
     let (mut u, mut f) = (vec![0.0; k * (n + m)], vec![0.0; k * (n + m)]);
     let vm: Vec<f64> = (0..k * m).map(|i| wave(3, i)).collect();
     let vq: Vec<f64> = (0..k * nq).map(|i| wave(5, i)).collect();
@@ -223,17 +234,7 @@ fn products_follow_the_last_residual() {
     let mut w = Scratch::new(&x0, k, s, m);
     let inv_mass = vec![1.0; nq];
     let g0 = vec![0.0; m];
-    let mut problem = Problem {
-        h: 0.03,
-        x: &x0,
-        tables: &tables,
-        w: &mut w,
-        system: &system,
-        g0: &g0,
-        noise: 0.0,
-        floor: 0.0,
-        split: false,
-    };
+    let mut problem = problem(&x0, &tables, &mut w, &system, &g0);
     let (mut u, mut f) = (vec![0.0; k * (n + m)], vec![0.0; k * (n + m)]);
     let dim = k * (nq + m);
     let z1: Vec<f64> = (0..dim).map(|i| 0.3 * wave(11, i)).collect();
