@@ -24,6 +24,7 @@
 //! (docs/method.md §11).
 
 use crate::real::Real;
+use crate::vector::ops;
 
 /// The most past solutions an extrapolation uses (degree `MAX_POINTS − 1`).
 pub(crate) const MAX_POINTS: usize = 6;
@@ -32,9 +33,12 @@ pub(crate) const MAX_POINTS: usize = 6;
 /// number of them the next prediction uses.
 #[derive(Debug, Clone)]
 pub(crate) struct Predictor<T> {
-    /// `∇ʲ z_n` of entry `e` at `e MAX_POINTS + j`: a step reads and writes them in one pass
-    /// (one stream, where a vector per order made one pass per order).
+    /// `∇ʲ z_n` at `j len ..(j + 1) len`: a prediction and a record are passes over whole
+    /// differences, each a contiguous loop over the entries (which the compiler vectorizes;
+    /// with the differences of an entry side by side, each entry was a serial chain).
     diffs: Vec<T>,
+    /// `∇ʲ⁺¹ z_{n+1}` while a record climbs the orders.
+    next: Vec<T>,
     /// How many differences are valid (the solutions recorded since the last `forget`, at most
     /// [`MAX_POINTS`]).
     count: usize,
@@ -48,6 +52,7 @@ impl<T: Real> Predictor<T> {
     pub(crate) fn new(len: usize) -> Self {
         Self {
             diffs: vec![T::zero(); len * MAX_POINTS],
+            next: vec![T::zero(); len],
             count: 0,
             points: 0,
         }
@@ -61,16 +66,13 @@ impl<T: Real> Predictor<T> {
 
     /// `z = Σ_{j<p} ∇ʲ z_n` with `p` the chosen number of points; nothing without past solutions.
     pub(crate) fn predict(&self, z: &mut [T]) {
-        let p = self.points;
-        if p == 0 {
+        let (p, len) = (self.points, self.next.len());
+        if p == 0 || len == 0 {
             return;
         }
-        for (v, row) in z.iter_mut().zip(self.diffs.chunks_exact(MAX_POINTS)) {
-            let mut sum = row[0];
-            for &d in &row[1..p] {
-                sum = sum + d;
-            }
-            *v = sum;
+        z.copy_from_slice(&self.diffs[..len]);
+        for d in self.diffs[len..p * len].chunks_exact(len) {
+            ops::axpy(z, T::one(), d);
         }
     }
 
@@ -82,23 +84,24 @@ impl<T: Real> Predictor<T> {
     /// extrapolation after two, the quadratic after three, as far as they keep improving);
     /// after the first, there is none (the caller's own start stands).
     pub(crate) fn record(&mut self, z: &[T]) {
-        let c = self.count;
+        let (c, len) = (self.count, self.next.len());
+        if len == 0 {
+            return;
+        }
         // `max_e |(∇ᵖ z_{n+1})_e|`, NaN if any entry is (`max` would drop it).
         let mut err = [T::zero(); MAX_POINTS + 1];
-        for (row, &v) in self.diffs.chunks_exact_mut(MAX_POINTS).zip(z) {
+        self.next.copy_from_slice(z);
+        for (j, d) in self.diffs[..c * len].chunks_exact_mut(len).enumerate() {
             // `new = ∇ʲ z_{n+1}` replaces `∇ʲ z_n`, and `∇ʲ⁺¹ z_{n+1} = ∇ʲ z_{n+1} − ∇ʲ z_n`.
-            let mut new = v;
-            for (j, d) in row[..c].iter_mut().enumerate() {
-                let old = *d;
-                *d = new;
-                new = new - old;
-                // A select on both tests at once (`|`, not `||`): no jump per entry.
-                let (a, e) = (new.abs(), err[j + 1]);
-                err[j + 1] = if (a > e) | a.is_nan() { a } else { e };
+            for (old, new) in d.iter_mut().zip(&mut self.next) {
+                let o = *old;
+                *old = *new;
+                *new = *new - o;
             }
-            if c < MAX_POINTS {
-                row[c] = new;
-            }
+            err[j + 1] = ops::norm_inf(&self.next);
+        }
+        if c < MAX_POINTS {
+            self.diffs[c * len..(c + 1) * len].copy_from_slice(&self.next);
         }
         // A non-finite error (an overflowed difference) is never smaller; the lowest degree
         // extrapolates with the last solution alone.

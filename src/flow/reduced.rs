@@ -22,6 +22,8 @@ pub(crate) struct Reduced<T: Real, L> {
     pub(crate) w: Vec<T>,
     /// `(δq, ν)`.
     pub(crate) z: Vec<T>,
+    /// The entries of `B` (the momentum rows' `B Y^q` of the Petrov–Galerkin residual).
+    pub(crate) momentum_block: Vec<(usize, usize, T)>,
     /// Multiplier-sized scratch for the problems' residuals and columns.
     pub(crate) scaled: Vec<T>,
     pub(crate) solver: KeptNewton<T, L>,
@@ -126,6 +128,7 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
         Ok(Self {
             nq,
             w: form.inverse_mass,
+            momentum_block: form.momentum_block,
             z: vec![T::zero(); unknowns],
             scaled: vec![T::zero(); m],
             solver: KeptNewton {

@@ -309,6 +309,7 @@ where
             z,
             scaled,
             solver,
+            ..
         } = reduced;
         let nq = *nq;
         let n = self.start.len();

@@ -32,7 +32,6 @@ fn problem<'a, Sys>(
         g0,
         noise: 0.0,
         floor: 0.0,
-        split: false,
     }
 }
 
@@ -73,7 +72,7 @@ fn both<Sys: Model<DVector<f64>>>(
         .collect();
     let g0 = vec![0.0; m];
     let mut problem = problem(x0, &tables, &mut w, system, &g0);
-    let (mut u, mut f) = (vec![0.0; k * (n + m)], vec![0.0; k * (n + m)]);
+    let mut u = vec![0.0; k * (n + m)];
     let vm: Vec<f64> = (0..k * m).map(|i| wave(3, i)).collect();
     let vq: Vec<f64> = (0..k * nq).map(|i| wave(5, i)).collect();
     // D_d⁻¹: near the identity, as for a resolved step.
@@ -86,7 +85,7 @@ fn both<Sys: Model<DVector<f64>>>(
             full: &mut problem,
             w: &inv_mass,
             u: &mut u,
-            f: &mut f,
+            momentum_block: &[],
             blocks: if with_blocks { Some(&mut blocks) } else { None },
         };
         let mut columns = vec![0.5; k * nq];
@@ -235,7 +234,7 @@ fn products_follow_the_last_residual() {
     let inv_mass = vec![1.0; nq];
     let g0 = vec![0.0; m];
     let mut problem = problem(&x0, &tables, &mut w, &system, &g0);
-    let (mut u, mut f) = (vec![0.0; k * (n + m)], vec![0.0; k * (n + m)]);
+    let mut u = vec![0.0; k * (n + m)];
     let dim = k * (nq + m);
     let z1: Vec<f64> = (0..dim).map(|i| 0.3 * wave(11, i)).collect();
     let z2: Vec<f64> = (0..dim).map(|i| 0.3 * wave(13, i)).collect();
@@ -247,7 +246,7 @@ fn products_follow_the_last_residual() {
             full: &mut problem,
             w: &inv_mass,
             u: &mut u,
-            f: &mut f,
+            momentum_block: &[],
             blocks: if with_blocks { Some(&mut blocks) } else { None },
         };
         stages.residual(&z1, &mut out).unwrap();

@@ -94,8 +94,6 @@ pub struct PetrovGalerkin<
     blocks: Option<ConstraintBlocks<V::Real>>,
     hidden: Option<HiddenSolver<V>>,
     u: W,
-    /// The full residual, for the reduced solve.
-    f: W,
     /// Where the last step ended (for the reduced solve's predictor), when `ended`.
     end: V,
     ended: bool,
@@ -235,7 +233,6 @@ where
             blocks,
             hidden,
             u: W::zeros(k * (n + m)),
-            f: W::zeros(k * (n + m)),
             end: x0.zeros_like(),
             ended: false,
             w: Scratch::new(x0, k, k + 2, m),
@@ -368,16 +365,21 @@ where
             g0: &self.g0,
             noise: V::Real::zero(),
             floor,
-            split: self.mechanical.is_none(),
         };
         let solved = if let Some(reduced) = self.mechanical.as_mut() {
-            let Reduced { w, z, solver, .. } = reduced;
+            let Reduced {
+                w,
+                z,
+                solver,
+                momentum_block,
+                ..
+            } = reduced;
             solver.begin(h, continued);
             let mut stages = Stages {
                 full: &mut problem,
                 w,
                 u: self.u.as_mut_slice(),
-                f: self.f.as_mut_slice(),
+                momentum_block,
                 blocks: self.blocks.as_mut(),
             };
             stages.compress(z);

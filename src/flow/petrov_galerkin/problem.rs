@@ -70,9 +70,6 @@ pub(super) struct Problem<'a, V: Vector, Sys> {
     /// The step's rounding floor of the state rows from the positions' rounding
     /// ([`PetrovGalerkin::rounding_floor`](super::PetrovGalerkin)).
     pub(super) floor: V::Real,
-    /// Whether `w.accz` keeps the `∇H` part of `acc` apart (the dense path reads it for the
-    /// damping; the reduced path has it from its unknowns and sums both parts at once).
-    pub(super) split: bool,
 }
 
 impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
@@ -83,14 +80,8 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
         let n = self.x.len();
         let m = self.w.lr.len();
         let (ys, ls) = u.split_at(k * n);
-        let split = self.split;
-        for acc in &mut self.w.acc {
+        for acc in self.w.acc.iter_mut().chain(&mut self.w.accz) {
             ops::fill_zero(acc.as_mut_slice());
-        }
-        if split {
-            for acc in &mut self.w.accz {
-                ops::fill_zero(acc.as_mut_slice());
-            }
         }
         if let Some(c) = out_c.as_deref_mut() {
             c.iter_mut().for_each(|v| *v = V::Real::zero());
@@ -121,18 +112,13 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
             for gi in self.w.grad.as_mut_slice() {
                 *gi = *gi * self.h;
             }
-            if split {
-                for (i, acc) in self.w.accz.iter_mut().enumerate() {
-                    let wgt = t.test[r * k + i];
-                    ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
-                }
+            // `accz` keeps the `∇H` part apart (the damping reads it); `acc` collects `Gᵀ L`.
+            for (i, acc) in self.w.accz.iter_mut().enumerate() {
+                let wgt = t.test[r * k + i];
+                ops::axpy(acc.as_mut_slice(), wgt, self.w.grad.as_slice());
             }
-            // Into `acc`: `Gᵀ L` alone when `∇H` went to `accz` (nothing without constraints),
-            // `h ∇H + Gᵀ L` in one vector when the parts are not kept apart.
-            if m > 0 || !split {
-                if split {
-                    ops::fill_zero(self.w.grad.as_mut_slice());
-                }
+            if m > 0 {
+                ops::fill_zero(self.w.grad.as_mut_slice());
                 sys.constraint().jacobian_transpose_apply_add(
                     xr,
                     &self.w.lr,
@@ -154,10 +140,8 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
             }
         }
         // acc_i = accz_i + the multipliers' part (collected in acc during the loop).
-        if split {
-            for (acc, z) in self.w.acc.iter_mut().zip(&self.w.accz) {
-                ops::axpy(acc.as_mut_slice(), V::Real::one(), z.as_slice());
-            }
+        for (acc, z) in self.w.acc.iter_mut().zip(&self.w.accz) {
+            ops::axpy(acc.as_mut_slice(), V::Real::one(), z.as_slice());
         }
     }
 }

@@ -30,18 +30,20 @@ use crate::error::StepError;
 use crate::flow::schur::ReducedBlocks;
 use crate::linalg::Sink;
 use crate::nonlinear::NonlinearProblem;
-use crate::system::{HolonomicConstraint, Model};
+use crate::real::Real;
+use crate::system::{Hamiltonian, HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
-use num_traits::One;
+use num_traits::{Float as _, One, Zero};
 
 /// The reduced step problem over the full one.
 pub(super) struct Stages<'a, 'b, V: Vector, Sys> {
     pub(super) full: &'b mut Problem<'a, V, Sys>,
     /// `diag W⁻¹`.
     pub(super) w: &'b [V::Real],
-    /// The full problem's unknowns and residual (stage-major).
+    /// The full problem's unknowns (stage-major): `Y^q` for the rows, the step's end.
     pub(super) u: &'b mut [V::Real],
-    pub(super) f: &'b mut [V::Real],
+    /// The entries of `B`.
+    pub(super) momentum_block: &'b [(usize, usize, V::Real)],
     /// The constraint blocks from Jacobian entries, for a constraint that lists them.
     pub(super) blocks: Option<&'b mut ConstraintBlocks<V::Real>>,
 }
@@ -72,26 +74,133 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
 
     /// The full `u` from the reduced `z`: `Y^p`, `Y^q = h W⁻¹ (p_n + Â Y^p)`, `L`.
     pub(super) fn expand(&mut self, z: &[V::Real]) {
-        let (nq, m, k) = self.dims();
+        match self.full.tables.k {
+            1 => self.expand_k::<1>(z),
+            2 => self.expand_k::<2>(z),
+            3 => self.expand_k::<3>(z),
+            _ => self.expand_k::<4>(z),
+        }
+    }
+
+    /// [`expand`](Self::expand) with `k = K` known to the compiler.
+    fn expand_k<const K: usize>(&mut self, z: &[V::Real]) {
+        let (nq, m, _) = self.dims();
         let n = 2 * nq;
         let h = self.full.h;
         let p0 = &self.full.x.as_slice()[nq..];
         let t = self.full.tables;
-        for i in 0..k {
-            let row = &t.ahat[i * k..(i + 1) * k];
+        let zq = &z[..K * nq];
+        for i in 0..K {
+            let row: [V::Real; K] = core::array::from_fn(|j| t.ahat[i * K + j]);
             let (yq, yp) = self.u[i * n..(i + 1) * n].split_at_mut(nq);
-            for d in 0..nq {
-                let zd = &z[d * k..(d + 1) * k];
-                yp[d] = zd[i];
-                yq[d] = h * (self.w[d] * (p0[d] + ops::dot(row, zd)));
+            for ((((q, p), zd), &w), &p0) in yq
+                .iter_mut()
+                .zip(yp)
+                .zip(zq.chunks_exact(K))
+                .zip(self.w)
+                .zip(p0)
+            {
+                *p = zd[i];
+                let mut dot = V::Real::zero();
+                for j in 0..K {
+                    dot = dot + row[j] * zd[j];
+                }
+                *q = h * (w * (p0 + dot));
             }
         }
-        let (ls, zl) = (&mut self.u[k * n..], &z[k * nq..]);
-        for a in 0..m {
-            for i in 0..k {
-                ls[i * m + a] = zl[a * k + i];
+        let (ls, zl) = (&mut self.u[K * n..], &z[K * nq..]);
+        for (a, za) in zl.chunks_exact(K).take(m).enumerate() {
+            for i in 0..K {
+                ls[i * m + a] = za[i];
             }
         }
+    }
+
+    /// The reduced residual ([`NonlinearProblem::residual`]) with `k = K` known to the
+    /// compiler: the stage sums unrolled, the rows of a position (`K` stages) updated together.
+    fn rows<const K: usize>(
+        &mut self,
+        z: &[V::Real],
+        out: &mut [V::Real],
+    ) -> Result<(), StepError> {
+        self.expand_k::<K>(z);
+        if let Some(blocks) = self.blocks.as_deref_mut() {
+            blocks.stale();
+        }
+        let (nq, _, _) = self.dims();
+        let n = 2 * nq;
+        let full = &mut *self.full;
+        let (h, t, sys) = (full.h, full.tables, full.system);
+        let x0 = full.x.as_slice();
+        let sw = &mut *full.w;
+        let ys = &self.u[..K * n];
+        ops::fill_zero(out);
+        let (out_p, out_c) = out.split_at_mut(K * nq);
+        // The momenta of `h x'` are not read (`G` acts on positions).
+        ops::fill_zero(&mut sw.dr.as_mut_slice()[nq..]);
+        for r in 0..t.s {
+            let row = &t.ell[r * K..(r + 1) * K];
+            let arow = &t.a[r * K..(r + 1) * K];
+            let wgt: [V::Real; K] = core::array::from_fn(|i| t.test[r * K + i]);
+            // x_r = x_n + Σ_j A_rj Y_j and h x'_q(e_r) = Σ_j ℓ_j(e_r) Y^q_j, a pass per stage.
+            let xr = sw.xs[r].as_mut_slice();
+            xr.copy_from_slice(x0);
+            let dr = &mut sw.dr.as_mut_slice()[..nq];
+            ops::fill_zero(dr);
+            for (j, y) in ys.chunks_exact(n).enumerate() {
+                ops::axpy(xr, arow[j], y);
+                ops::axpy(dr, row[j], &y[..nq]);
+            }
+            for (o, za) in sw.lr.iter_mut().zip(z[K * nq..].chunks_exact(K)) {
+                *o = ops::dot(row, za);
+            }
+            let xr = &sw.xs[r];
+            sys.hamiltonian().gradient(xr, &mut sw.grad);
+            for gi in &mut sw.grad.as_mut_slice()[..nq] {
+                *gi = *gi * h;
+            }
+            // `G_q(x_r)ᵀ L` adds nothing to the momenta: the rows read stay the positions'.
+            sys.constraint()
+                .jacobian_transpose_apply_add(xr, &sw.lr, V::Real::one(), &mut sw.grad);
+            spread::<_, K>(out_p, &wgt, &sw.grad.as_slice()[..nq]);
+            sys.constraint().jacobian_apply(xr, &sw.dr, &mut sw.cr);
+            spread::<_, K>(out_c, &wgt, &sw.cr);
+        }
+        // `acc − B Y^q = −(M acc)_p`, then `F^p = Y^p + acc − B Y^q`.
+        for &(row, col, v) in self.momentum_block {
+            for i in 0..K {
+                out_p[row * K + i] = out_p[row * K + i] - v * ys[i * n + col];
+            }
+        }
+        // The noise scale of the full residual's rows: the largest `|Y|` and `|M acc|` of a
+        // stage, the position rows (`|Y^q| = |acc_p|`) included. Selects, not `max`: no NaN
+        // handling in the loop (a non-finite row is reported below).
+        let mut scale = V::Real::zero();
+        for (o, &y) in out_p.iter_mut().zip(z) {
+            let (ya, fa) = (y.abs(), o.abs());
+            scale = if ya > scale { ya } else { scale };
+            scale = if fa > scale { fa } else { scale };
+            *o = *o + y;
+        }
+        for stage in ys.chunks_exact(n) {
+            // NaN is kept (and reported below).
+            let yq = ops::norm_inf(&stage[..nq]);
+            scale = if yq <= scale { scale } else { yq };
+        }
+        for (oa, &g) in out_c.chunks_exact_mut(K).zip(full.g0) {
+            oa.iter_mut().for_each(|o| *o = *o + g);
+        }
+        // Each row sums `s` quadrature terms of about this size.
+        full.noise = (V::Real::lit(4.0 * t.s as f64) * V::Real::epsilon() * scale).max(full.floor);
+        if let Some(i) = ops::first_non_finite(out) {
+            return Err(StepError::NonFinite { component: i });
+        }
+        if !scale.is_finite() {
+            return Err(StepError::NonFinite {
+                component: ys.iter().position(|v| !v.is_finite()).unwrap_or(0),
+            });
+        }
+        Ok(())
     }
 }
 
@@ -112,15 +221,19 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Stages<'_, '_, V, S
         k * nq
     }
 
+    /// The momentum and constraint rows directly, in the reduced layout: per quadrature
+    /// point `x_r` (its momenta too, for the gradient), `h x'_q(e_r)`, `L(e_r)`, then
+    /// `h ∇_q H(x_r) + G_q(x_r)ᵀ L(e_r)` spread over the stages' momentum rows and
+    /// `G(x_r) h x'(e_r)` over their constraint rows, and `F^p_i = Y^p_i + acc_i − B Y^q_i`.
+    /// The position rows, satisfied by `Y^q` exactly, are not formed. The same numbers as the
+    /// full [`Problem`]'s residual read at these rows, to rounding (`acc_p = Y^q`).
     fn residual(&mut self, z: &[V::Real], out: &mut [V::Real]) -> Result<(), StepError> {
-        self.expand(z);
-        if let Some(blocks) = self.blocks.as_deref_mut() {
-            blocks.stale();
+        match self.full.tables.k {
+            1 => self.rows::<1>(z, out),
+            2 => self.rows::<2>(z, out),
+            3 => self.rows::<3>(z, out),
+            _ => self.rows::<4>(z, out),
         }
-        self.full.residual(self.u, self.f)?;
-        let (nq, m, k) = self.dims();
-        gather(self.f, out, nq, m, k);
-        Ok(())
     }
 }
 
@@ -199,6 +312,19 @@ impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys>
     }
 }
 
+/// `out_(e,i) += w_i v_e` for the `K` stages of each `e` (rows `e K + i`).
+#[inline(always)]
+fn spread<T: Real, const K: usize>(out: &mut [T], w: &[T; K], v: &[T]) {
+    for (oe, &ve) in out.chunks_exact_mut(K).zip(v) {
+        for (o, &wi) in oe.iter_mut().zip(w) {
+            *o = *o + wi * ve;
+        }
+    }
+}
+
+// The kernels above have a case for each stage count up to four.
+const _: () = assert!(super::MAX_STAGES <= 4);
+
 /// The momentum and multiplier parts of a stage-major vector of the full problem (stage `i`'s
 /// `(q, p)` at `i n`, its multipliers at `k n + i m`) in the reduced layout (momentum `d` of
 /// stage `i` at `d k + i`, multiplier `a` at `k n_q + a k + i`).
@@ -217,3 +343,7 @@ fn gather<T: Copy>(full: &[T], out: &mut [T], nq: usize, m: usize, k: usize) {
         }
     }
 }
+
+#[cfg(all(test, feature = "scene"))]
+#[path = "reduced_tests.rs"]
+mod tests;
