@@ -199,14 +199,29 @@ pub mod ops {
     pub fn norm_inf<T: Real>(x: &[T]) -> T {
         // A select and a flag rather than a branch on each entry: the loop has no
         // data-dependent jump (the norms of a step's residuals and updates are taken often).
-        let mut m = T::zero();
-        let mut nan = false;
-        for &v in x {
-            let a = v.abs();
-            m = if a > m { a } else { m };
-            nan |= a.is_nan();
+        // Four running maxima, not one: one select chain through every entry waits on each
+        // compare in turn; four independent ones overlap (and pair into vector registers).
+        let mut m = [T::zero(); 4];
+        let mut nan = [false; 4];
+        let mut chunks = x.chunks_exact(4);
+        for c in &mut chunks {
+            for ((ml, nl), &v) in m.iter_mut().zip(&mut nan).zip(c) {
+                let a = v.abs();
+                *ml = if a > *ml { a } else { *ml };
+                *nl |= a.is_nan();
+            }
         }
-        if nan { T::nan() } else { m }
+        let (ml, nl) = (&mut m[0], &mut nan[0]);
+        for &v in chunks.remainder() {
+            let a = v.abs();
+            *ml = if a > *ml { a } else { *ml };
+            *nl |= a.is_nan();
+        }
+        if nan.iter().any(|&b| b) {
+            return T::nan();
+        }
+        let (a, b) = (m[0].max(m[1]), m[2].max(m[3]));
+        a.max(b)
     }
 
     /// Max-norm of `x − y`.
@@ -256,3 +271,7 @@ pub mod ops {
         x.len() == y.len() && x.iter().zip(y).fold(true, |eq, (&a, &b)| eq & (a == b))
     }
 }
+
+#[cfg(test)]
+#[path = "vector_tests.rs"]
+mod tests;

@@ -164,7 +164,7 @@ impl<T: Real> ConstraintBlocks<T> {
     }
 
     /// The number of colours (`0`: the values are taken through the listed entries).
-    #[cfg(test)]
+    #[cfg(all(test, feature = "scene"))]
     pub(super) fn colors(&self) -> usize {
         self.color_ptr.len() - 1
     }

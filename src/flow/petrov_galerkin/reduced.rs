@@ -183,9 +183,13 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
             *o = *o + y;
         }
         for stage in ys.chunks_exact(n) {
-            // NaN is kept (and reported below).
+            // A NaN is kept (and reported below).
             let yq = ops::norm_inf(&stage[..nq]);
-            scale = if yq <= scale { scale } else { yq };
+            scale = if (yq > scale) | yq.is_nan() {
+                yq
+            } else {
+                scale
+            };
         }
         for (oa, &g) in out_c.chunks_exact_mut(K).zip(full.g0) {
             oa.iter_mut().for_each(|o| *o = *o + g);
@@ -196,8 +200,10 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
             return Err(StepError::NonFinite { component: i });
         }
         if !scale.is_finite() {
+            // A position increment that reached no row: reported at its momentum row.
+            let at = ys.iter().position(|v| !v.is_finite()).unwrap_or(0);
             return Err(StepError::NonFinite {
-                component: ys.iter().position(|v| !v.is_finite()).unwrap_or(0),
+                component: (at % n) * K + at / n,
             });
         }
         Ok(())

@@ -128,3 +128,11 @@ fn reduced_residual_is_the_full_one_on_a_damped_chain() {
     let (system, x0) = scene(&text);
     check(&system, &x0, 0.01);
 }
+
+/// Every effect: a magnetic field (a skew `B`, so a transposed entry changes the rows), damping
+/// on some bodies only, dashpots, rods, a pin and a plane.
+#[test]
+fn reduced_residual_is_the_full_one_on_all_effects() {
+    let (system, x0) = scene(include_str!("../../../scenes/all_effects.toml"));
+    check(&system, &x0, 0.01);
+}
