@@ -172,7 +172,7 @@ impl<T: Real> LinearSolver<T> for BandedLu<T> {
         let (k, kl) = (self.k, self.lower);
         let kv = kl + self.upper;
         let ld = self.ld();
-        if let Some(i) = self.ab.iter().position(|v| !v.is_finite()) {
+        if let Some(i) = crate::vector::ops::first_non_finite(&self.ab) {
             let (c, r) = (i / ld, i % ld);
             return Err(LinearSolveError::NonFinite {
                 row: (c + r).saturating_sub(kv),
@@ -210,8 +210,10 @@ impl<T: Real> LinearSolver<T> for BandedLu<T> {
                     ab.swap(base, base + jp);
                 }
             }
+            // The pivot is final: its reciprocal scales the column and is kept for the solves.
+            let inv = T::one() / ab[col];
+            self.inv_pivot[j] = inv;
             if km > 0 {
-                let inv = T::one() / ab[col];
                 for i in 1..=km {
                     ab[col + i] = ab[col + i] * inv;
                 }
@@ -227,9 +229,6 @@ impl<T: Real> LinearSolver<T> for BandedLu<T> {
             }
         }
         check_pivots(k, |j| self.ab[j * ld + kv])?;
-        for (j, inv) in self.inv_pivot.iter_mut().enumerate() {
-            *inv = T::one() / self.ab[j * ld + kv];
-        }
         self.factored = true;
         Ok(())
     }

@@ -104,6 +104,8 @@ pub struct PetrovGalerkin<
     t2: V,
     nu: Vec<V::Real>,
     g0: Vec<V::Real>,
+    /// The rounding floor's perturbation signs, `±ε/2` per component (`rounding.rs`).
+    signs: Vec<V::Real>,
     /// The last step's damping and projection terms of `D_n` (its energies are evaluated
     /// when asked for).
     last: Option<(V::Real, V::Real)>,
@@ -242,6 +244,7 @@ where
             t2: x0.zeros_like(),
             nu: vec![V::Real::zero(); m],
             g0: vec![V::Real::zero(); m],
+            signs: rounding::rounding_signs(n),
             last: None,
             stats: FlowStats::default(),
             system,

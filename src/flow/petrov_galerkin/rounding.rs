@@ -37,19 +37,14 @@ where
         if self.nu.iter().all(|l| *l == V::Real::zero()) {
             return V::Real::zero();
         }
-        let eps = V::Real::epsilon() * V::Real::lit(0.5);
-        for (i, ((p, q), &xi)) in self
+        for ((p, q), (&xi, &e)) in self
             .tmp
             .as_mut_slice()
             .iter_mut()
             .zip(self.t2.as_mut_slice())
-            .zip(x.as_slice())
-            .enumerate()
+            .zip(x.as_slice().iter().zip(&self.signs))
         {
-            // A bit of splitmix64's finaliser of the index: signs without the runs a plain
-            // multiplicative hash has at the strides of a body-major state (2 and 3).
-            let d = eps * xi.abs();
-            let d = if scattered_bit(i as u64) { d } else { -d };
+            let d = e * xi.abs();
             *p = xi + d;
             *q = xi - d;
         }
@@ -68,6 +63,16 @@ where
             V::Real::zero()
         }
     }
+}
+
+/// `±ε/2` for each of `n` components, the sign by [`scattered_bit`] of the index: a bit of
+/// splitmix64's finaliser, signs without the runs a plain multiplicative hash has at the
+/// strides of a body-major state (2 and 3). Computed once, at construction.
+pub(super) fn rounding_signs<T: Real>(n: usize) -> Vec<T> {
+    let eps = T::epsilon() * T::lit(0.5);
+    (0..n as u64)
+        .map(|i| if scattered_bit(i) { eps } else { -eps })
+        .collect()
 }
 
 /// Bit 63 of splitmix64's finaliser (Steele, Lea & Flood, OOPSLA 2014) of `i`: a sign pattern
