@@ -35,6 +35,23 @@ fn problem<'a, Sys>(
     }
 }
 
+/// The reduced problem over `problem` (no momentum block: the products read none), with or
+/// without the blocks.
+fn stages<'a, 'b, Sys>(
+    problem: &'b mut Problem<'a, DVector<f64>, Sys>,
+    inv_mass: &'b [f64],
+    u: &'b mut [f64],
+    blocks: Option<&'b mut ConstraintBlocks<f64>>,
+) -> Stages<'a, 'b, DVector<f64>, Sys> {
+    Stages {
+        full: problem,
+        w: inv_mass,
+        u,
+        momentum_block: &[],
+        blocks,
+    }
+}
+
 /// What the blocks give and what the model passes give for `C v`, `G v` and `S = G D⁻¹ C`:
 /// `(blocks, model)` for each, `S` dense.
 struct Both {
@@ -81,13 +98,8 @@ fn both<Sys: Model<DVector<f64>>>(
         .collect();
     let mut results: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = Vec::new();
     for with_blocks in [true, false] {
-        let mut stages = Stages {
-            full: &mut problem,
-            w: &inv_mass,
-            u: &mut u,
-            momentum_block: &[],
-            blocks: if with_blocks { Some(&mut blocks) } else { None },
-        };
+        let blocks = if with_blocks { Some(&mut blocks) } else { None };
+        let mut stages = stages(&mut problem, &inv_mass, &mut u, blocks);
         let mut columns = vec![0.5; k * nq];
         stages.multiplier_columns_add(&vm, &mut columns);
         let mut rows = vec![0.0; k * m];
@@ -192,12 +204,7 @@ fn blocks_agree_with_model_passes_on_a_chain() {
 fn blocks_agree_with_model_passes_on_scenes() {
     let chain = include_str!("../../../scenes/chain1000.toml").replace("links = 1000", "links = 8");
     for text in [include_str!("../../../scenes/shell_damped.toml"), &chain] {
-        let compiled = crate::scene::Scene::from_toml(text, "test.toml")
-            .and_then(|s| s.compile())
-            .unwrap_or_else(|e| panic!("{e}"));
-        let x0 = DVector::from_column_slice(compiled.simulation.state());
-        let model = compiled.model.expect("a scene of bodies");
-        let model = crate::system::System::new(model.clone(), model.clone(), model);
+        let (model, x0) = super::super::test_scenes::scene(text);
         let (k, nq) = (2, x0.len() / 2);
         let tables = Tables::<f64>::new(k, k + 2);
         let constraint = Model::<DVector<f64>>::constraint(&model);
@@ -242,13 +249,8 @@ fn products_follow_the_last_residual() {
     let mut out = vec![0.0; dim];
     let mut columns = [vec![0.0; k * nq], vec![0.0; k * nq]];
     for (with_blocks, columns) in [true, false].into_iter().zip(&mut columns) {
-        let mut stages = Stages {
-            full: &mut problem,
-            w: &inv_mass,
-            u: &mut u,
-            momentum_block: &[],
-            blocks: if with_blocks { Some(&mut blocks) } else { None },
-        };
+        let blocks = if with_blocks { Some(&mut blocks) } else { None };
+        let mut stages = stages(&mut problem, &inv_mass, &mut u, blocks);
         stages.residual(&z1, &mut out).unwrap();
         stages.multiplier_columns_add(&vm, &mut vec![0.0; k * nq]);
         stages.residual(&z2, &mut out).unwrap();

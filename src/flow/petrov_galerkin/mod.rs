@@ -7,6 +7,8 @@ mod problem;
 mod reduced;
 mod rounding;
 mod tables;
+#[cfg(all(test, feature = "scene"))]
+mod test_scenes;
 
 use super::projection::HiddenSolver;
 use super::reduced::Reduced;

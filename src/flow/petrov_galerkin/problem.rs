@@ -73,6 +73,13 @@ pub(super) struct Problem<'a, V: Vector, Sys> {
 }
 
 impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
+    /// The rounding noise of rows whose terms are at most `scale`: each sums `s` quadrature
+    /// terms of about that size, `4 s ε scale`, and never below the step's measured floor.
+    pub(super) fn set_noise(&mut self, scale: V::Real) {
+        self.noise =
+            (V::Real::lit(4.0 * self.tables.s as f64) * V::Real::epsilon() * scale).max(self.floor);
+    }
+
     /// Fills `w.acc` and `w.accz` (and the constraint rows into `out_c`) from `u`.
     pub(super) fn accumulate(&mut self, u: &[V::Real], mut out_c: Option<&mut [V::Real]>) {
         let t = self.tables;
@@ -189,9 +196,7 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Problem<'_, V, Sys>
                 scale = if fa > scale { fa } else { scale };
             }
         }
-        // Each row sums `s` quadrature terms of about this size.
-        self.noise =
-            (V::Real::lit(4.0 * self.tables.s as f64) * V::Real::epsilon() * scale).max(self.floor);
+        self.set_noise(scale);
         if let Some(i) = ops::first_non_finite(out) {
             return Err(StepError::NonFinite { component: i });
         }

@@ -101,11 +101,7 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
                 .zip(p0)
             {
                 *p = zd[i];
-                let mut dot = V::Real::zero();
-                for j in 0..K {
-                    dot = dot + row[j] * zd[j];
-                }
-                *q = h * (w * (p0 + dot));
+                *q = h * (w * (p0 + ops::dot(&row, zd)));
             }
         }
         let (ls, zl) = (&mut self.u[K * n..], &z[K * nq..]);
@@ -194,8 +190,7 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
         for (oa, &g) in out_c.chunks_exact_mut(K).zip(full.g0) {
             oa.iter_mut().for_each(|o| *o = *o + g);
         }
-        // Each row sums `s` quadrature terms of about this size.
-        full.noise = (V::Real::lit(4.0 * t.s as f64) * V::Real::epsilon() * scale).max(full.floor);
+        full.set_noise(scale);
         if let Some(i) = ops::first_non_finite(out) {
             return Err(StepError::NonFinite { component: i });
         }

@@ -3,6 +3,7 @@
 
 use super::super::problem::{Problem, Scratch};
 use super::super::tables::Tables;
+use super::super::test_scenes::scene;
 use super::{Stages, gather};
 use crate::nonlinear::NonlinearProblem;
 use crate::system::{HolonomicConstraint, MechanicalForm, Model};
@@ -88,19 +89,6 @@ fn check<Sys: Model<DVector<f64>>>(system: &Sys, x0: &DVector<f64>, h: f64) {
             "k = {k}: position rows {position:e} > {noise:e}"
         );
     }
-}
-
-/// The compiled model of a scene's text.
-fn scene(text: &str) -> (impl Model<DVector<f64>>, DVector<f64>) {
-    let compiled = crate::scene::Scene::from_toml(text, "test.toml")
-        .and_then(|s| s.compile())
-        .unwrap_or_else(|e| panic!("{e}"));
-    let x0 = DVector::from_column_slice(compiled.simulation.state());
-    let model = compiled.model.expect("a scene of bodies");
-    (
-        crate::system::System::new(model.clone(), model.clone(), model),
-        x0,
-    )
 }
 
 #[test]
