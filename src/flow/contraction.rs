@@ -20,14 +20,6 @@
 //! only from start residuals within `START_GROWTH` of the one it was measured from (the linear
 //! model holds near that size), and it is measured again whenever a prediction fails the
 //! tests; a step that does not continue the last one, a new step size and a failure forget it.
-//!
-//! Later updates of a solve are predicted in the same way from the solve's own contractions:
-//! after two evaluated updates that each reduced the residual, the larger of their ratios
-//! times the residual predicts the next one ([`ContractionEstimate::accepts_within`]), and an
-//! update whose prediction passes the tests is accepted unevaluated. This is Hairer & Wanner's
-//! own use of `θ` (measured within the iteration); the larger of two ratios covers a
-//! contraction that varies from update to update (a taut chain's Petrov–Galerkin step: 0.07,
-//! 0.02, 0.008, 0.05 in one solve).
 
 use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
@@ -91,38 +83,17 @@ impl<T: Real> ContractionEstimate<T> {
         {
             return None;
         }
-        let predicted = predicts_root(self.theta, raw0, step, z_norm, options)?;
-        self.left -= 1;
-        Some(predicted)
-    }
-
-    /// Whether a later update of a solve, from an iterate of residual `rows` whose last two
-    /// evaluated updates contracted the raw residual by `theta₁` and `theta₂`, moving `z` by
-    /// `step` (max-norm) to `z` of max-norm `z_norm`, is accepted unevaluated: the predicted
-    /// raw residual there when it is. Within one solve the linear model is the one being
-    /// iterated, so the contraction is the larger of the two last measured (no count of solves,
-    /// no start size), and the prediction is judged as an evaluated residual would be
-    /// ([`RowNorms`]). The stopping test of Hairer & Wanner's simplified Newton iteration
-    /// (§IV.8 (8.10)), with Newton's tests on the predicted values.
-    pub(crate) fn accepts_within(
-        &self,
-        theta: [T; 2],
-        rows: RowNorms<T>,
-        step: T,
-        z_norm: T,
-        options: &NewtonOptions<T>,
-    ) -> Option<T> {
-        let theta = theta[0].max(theta[1]);
-        if !(self.on && theta > T::zero() && theta < T::one()) {
+        let predicted = self.theta * raw0;
+        let noise = T::lit(crate::nonlinear::NOISE_FACTOR) * options.ftol;
+        let at_round_off = self.theta * step <= options.xtol * (T::one() + z_norm);
+        let ok = predicted.is_finite()
+            && step.is_finite()
+            && (predicted <= options.ftol || (predicted <= noise && at_round_off));
+        if !ok {
             return None;
         }
-        let (noisy, exact) = (theta * rows.noisy, theta * rows.exact);
-        let effective = if noisy <= T::lit(4.0) * rows.floor {
-            exact
-        } else {
-            noisy.max(exact)
-        };
-        predicts_root(T::one(), effective, theta * step, z_norm, options).map(|_| noisy.max(exact))
+        self.left -= 1;
+        Some(predicted)
     }
 
     /// Records the evaluated first update of a solve: raw residuals `raw0` before, `raw1` after
@@ -140,33 +111,4 @@ impl<T: Real> ContractionEstimate<T> {
             self.forget();
         }
     }
-}
-
-/// The raw max-norms of a residual on the rows the problem's noise floor `floor` applies to
-/// (`noisy`) and on the others (`exact`): noisy rows within `4 · floor` count as zero, as in
-/// `nonlinear::effective_residual`.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct RowNorms<T> {
-    pub(crate) noisy: T,
-    pub(crate) exact: T,
-    pub(crate) floor: T,
-}
-
-/// `θ · raw` when it passes Newton's tests as the residual after an update to a `z` of
-/// max-norm `z_norm` whose next update is predicted at `θ · step` (`‖F‖ ≤ ftol`, or within the
-/// noise `NOISE_FACTOR · ftol` with that next update at the round-off of `z`).
-fn predicts_root<T: Real>(
-    theta: T,
-    raw: T,
-    step: T,
-    z_norm: T,
-    options: &NewtonOptions<T>,
-) -> Option<T> {
-    let predicted = theta * raw;
-    let noise = T::lit(crate::nonlinear::NOISE_FACTOR) * options.ftol;
-    let at_round_off = theta * step <= options.xtol * (T::one() + z_norm);
-    (predicted.is_finite()
-        && step.is_finite()
-        && (predicted <= options.ftol || (predicted <= noise && at_round_off)))
-        .then_some(predicted)
 }

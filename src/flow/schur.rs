@@ -62,7 +62,7 @@
 //! midpoint rule's `D`). The Schur complement then has `k × k` blocks on the pattern of `G Gᵀ`
 //! in this order (banded for a chain), and every product is as above.
 
-use super::contraction::{ContractionEstimate, RowNorms};
+use super::contraction::ContractionEstimate;
 use crate::error::{NewtonError, StepError};
 use crate::linalg::{ColumnGroups, LinearSolver, Sink, SolverChoice, Structure};
 use crate::nonlinear::{NewtonOptions, NonlinearProblem, SolveReport, effective_residual};
@@ -345,10 +345,6 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         // The relaxation factor ω and |Δq|² of the last unrelaxed update (`last`).
         let mut omega = one;
         let mut last_n2 = T::zero();
-        // The contractions of the raw residual by the last two evaluated updates, and how many
-        // in a row were measured.
-        let mut ratios = [T::zero(); 2];
-        let mut measured = 0usize;
         for iteration in 0..opts.max_iterations {
             // u = D⁻¹F₁;  S Δν = F₂ − G u;  Δq = −u − D⁻¹C Δν.
             self.u.copy_from_slice(&self.f[..nq]);
@@ -395,24 +391,6 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 report.residual = predicted;
                 return Ok(true);
             }
-            if measured >= 2
-                && let Some(predicted) = {
-                    let (noisy, exact) = self.f.split_at(problem.noisy_rows().min(self.f.len()));
-                    let rows = RowNorms {
-                        noisy: ops::norm_inf(noisy),
-                        exact: ops::norm_inf(exact),
-                        floor: problem.noise_floor(),
-                    };
-                    let (step, z_norm) = (ops::norm_inf(&self.dz), ops::norm_inf(z));
-                    self.contraction
-                        .accepts_within(ratios, rows, step, z_norm, &opts)
-                }
-            {
-                // The residual after this update predicted from the last two contractions
-                // (module docs of `contraction`): the confirming residual is not evaluated.
-                report.residual = predicted;
-                return Ok(true);
-            }
             let raw_before = raw;
             let evaluated = problem.residual(z, &mut self.f);
             report.residual_evaluations += 1;
@@ -424,12 +402,6 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 Err(_) => T::nan(),
             };
             let finite = raw.is_finite();
-            if finite && raw < raw_before {
-                ratios = [ratios[1], raw / raw_before];
-                measured += 1;
-            } else {
-                measured = 0;
-            }
             if iteration == 0 {
                 // A failed evaluation (`r_new` NaN) leaves `raw` at the start's.
                 let after = if finite && !r_new.is_nan() {

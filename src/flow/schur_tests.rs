@@ -115,12 +115,6 @@ fn an_exact_iteration_matrix_converges_at_once() {
 /// trusted: the residual evaluations of each solve and the largest residual at what each
 /// returned.
 fn trusted(e: f64, offsets: &[f64]) -> (Vec<usize>, f64) {
-    let (evaluations, _, worst) = trusted_counts(e, offsets);
-    (evaluations, worst)
-}
-
-/// [`trusted`], with the iterations of each solve.
-fn trusted_counts(e: f64, offsets: &[f64]) -> (Vec<usize>, Vec<usize>, f64) {
     let options = NewtonOptions {
         max_contraction: 0.5,
         ..NewtonOptions::default()
@@ -132,7 +126,7 @@ fn trusted_counts(e: f64, offsets: &[f64]) -> (Vec<usize>, Vec<usize>, f64) {
     let b = [1.0, -0.5, 0.5, 0.25];
     let exact = [b[0] / (1.0 + e), b[1] / (1.0 + e), b[3], b[2] - b[3]];
     let mut problem = Linear { e, b };
-    let (mut evaluations, mut iterations, mut worst) = (Vec::new(), Vec::new(), 0.0f64);
+    let (mut evaluations, mut worst) = (Vec::new(), 0.0f64);
     for &offset in offsets {
         assert!(schur.ready());
         let mut z = exact;
@@ -142,12 +136,11 @@ fn trusted_counts(e: f64, offsets: &[f64]) -> (Vec<usize>, Vec<usize>, f64) {
         let mut report = SolveReport::default();
         assert!(schur.solve(&mut problem, &mut z, &mut report).unwrap());
         evaluations.push(report.residual_evaluations);
-        iterations.push(report.iterations);
         let mut f = [0.0; 4];
         problem.residual(&z, &mut f).unwrap();
         worst = f.iter().fold(worst, |a, v| a.max(v.abs()));
     }
-    (evaluations, iterations, worst)
+    (evaluations, worst)
 }
 
 /// A contraction of `e = 10⁻⁴` from a start residual `~10⁻¹²`: after the first solve measured
@@ -184,23 +177,5 @@ fn a_slow_contraction_is_never_trusted() {
 fn a_much_worse_start_is_evaluated() {
     let (evaluations, worst) = trusted(1e-4, &[1e-12, 1e-12, 1e-9, 1e-9]);
     assert_eq!(evaluations, [2, 1, 3, 3], "{evaluations:?}");
-    assert!(worst <= 100.0 * 2.0 * f64::EPSILON, "residual {worst:e}");
-}
-
-/// `e = 0.05` from a start residual `~10⁻³`, the first solve (no contraction measured by an
-/// earlier one): the updates contract the residual by `0.05/2.05` once relaxed, so after two
-/// measured contractions the larger of them predicts the residual after the next update within
-/// the noise, and that update is accepted unevaluated — one residual fewer than the updates
-/// plus the start. On this linear problem the contraction is constant, so the prediction is
-/// what evaluating would give: what the solve returns passes Newton's round-off test
-/// (`‖F‖ ≤ NOISE_FACTOR · ftol`) when evaluated here.
-#[test]
-fn a_solve_stops_on_its_own_measured_contraction() {
-    let (evaluations, iterations, worst) = trusted_counts(0.05, &[1e-3]);
-    assert!(iterations[0] >= 3, "{iterations:?}");
-    assert_eq!(
-        evaluations[0], iterations[0],
-        "{evaluations:?} {iterations:?}"
-    );
     assert!(worst <= 100.0 * 2.0 * f64::EPSILON, "residual {worst:e}");
 }
