@@ -33,7 +33,7 @@ pub use implicit::{
 };
 pub use ledger::Ledger;
 pub use linear::{LINEAR_FLOW_CACHE, LinearFlow};
-pub use petrov_galerkin::{DiscreteDissipation, MAX_STAGES, PetrovGalerkin};
+pub use petrov_galerkin::{DiscreteDissipation, MAX_STAGES, PetrovGalerkin, exact_quadrature};
 pub use projection::{
     Coupling, Projected, ProjectedMidpoint, ProjectionOptions, Reprojected, Scheme,
 };

@@ -4,6 +4,9 @@
 mod basis;
 mod blocks;
 mod problem;
+#[cfg(all(test, feature = "scene"))]
+#[path = "quadrature_tests.rs"]
+mod quadrature_tests;
 mod reduced;
 mod rounding;
 mod tables;
@@ -76,9 +79,14 @@ impl<T: Real> DiscreteDissipation<T> {
 /// discrete gradient with `g(q_{n+1}) = g(q_n)`.
 ///
 /// **Discretization.** `x'`, `z`, `λ` in the Lagrange basis at the `k` Gauss points; the
-/// integrals by an `s`-point Gauss rule (default `s = k + 2`): exact for the constraint rows
-/// when `g` is quadratic and for the energy when `H` is a polynomial of degree `≤ 2(s)/k`;
-/// otherwise the balance holds to the quadrature error of `∫⟨∇H, x'⟩`, `O(h^{2s+1})`. Newton on
+/// integrals by an `s`-point Gauss rule, exact for polynomials of degree `2s − 1`. By default
+/// `s` is the fewest points that integrate every integral above exactly when they are
+/// polynomials ([`exact_quadrature`]): with `H` and `g` quadratic (`∇H` and `G` affine)
+/// the integrands have degree at most `3k − 2` (`G(x)ᵀλ` against `v`, `G(x) x'` against `μ`),
+/// so `s = ⌈(3k − 1)/2⌉` (2k − 1 and `s = k` without constraints), and the step is the same
+/// as with any more points, to rounding. Otherwise `s = k + 2`: exact for the constraint rows
+/// when `g` is quadratic and for the energy when `H` is a polynomial of degree `≤ 2s/k`; else
+/// the balance holds to the quadrature error of `∫⟨∇H, x'⟩`, `O(h^{2s+1})`. Newton on
 /// the `k (n + m)` unknowns `(h x'(c_j), h λ(c_j))` with a dense, difference Jacobian kept
 /// between steps: for small and mid-sized states.
 pub struct PetrovGalerkin<
@@ -189,7 +197,13 @@ where
         } else {
             None
         };
-        let tables = Tables::new(k, k + 2);
+        let s = exact_quadrature(
+            k,
+            m,
+            system.hamiltonian().is_quadratic(),
+            constraint_is_quadratic(system.constraint(), x0),
+        );
+        let tables = Tables::new(k, s);
         // Stiffly damped momentum rows carry `c h/m`: equilibrated, their size does not make
         // the multipliers' pivots look singular.
         let mut newton_options = options.newton;
@@ -239,7 +253,7 @@ where
             u: W::zeros(k * (n + m)),
             end: x0.zeros_like(),
             ended: false,
-            w: Scratch::new(x0, k, k + 2, m),
+            w: Scratch::new(x0, k, s, m),
             start: x0.zeros_like(),
             xe: x0.zeros_like(),
             tmp: x0.zeros_like(),
@@ -251,6 +265,12 @@ where
             stats: FlowStats::default(),
             system,
         })
+    }
+
+    /// The number of Gauss points of its integrals ([`exact_quadrature`] unless set by
+    /// [`with_quadrature`](Self::with_quadrature)).
+    pub fn quadrature_points(&self) -> usize {
+        self.tables.s
     }
 
     /// The same scheme with an `s`-point Gauss rule for its integrals (`s ≥ k`).
@@ -325,6 +345,38 @@ where
             .iter_mut()
             .for_each(|v| *v = V::Real::zero());
     }
+}
+
+/// The fewest Gauss points `s` for which every integral of the Petrov–Galerkin step of `k`
+/// stages is exact, given whether `H` and the `m` constraints are quadratic; `k + 2` when
+/// one of them is not (then the integrals are not polynomials, and the two points beyond `k`
+/// put the energy balance's quadrature error `O(h^{2k+5})` far below the step's error).
+///
+/// With `∇H` and `G` affine and `x ∈ P_k`, `z, λ, v, w, μ ∈ P_{k−1}`, the integrands have the
+/// degrees `2k − 2` (`⟨x' − Mz, v⟩`), `2k − 1` (`⟨z − ∇H(x), w⟩`) and `3k − 2`
+/// (`⟨M G(x)ᵀλ, v⟩`, `⟨G(x) x', μ⟩`); a Gauss rule of `s` points is exact to degree `2s − 1`
+/// (Abramowitz & Stegun 25.4.29). So `s = ⌈(3k − 1)/2⌉ = ⌊3k/2⌋` with constraints (1, 3, 4, 6
+/// for `k = 1 … 4`) and `s = k` without: the equations, and so the step, are those of every
+/// larger `s`.
+pub fn exact_quadrature(k: usize, m: usize, h_quadratic: bool, g_quadratic: bool) -> usize {
+    if !h_quadratic || (m > 0 && !g_quadratic) {
+        k + 2
+    } else if m == 0 {
+        k
+    } else {
+        3 * k / 2
+    }
+}
+
+/// Whether every component of `g` is quadratic (or affine) in `x`: the constraint says so by
+/// answering [`HolonomicConstraint::hessian_form`] (its Hessians are then constant).
+fn constraint_is_quadratic<V: Vector, C: HolonomicConstraint<V>>(constraint: &C, x0: &V) -> bool {
+    let m = constraint.dim();
+    if m == 0 {
+        return true;
+    }
+    let mut out = vec![V::Real::zero(); m];
+    constraint.hessian_form(x0, x0, x0, &mut out)
 }
 
 impl<V, Sys, W> Flow<V> for PetrovGalerkin<V, Sys, W>
