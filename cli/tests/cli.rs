@@ -327,7 +327,8 @@ fn a_scene_with_ports_writes_its_outputs_events_and_budget() {
 }
 
 /// `lieflow check` says which scheme and order a damped scene gets, and why: extrapolation when
-/// damping is declared and a higher order asked, the named energy-consistent scheme when named.
+/// damping is declared and a higher order asked, the named energy-consistent scheme when named
+/// (with its Gauss points and why).
 #[test]
 fn check_says_which_scheme_a_damped_scene_gets_and_why() {
     let base = include_str!("../../scenes/damped_pendulum.toml");
@@ -341,6 +342,12 @@ fn check_says_which_scheme_a_damped_scene_gets_and_why() {
             "order = 6\nscheme = \"petrov-galerkin\"",
             "energy-consistent Petrov–Galerkin",
             "an exact discrete energy balance",
+        ),
+        (
+            // Kinetic energy, gravity and a rod: ⌊3k/2⌋ points integrate every term exactly.
+            "order = 6\nscheme = \"petrov-galerkin\"",
+            "energy-consistent Petrov–Galerkin",
+            "4 Gauss points a residual: H and any constraints are quadratic",
         ),
         (
             "",
@@ -369,4 +376,23 @@ fn check_says_which_scheme_a_damped_scene_gets_and_why() {
         let j: serde_json::Value = serde_json::from_str(stdout(&j).trim()).unwrap();
         assert!(j["reason"].as_str().unwrap().contains(why));
     }
+}
+
+/// A pair potential is not a polynomial: the Petrov–Galerkin scheme keeps `k + 2` Gauss points,
+/// and `lieflow check` says that its balance then holds to the quadrature error.
+#[test]
+fn check_says_a_non_polynomial_potential_keeps_two_more_points() {
+    let text = include_str!("../../scenes/shell_damped.toml").replace(
+        "[integrator]",
+        "[integrator]\nscheme = \"petrov-galerkin\"\norder = 4",
+    );
+    let path = scratch("shell_pg.toml");
+    std::fs::write(&path, text).unwrap();
+    let c = lieflow(&["check", path.to_str().unwrap()]);
+    assert!(c.status.success(), "{}", stderr(&c));
+    let out = stdout(&c);
+    assert!(
+        out.contains("4 Gauss points a residual (k + 2): the potential is not a polynomial"),
+        "{out}"
+    );
 }

@@ -349,11 +349,15 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         projection,
         solver,
         split,
+        detail,
     } = scheme_flow(file, &model, &x0, raise, backward)?;
     let scheme = raise.describe(scheme_name);
-    let reason = raise
+    let mut reason = raise
         .reason(file.integrator.scheme, dissipative, order)
         .to_owned();
+    if let Some(detail) = detail {
+        reason = format!("{reason}; {detail}");
+    }
     let mut constraint_counts: Vec<(String, usize)> = Vec::new();
     for t in &model.constraints {
         let kind = match t.kind {

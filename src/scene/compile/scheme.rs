@@ -16,7 +16,7 @@ use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{ConstraintKind, DashpotFlow, FreeFlight, Kick, SceneModel};
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
-use crate::system::{Case, MechanicalForm, System};
+use crate::system::{Case, Hamiltonian, MechanicalForm, System};
 use crate::vector::Vector;
 use faer::Col;
 use std::sync::Arc;
@@ -171,6 +171,8 @@ pub(super) struct SchemeFlow {
     pub(super) solver: Option<String>,
     /// The flow is the scene's splitting ([`splitting_flow`]), raised by the scene's `raise`.
     pub(super) split: bool,
+    /// What else a reader of `lieflow check` should know about the scheme's choices.
+    pub(super) detail: Option<String>,
 }
 
 /// Builds the flow of `file`'s scheme for `model` from `x0`: the discrete gradient, the
@@ -191,6 +193,7 @@ pub(super) fn scheme_flow(
     let scheme_name;
     let discrete_gradient = file.integrator.scheme == Method::DiscreteGradient;
     let mut split = false;
+    let mut detail = None;
     let flow: Box<dyn Flow<Col<f64>>> = if file.integrator.scheme == Method::PetrovGalerkin {
         let order = file.integrator.order.unwrap_or(4);
         let system = System::new(model.clone(), model.clone(), model.clone());
@@ -199,10 +202,20 @@ pub(super) fn scheme_flow(
         if m > 0 {
             case = Some("degenerate".to_owned());
         }
-        Box::new(
-            PetrovGalerkin::<Col<f64>, _>::try_new(system, x0, order, options)
-                .map_err(|e| setup_error(model, e))?,
-        )
+        let scheme = PetrovGalerkin::<Col<f64>, _>::try_new(system, x0, order, options)
+            .map_err(|e| setup_error(model, e))?;
+        let points = scheme.quadrature_points();
+        detail = Some(if Hamiltonian::<Col<f64>>::is_quadratic(model) {
+            format!(
+                "{points} Gauss points a residual: H and any constraints are quadratic, so these integrate every term exactly"
+            )
+        } else {
+            format!(
+                "{points} Gauss points a residual (k + 2): the potential is not a polynomial, so its energy balance holds to a quadrature error O(h^{})",
+                2 * points + 1
+            )
+        });
+        Box::new(scheme)
     } else if discrete_gradient {
         let setup = |e: SetupError| setup_error(model, e);
         let newton = NewtonOptions::default();
@@ -326,6 +339,7 @@ pub(super) fn scheme_flow(
         projection,
         solver,
         split,
+        detail,
     })
 }
 
