@@ -279,8 +279,11 @@ where
     /// The same scheme with an `s`-point Gauss rule for its integrals (`s ≥ k`).
     ///
     /// # Errors
-    /// [`SetupError::Scheme`] when `s < k` (the constraint rows would not be integrated exactly
-    /// for quadratic constraints) or `s > 16`.
+    /// [`SetupError::Scheme`] when `s < k` (then not even `∫ G(x) x' = g(x_{n+1}) − g(x_n)`,
+    /// of degree `2k − 1` for a quadratic `g`, is integrated exactly) or `s > 16`. Between `k`
+    /// and [`exact_quadrature`]'s count the rows tested with non-constant `μ`, `v` are not
+    /// exact for quadratic constraints (degree `3k − 2`): another scheme, of the same order on
+    /// the damped pendulum.
     pub fn with_quadrature(mut self, s: usize) -> Result<Self, SetupError> {
         let k = self.tables.k;
         if s < k || s > 16 {
