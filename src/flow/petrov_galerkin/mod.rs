@@ -86,7 +86,7 @@ impl<T: Real> DiscreteDissipation<T> {
 /// `s` is the fewest points that integrate every integral above exactly when they are
 /// polynomials ([`exact_quadrature`]): with `H` and `g` quadratic (`∇H` and `G` affine)
 /// the integrands have degree at most `3k − 2` (`G(x)ᵀλ` against `v`, `G(x) x'` against `μ`),
-/// so `s = ⌈(3k − 1)/2⌉` (2k − 1 and `s = k` without constraints), and the step is the same
+/// so `s = ⌈(3k − 1)/2⌉` (without constraints degree `2k − 1` and `s = k`), and the step is the same
 /// as with any more points, to rounding. Otherwise `s = k + 2`: exact for the constraint rows
 /// when `g` is quadratic and for the energy when `H` is a polynomial of degree `≤ 2s/k`; else
 /// the balance holds to the quadrature error of `∫⟨∇H, x'⟩`, `O(h^{2s+1})`. Newton on
