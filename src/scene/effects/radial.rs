@@ -112,6 +112,46 @@ fn distance<T: Real>(q: &[T], d: usize, a: usize, b: usize) -> T {
     distance2(q, d, a, b).sqrt()
 }
 
+impl<T: Real> Pairs<T> {
+    /// `out_a += c (q_a − q_b)`, `out_b −= c (q_a − q_b)` with `c = slope(|q_a − q_b|²)` for
+    /// every pair, in `d = 3` and `d = 2` with the dimension known to the compiler.
+    #[inline(always)]
+    fn accumulate(&self, q: &[T], d: usize, out: &mut [T], slope: impl Fn(T) -> T) {
+        match d {
+            3 => self.accumulate_d::<3>(q, out, slope),
+            2 => self.accumulate_d::<2>(q, out, slope),
+            _ => {
+                for &(a, b) in &self.pairs {
+                    let c = slope(distance2(q, d, a, b));
+                    for k in 0..d {
+                        let z = c * (q[a * d + k] - q[b * d + k]);
+                        out[a * d + k] = out[a * d + k] + z;
+                        out[b * d + k] = out[b * d + k] - z;
+                    }
+                }
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn accumulate_d<const D: usize>(&self, q: &[T], out: &mut [T], slope: impl Fn(T) -> T) {
+        for &(a, b) in &self.pairs {
+            let qa: &[T; D] = q[a * D..a * D + D].try_into().expect("D components");
+            let qb: &[T; D] = q[b * D..b * D + D].try_into().expect("D components");
+            let z: [T; D] = core::array::from_fn(|k| qa[k] - qb[k]);
+            let c = slope(z.iter().fold(T::lit(0.0), |s, &zk| s + zk * zk));
+            let oa: &mut [T; D] = (&mut out[a * D..a * D + D]).try_into().expect("D");
+            for k in 0..D {
+                oa[k] = oa[k] + c * z[k];
+            }
+            let ob: &mut [T; D] = (&mut out[b * D..b * D + D]).try_into().expect("D");
+            for k in 0..D {
+                ob[k] = ob[k] - c * z[k];
+            }
+        }
+    }
+}
+
 impl<T: Real> PotentialOps<T> for Pairs<T> {
     fn energy(&self, q: &[T], d: usize) -> T {
         let mut e = T::lit(0.0);
@@ -144,15 +184,25 @@ impl<T: Real> PotentialOps<T> for Pairs<T> {
         }
         e
     }
+    /// One pass over the pairs with the law's `φ'(r)/r` as a function of `r²` chosen once
+    /// ([`PairLaw::slope`]): no branch per pair, and no square root for the laws that are
+    /// functions of `r²` (the logarithm, Lennard-Jones', even powers).
     fn gradient_add(&self, q: &[T], d: usize, alpha: T, out: &mut [T]) {
-        for &(a, b) in &self.pairs {
-            let r = distance(q, d, a, b);
-            let s = alpha * self.law.eval(r).1;
-            for k in 0..d {
-                let z = s * (q[a * d + k] - q[b * d + k]);
-                out[a * d + k] = out[a * d + k] + (z);
-                out[b * d + k] = out[b * d + k] - (z);
+        match self.law {
+            PairLaw::Log { strength } => {
+                let c = -(alpha * strength);
+                self.accumulate(q, d, out, |r2| c / r2);
             }
+            PairLaw::LennardJones { epsilon, sigma } => {
+                let (c, s2) = (T::lit(4.0) * alpha * epsilon, sigma * sigma);
+                self.accumulate(q, d, out, |r2| {
+                    let inv_r2 = T::lit(1.0) / r2;
+                    let x = s2 * inv_r2;
+                    let s6 = x * x * x;
+                    c * (s6 * (T::lit(6.0) - T::lit(12.0) * s6)) * inv_r2
+                });
+            }
+            law => self.accumulate(q, d, out, |r2| alpha * law.eval(r2.sqrt()).1),
         }
     }
     fn hessian_apply_add(&self, q: &[T], d: usize, v: &[T], out: &mut [T]) {
@@ -214,3 +264,7 @@ impl Pairs<f64> {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "radial_tests.rs"]
+mod tests;
