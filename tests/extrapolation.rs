@@ -288,3 +288,87 @@ fn extrapolation_refuses_what_it_cannot_raise() {
     assert_eq!(Flow::<V>::order(&romberg), 8);
     assert!((romberg.amplification() - 1.0).abs() < 2.0);
 }
+
+/// A flow that forwards the projection's single steps and nothing else, so that an
+/// extrapolation row takes its `n` base steps one `step_at` at a time (the default
+/// `Flow::step_repeated`) instead of the projection's fused half-steps.
+struct StepByStep<F>(F);
+
+impl<V: Vector, F: Flow<V>> Flow<V> for StepByStep<F> {
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.0.step(h, x)
+    }
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        self.0.step_at(ledger, h, x)
+    }
+    fn order(&self) -> u32 {
+        self.0.order()
+    }
+    fn is_symmetric(&self) -> bool {
+        self.0.is_symmetric()
+    }
+    fn dissipates(&self) -> bool {
+        self.0.dissipates()
+    }
+    fn prepare(&mut self, x: &V) {
+        self.0.prepare(x)
+    }
+    fn stats(&self) -> lieflow::flow::FlowStats {
+        self.0.stats()
+    }
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.0.save_memory(out)
+    }
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.0.restore_memory(from)
+    }
+}
+
+/// An extrapolation row's `n` projected base steps run fused (the `λ_{k+1}` half-step of each
+/// with the `λ_k` half-step of the next: one multiplier solve a base step, plus the row's last
+/// `λ_{k+1}`) give the map of the `n` separate steps: both solve to round-off (`ftol = 2ε`), so
+/// they agree to a few ulps a base step, amplified at most by the weights' `Σ |w_j|`; and the
+/// fused rows take fewer multiplier solves (`Σ (n_j − 1)` fewer a macro step).
+#[test]
+fn fused_rows_take_the_same_steps_with_fewer_solves() {
+    type V = SVector<f64, 4>;
+    let model = DampedPendulum::try_new(C).unwrap();
+    let x0: V = model.state(THETA0, 0.0);
+    let options = ProjectionOptions::default();
+    let (h, macro_steps) = (0.25, 20);
+    for order in [4, 6, 8] {
+        let projected = || {
+            model
+                .free_flow()
+                .unwrap()
+                .projected(model.system(), &x0, options)
+                .unwrap()
+        };
+        let mut fused = projected().extrapolated(order).unwrap();
+        let mut single = StepByStep(projected()).extrapolated(order).unwrap();
+        let amplification = fused.amplification();
+        let (mut a, mut b) = (x0, x0);
+        let (mut la, mut lb) = (Ledger::at(0.0), Ledger::at(0.0));
+        let mut largest = 0.0f64;
+        for _ in 0..macro_steps {
+            fused.step_at(&mut la, h, &mut a).unwrap();
+            single.step_at(&mut lb, h, &mut b).unwrap();
+            largest = largest.max((a - b).amax());
+        }
+        let rows = u64::from(order / 2);
+        let base_steps = macro_steps * rows * (rows + 1) / 2;
+        // A few ulps of |x| ≤ 2 per base step, through the combination.
+        let bound = 8.0 * f64::EPSILON * 2.0 * base_steps as f64 * amplification;
+        assert!(largest <= bound, "order {order}: {largest:e} > {bound:e}");
+        assert!((la.t - lb.t).abs() <= 1e-14 && (la.dissipated - lb.dissipated).abs() <= bound);
+        let (sf, ss) = (fused.stats().newton_solves, single.stats().newton_solves);
+        let saved = macro_steps * (rows * (rows + 1) / 2 - rows);
+        eprintln!("order {order}: |Δx| {largest:e} (bound {bound:e}), solves {sf} against {ss}");
+        assert_eq!(ss - sf, saved, "order {order}: solves {sf} against {ss}");
+    }
+}

@@ -141,7 +141,8 @@ impl<V: Vector, F: Flow<V>> Extrapolated<V, F> {
         &self.base
     }
 
-    /// `n` base steps of `h` on `x` from `ledger`.
+    /// `n` base steps of `h` on `x` from `ledger` ([`Flow::step_repeated`]: a projection
+    /// fuses the half-steps between them).
     #[inline]
     fn row(
         base: &mut F,
@@ -150,10 +151,7 @@ impl<V: Vector, F: Flow<V>> Extrapolated<V, F> {
         h: V::Real,
         x: &mut V,
     ) -> Result<(), StepError> {
-        for _ in 0..n {
-            base.step_at(ledger, h, x)?;
-        }
-        Ok(())
+        base.step_repeated(ledger, h, n, x)
     }
 }
 

@@ -239,6 +239,25 @@ pub trait Flow<V: Vector> {
         }
         Ok(())
     }
+    /// Advances `x` by `n` consecutive steps of size `h`: the map of `n` calls of
+    /// [`step_at`](Self::step_at), each from the time the previous one reached (an
+    /// [`Extrapolated`] row). The default takes them one at a time; the projection fuses the
+    /// `λ_{k+1}` half-step of each step with the `λ_k` half-step of the next, as in
+    /// [`step_table`](Self::step_table): one multiplier solve a step, the same map up to the
+    /// Newton tolerance. On `Err`, `x` may hold the steps taken before the failing one
+    /// (an extrapolation restarts its row from its own copy).
+    fn step_repeated(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        n: u32,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        for _ in 0..n {
+            self.step_at(ledger, h, x)?;
+        }
+        Ok(())
+    }
     /// Appends to `out` what the flow remembers between steps and what its next step depends
     /// on (warm starts of multipliers, held input values), so that [`restore_memory`] of it
     /// makes the continuation equal, bit for bit, to the run that continued from here. A flow
@@ -307,6 +326,15 @@ macro_rules! forward_flow {
                 x: &mut V,
             ) -> Result<(), StepError> {
                 (**self).step_table(ledger, h, table, x)
+            }
+            fn step_repeated(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                h: V::Real,
+                n: u32,
+                x: &mut V,
+            ) -> Result<(), StepError> {
+                (**self).step_repeated(ledger, h, n, x)
             }
             fn save_memory(&mut self, out: &mut Vec<V::Real>) {
                 (**self).save_memory(out)

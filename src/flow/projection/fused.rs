@@ -1,5 +1,6 @@
-//! A composition's stages run by the projection itself: the second half-step of each stage
-//! fused with the first of the next, one multiplier solve per stage (method §4).
+//! A composition's stages, or an extrapolation row's equal steps, run by the projection itself:
+//! the second half-step of each stage fused with the first of the next, one multiplier solve
+//! per stage (method §4).
 
 use super::{Base, Projected};
 use crate::error::StepError;
@@ -33,21 +34,21 @@ where
     #[inline(always)]
     pub(super) fn step_fused<const K: usize>(
         &mut self,
-        h: V::Real,
-        table: &CompositionTable,
+        stages: usize,
+        size: impl Fn(usize) -> V::Real,
         x: &V,
         tally: &mut FlowStats,
     ) -> Result<V::Real, StepError> {
         let m = if K == 0 { self.m } else { K };
         let one = V::Real::one();
-        let mut h_prev = table.gamma_in::<V::Real>(0) * h;
+        let mut h_prev = size(0);
         self.w
             .warm
             .predict_lambda_k(m, h_prev, self.w.z.as_mut_slice());
         self.solve_lambda_k::<K>(h_prev, Base::Given(x), tally)?;
         self.w.warm.record_lambda_k(m, h_prev, self.w.z.as_slice());
-        for i in 1..table.stages {
-            let hi = table.gamma_in::<V::Real>(i) * h;
+        for i in 1..stages {
+            let hi = size(i);
             // The previous stage's λ̃ split evenly between its own λ_k and λ_{k+1} estimates
             // the force per unit time; λ̃ of this stage is that force times (1 + h_prev/h_i).
             let w = &mut self.w;
@@ -86,20 +87,31 @@ where
         Ok(h_prev)
     }
 
-    /// The fused composition dispatched on the multiplier count (see `step_fused`).
+    /// The fused composition dispatched on the multiplier count (see `step_fused`): stages of
+    /// `γ_i h`.
     pub(super) fn step_fused_any(
         &mut self,
         h: V::Real,
         table: &CompositionTable,
         x: &V,
     ) -> Result<V::Real, StepError> {
+        self.fused_stages(table.stages, |i| table.gamma_in::<V::Real>(i) * h, x)
+    }
+
+    /// `stages` fused stages of sizes `size(i)`, dispatched on the multiplier count.
+    pub(super) fn fused_stages(
+        &mut self,
+        stages: usize,
+        size: impl Fn(usize) -> V::Real + Copy,
+        x: &V,
+    ) -> Result<V::Real, StepError> {
         self.w.y_valid = false;
         self.tallied(|flow, t| match (flow.small.is_some(), flow.m) {
-            (false, _) => flow.step_fused::<0>(h, table, x, t),
-            (true, 1) => flow.step_fused::<1>(h, table, x, t),
-            (true, 2) => flow.step_fused::<2>(h, table, x, t),
-            (true, 3) => flow.step_fused::<3>(h, table, x, t),
-            (true, _) => flow.step_fused::<SMALL_MAX>(h, table, x, t),
+            (false, _) => flow.step_fused::<0>(stages, size, x, t),
+            (true, 1) => flow.step_fused::<1>(stages, size, x, t),
+            (true, 2) => flow.step_fused::<2>(stages, size, x, t),
+            (true, 3) => flow.step_fused::<3>(stages, size, x, t),
+            (true, _) => flow.step_fused::<SMALL_MAX>(stages, size, x, t),
         })
     }
 }

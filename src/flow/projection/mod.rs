@@ -495,6 +495,30 @@ where
         }
         Ok(())
     }
+    /// `n` equal steps fused as a composition's stages are (decoupled scheme, `n ≥ 2`): one
+    /// multiplier solve a step plus the last step's `λ_{k+1}`.
+    fn step_repeated(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        n: u32,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        if self.scheme != Scheme::Decoupled || n < 2 {
+            for _ in 0..n {
+                self.step_at(ledger, h, x)?;
+            }
+            return Ok(());
+        }
+        self.w.ledger_in = *ledger;
+        let fused = self.run_atomic(h, x, |flow, x| flow.fused_stages(n as usize, |_| h, x))?;
+        if let Some(h_last) = fused {
+            self.w.warm.commit_fused(&mut self.w.z, h_last);
+            self.stats.projected_steps += 1;
+            *ledger = self.w.ledger_y;
+        }
+        Ok(())
+    }
     /// The fused composition works on the workspace and swaps the result in only on success.
     fn step_table_is_atomic(&self) -> bool {
         self.scheme == Scheme::Decoupled
