@@ -253,10 +253,7 @@ pub trait Flow<V: Vector> {
         n: u32,
         x: &mut V,
     ) -> Result<(), StepError> {
-        for _ in 0..n {
-            self.step_at(ledger, h, x)?;
-        }
-        Ok(())
+        step_each(self, ledger, h, n, x)
     }
     /// Appends to `out` what the flow remembers between steps and what its next step depends
     /// on (warm starts of multipliers, held input values), so that [`restore_memory`] of it
@@ -273,6 +270,21 @@ pub trait Flow<V: Vector> {
     fn restore_memory(&mut self, from: &mut &[V::Real]) {
         let _ = from;
     }
+}
+
+/// `n` calls of [`Flow::step_at`] with step `h`: the default [`Flow::step_repeated`], and the
+/// path of a flow that overrides it for the cases it does not fuse.
+pub(crate) fn step_each<V: Vector, F: Flow<V> + ?Sized>(
+    flow: &mut F,
+    ledger: &mut Ledger<V::Real>,
+    h: V::Real,
+    n: u32,
+    x: &mut V,
+) -> Result<(), StepError> {
+    for _ in 0..n {
+        flow.step_at(ledger, h, x)?;
+    }
+    Ok(())
 }
 
 /// Takes the first `n` values off the front of a checkpoint's memory (fewer if it has fewer).

@@ -4,7 +4,7 @@
 
 use super::{Base, Projected};
 use crate::error::StepError;
-use crate::flow::{CompositionTable, Flow, FlowStats};
+use crate::flow::{Flow, FlowStats, Ledger};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::SMALL_MAX;
 use crate::real::Real;
@@ -87,19 +87,29 @@ where
         Ok(h_prev)
     }
 
-    /// The fused composition dispatched on the multiplier count (see `step_fused`): stages of
-    /// `γ_i h`.
-    pub(super) fn step_fused_any(
+    /// `stages` fused stages of sizes `size(i)` as one atomic step from `ledger` (`h` the
+    /// whole step, for the size check): on success `x` and `ledger` hold the end and the warm
+    /// starts are committed; on failure both are as passed in.
+    pub(super) fn run_fused(
         &mut self,
+        ledger: &mut Ledger<V::Real>,
         h: V::Real,
-        table: &CompositionTable,
-        x: &V,
-    ) -> Result<V::Real, StepError> {
-        self.fused_stages(table.stages, |i| table.gamma_in::<V::Real>(i) * h, x)
+        x: &mut V,
+        stages: usize,
+        size: impl Fn(usize) -> V::Real + Copy,
+    ) -> Result<(), StepError> {
+        self.w.ledger_in = *ledger;
+        let fused = self.run_atomic(h, x, |flow, x| flow.fused_stages(stages, size, x))?;
+        if let Some(h_last) = fused {
+            self.w.warm.commit_fused(&mut self.w.z, h_last);
+            self.stats.projected_steps += 1;
+            *ledger = self.w.ledger_y;
+        }
+        Ok(())
     }
 
     /// `stages` fused stages of sizes `size(i)`, dispatched on the multiplier count.
-    pub(super) fn fused_stages(
+    fn fused_stages(
         &mut self,
         stages: usize,
         size: impl Fn(usize) -> V::Real + Copy,

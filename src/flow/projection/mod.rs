@@ -486,14 +486,9 @@ where
             }
             return Ok(());
         }
-        self.w.ledger_in = *ledger;
-        let fused = self.run_atomic(h, x, |flow, x| flow.step_fused_any(h, table, x))?;
-        if let Some(h_last) = fused {
-            self.w.warm.commit_fused(&mut self.w.z, h_last);
-            self.stats.projected_steps += 1;
-            *ledger = self.w.ledger_y;
-        }
-        Ok(())
+        self.run_fused(ledger, h, x, table.stages, |i| {
+            table.gamma_in::<V::Real>(i) * h
+        })
     }
     /// `n` equal steps fused as a composition's stages are (decoupled scheme, `n ≥ 2`): one
     /// multiplier solve a step plus the last step's `λ_{k+1}`.
@@ -505,19 +500,9 @@ where
         x: &mut V,
     ) -> Result<(), StepError> {
         if self.scheme != Scheme::Decoupled || n < 2 {
-            for _ in 0..n {
-                self.step_at(ledger, h, x)?;
-            }
-            return Ok(());
+            return super::step_each(self, ledger, h, n, x);
         }
-        self.w.ledger_in = *ledger;
-        let fused = self.run_atomic(h, x, |flow, x| flow.fused_stages(n as usize, |_| h, x))?;
-        if let Some(h_last) = fused {
-            self.w.warm.commit_fused(&mut self.w.z, h_last);
-            self.stats.projected_steps += 1;
-            *ledger = self.w.ledger_y;
-        }
-        Ok(())
+        self.run_fused(ledger, h, x, n as usize, |_| h)
     }
     /// The fused composition works on the workspace and swaps the result in only on success.
     fn step_table_is_atomic(&self) -> bool {
