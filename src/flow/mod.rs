@@ -22,6 +22,7 @@ mod predictor;
 mod projection;
 mod reduced;
 mod schur;
+mod stage_blocks;
 
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};

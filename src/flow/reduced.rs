@@ -73,7 +73,7 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
         stage: &[T],
     ) -> Result<Self, LinearSolveError> {
         let nq = form.positions;
-        let k = super::schur::stages_of(stage);
+        let k = super::stage_blocks::stages_of(stage);
         let mut pattern: Vec<(usize, usize)> = (0..nq).map(|i| (i, i)).collect();
         pattern.extend(form.momentum_block.iter().map(|&(r, c, _)| (r, c)));
         match &form.hessian_pattern {
@@ -105,7 +105,7 @@ impl<T: Real, L: LinearSolver<T>> Reduced<T, L> {
         }
         pattern.sort_unstable();
         pattern.dedup();
-        let pattern = super::schur::expand(&pattern, k);
+        let pattern = super::stage_blocks::expand(&pattern, k);
         let unknowns = k * (nq + m);
         // Simplified Newton: the matrix is kept while the iteration contracts, not updated by
         // secants (a rank-one update refactors a dense matrix; sparse storage has none).

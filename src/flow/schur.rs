@@ -55,6 +55,16 @@
 //! (`|μ| ≲ 0.16` on chains), not guaranteed so: an estimate near the clamp on such a mode slows
 //! the contraction, and the contraction test below hands the step to Newton as before.
 //!
+//! **Kept complement.** `S` depends on the step's points only through `G` and `C`, which
+//! move by `O(h |q'| ‖∇²g‖)` from one step to the next. After a solve that converged in one
+//! update, the next step's iteration runs on the same factored `S` and (for a problem that
+//! fills them, [`ReducedBlocks::keep_matrix`]) the same `G` and `C`: a simplified Newton
+//! iteration on a matrix kept across steps, as Radau5 keeps its Jacobian while the iteration
+//! converges fast (Hairer & Wanner, *Solving ODEs II*, §IV.8). The staleness adds to the
+//! contraction; a solve that needs a second update refactors at the next step, and one that
+//! stalls on the kept `S` starts again from its predictor on a fresh one before anything is
+//! handed to Newton.
+//!
 //! **Stages.** A collocation-type step with `k` stages (the Petrov–Galerkin scheme) has the
 //! same blocks on `k` copies of the positions and multipliers, coupled through a `k × k` stage
 //! matrix `Â`: position `d` of stage `i` at `d k + i`, constraint `a` of stage `i` at `a k + i`,
@@ -63,6 +73,7 @@
 //! in this order (banded for a chain), and every product is as above.
 
 use super::contraction::ContractionEstimate;
+use super::stage_blocks::{apply_blocks, expand, inv_norm, invert, stages_of};
 use crate::error::{NewtonError, StepError};
 use crate::linalg::{ColumnGroups, LinearSolver, Sink, SolverChoice, Structure};
 use crate::nonlinear::{NewtonOptions, NonlinearProblem, SolveReport, effective_residual};
@@ -84,6 +95,13 @@ pub(crate) trait ReducedBlocks<T: Real>: NonlinearProblem<T> {
     fn schur_complement_add(&mut self, inv_d: &[T], sink: &mut dyn Sink<T>) -> bool {
         let _ = (inv_d, sink);
         false
+    }
+    /// Whether the products with `C` and `G` keep the matrices of their last fill while the
+    /// points move (`true`: the iteration runs on a kept Schur complement, and its matrix stays
+    /// one matrix), or fill them again at the next residual's points (`false`). The default
+    /// keeps nothing: its products are taken at the current points either way.
+    fn keep_matrix(&mut self, keep: bool) {
+        let _ = keep;
     }
 }
 
@@ -161,6 +179,18 @@ pub(crate) struct SchurIteration<T: Real, L> {
     last: Vec<T>,
     /// The contraction of the first update, for solves that may stop on its prediction.
     contraction: ContractionEstimate<T>,
+    /// Whether the next solve runs on the factored `S` of an earlier one (which converged in
+    /// one update).
+    kept: bool,
+}
+
+/// How a run of the iteration ended.
+enum Outcome {
+    /// Newton's tests passed after this many updates.
+    Converged(usize),
+    /// It contracted too slowly or could not run; `true`: the solve should start again from
+    /// where it began (its first update grew the residual for nothing).
+    Stalled(bool),
 }
 
 impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
@@ -228,6 +258,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             backoff: 1,
             last: vec![T::zero(); nq],
             contraction: ContractionEstimate::new(),
+            kept: false,
         })
     }
 
@@ -235,6 +266,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
     /// (a restored checkpoint continues as the run that saved it).
     pub(crate) fn forget(&mut self) {
         self.h = T::zero();
+        self.kept = false;
         self.contraction.forget();
     }
 
@@ -248,6 +280,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
     /// Forgets the measured contraction (a step that does not continue the last one starts
     /// from a poorer predictor).
     pub(crate) fn forget_contraction(&mut self) {
+        self.kept = false;
         self.contraction.forget();
     }
 
@@ -259,6 +292,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         self.h = h;
         self.pause = 0;
         self.backoff = 1;
+        self.kept = false;
         self.contraction.forget();
         self.inv_d.clear();
         let k = self.k;
@@ -297,6 +331,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
     /// Records a failure: the next `backoff` steps go to Newton, and the next pause is twice
     /// as long.
     fn pause(&mut self) {
+        self.kept = false;
         self.contraction.forget();
         self.pause = self.backoff;
         self.backoff = (2 * self.backoff).min(MAX_PAUSE);
@@ -304,13 +339,50 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
 
     /// Iterates on `problem` from `z`. `Ok(true)`: converged by Newton's tests; `Ok(false)`: the
     /// iteration contracted too slowly (or could not run), `z` left at its best iterate for
-    /// Newton to go on from. Counts into `report`.
+    /// Newton to go on from. Counts into `report`. After a solve that converged in one update,
+    /// the next one runs on the same factored `S` (module docs, *Kept complement*), and starts
+    /// again on a fresh one if that stalls.
     pub(crate) fn solve<P>(
         &mut self,
         problem: &mut P,
         z: &mut [T],
         report: &mut SolveReport<T>,
     ) -> Result<bool, NewtonError<StepError>>
+    where
+        P: ReducedBlocks<T, Error = StepError>,
+    {
+        let reuse = self.kept;
+        self.kept = false;
+        problem.keep_matrix(reuse);
+        let mut outcome = self.iterate(problem, z, report, !reuse)?;
+        if reuse && matches!(outcome, Outcome::Stalled(_)) {
+            // The kept complement went stale: once more from where the solve began, with `S`
+            // and the products at the points of its first residual.
+            z.copy_from_slice(&self.start);
+            problem.keep_matrix(false);
+            outcome = self.iterate(problem, z, report, true)?;
+        }
+        match outcome {
+            Outcome::Converged(updates) => {
+                self.kept = updates <= 1;
+                Ok(true)
+            }
+            Outcome::Stalled(restart) => {
+                self.hand_over(z, restart);
+                Ok(false)
+            }
+        }
+    }
+
+    /// One run of the iteration from `z`, on a newly factored `S` when `fresh` (else on the
+    /// kept one).
+    fn iterate<P>(
+        &mut self,
+        problem: &mut P,
+        z: &mut [T],
+        report: &mut SolveReport<T>,
+        fresh: bool,
+    ) -> Result<Outcome, NewtonError<StepError>>
     where
         P: ReducedBlocks<T, Error = StepError>,
     {
@@ -328,13 +400,14 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
         let mut r = effective_residual(problem, &self.f);
         report.residual = raw;
         if r <= opts.ftol {
-            return Ok(true);
+            return Ok(Outcome::Converged(0));
         }
-        if !self.factor_schur(problem) {
-            self.pause();
-            return Ok(false);
+        if fresh {
+            if !self.factor_schur(problem) {
+                return Ok(Outcome::Stalled(false));
+            }
+            report.factorizations += 1;
         }
-        report.factorizations += 1;
         let noise = T::lit(crate::nonlinear::NOISE_FACTOR) * opts.ftol;
         // Whether an iteration of this solve has contracted by `max_contraction`, and whether
         // the first one was let grow the residual (then `start` holds where it began).
@@ -356,8 +429,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 *d = f - *d;
             }
             if self.lin.solve_in_place(dnu).is_err() {
-                self.pause();
-                return Ok(false);
+                return Ok(Outcome::Stalled(false));
             }
             ops::fill_zero(dq);
             problem.multiplier_columns_add(dnu, dq);
@@ -389,7 +461,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                         .accepts(raw, ops::norm_inf(&self.dz), ops::norm_inf(z), &opts)
             {
                 report.residual = predicted;
-                return Ok(true);
+                return Ok(Outcome::Converged(1));
             }
             let raw_before = raw;
             let evaluated = problem.residual(z, &mut self.f);
@@ -417,7 +489,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 // (a long chain's: its rows sum tensions that grow with its length), as with a
                 // fresh Newton matrix: no representable iterate does better.
                 report.residual = raw;
-                return Ok(true);
+                return Ok(Outcome::Converged(iteration + 1));
             }
             // The first update is not judged by the residual: a predictor that satisfies some
             // rows exactly (the explicit Euler start of a Petrov–Galerkin step without past
@@ -430,23 +502,21 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 // finite: subtracting the update may not give the last iterate back (an
                 // overflowed entry stays infinite), so Newton starts where the solve began.
                 ops::axpy(z, -one, &self.dz);
-                self.hand_over(z, !finite || (grew && r > r_start));
-                return Ok(false);
+                return Ok(Outcome::Stalled(!finite || (grew && r > r_start)));
             }
             report.residual = raw;
             if r_new <= opts.ftol {
-                return Ok(true);
+                return Ok(Outcome::Converged(iteration + 1));
             }
             let step = ops::norm_inf(&self.dz);
             if improved && r_new <= noise && step <= opts.xtol * (one + ops::norm_inf(z)) {
                 // The update is at the round-off of z and the residual within its noise: as
                 // for Newton with a kept matrix, no representable z does better.
-                return Ok(true);
+                return Ok(Outcome::Converged(iteration + 1));
             }
             if r_new > opts.max_contraction * r {
                 if !lenient {
-                    self.hand_over(z, grew && r_new > r_start);
-                    return Ok(false);
+                    return Ok(Outcome::Stalled(grew && r_new > r_start));
                 }
                 grew = r_new > r;
             } else {
@@ -454,8 +524,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             }
             r = r_new;
         }
-        self.hand_over(z, grew && r > r_start);
-        Ok(false)
+        Ok(Outcome::Stalled(grew && r > r_start))
     }
 
     /// Hands the solve over to Newton: from where it began when `restart` (the first update
@@ -489,98 +558,6 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             }
         }
         !self.unit.is_empty() && self.lin.factor().is_ok()
-    }
-}
-
-/// `k` from a `k × k` stage matrix.
-pub(crate) fn stages_of<T>(stage: &[T]) -> usize {
-    let k = stage.len().isqrt();
-    debug_assert_eq!(k * k, stage.len(), "a stage matrix is square");
-    k
-}
-
-/// The pattern of a `k`-stage system from the pattern of one stage: every entry `(r, c)`
-/// becomes the `k × k` block at `(r k, c k)` (unknown `e` of stage `i` is at `e k + i`).
-pub(crate) fn expand(pattern: &[(usize, usize)], k: usize) -> Vec<(usize, usize)> {
-    if k == 1 {
-        return pattern.to_vec();
-    }
-    pattern
-        .iter()
-        .flat_map(|&(r, c)| (0..k).flat_map(move |i| (0..k).map(move |j| (r * k + i, c * k + j))))
-        .collect()
-}
-
-/// `inv = a⁻¹` (`k × k`, row-major) by Gauss–Jordan elimination with partial pivoting; `a`
-/// is overwritten. `false` when a pivot vanishes or an entry is not finite.
-fn invert<T: Real>(a: &mut [T], inv: &mut [T], k: usize) -> bool {
-    ops::fill_zero(inv);
-    for i in 0..k {
-        inv[i * k + i] = T::one();
-    }
-    for col in 0..k {
-        let Some(piv) = (col..k).max_by(|&x, &y| {
-            a[x * k + col]
-                .abs()
-                .partial_cmp(&a[y * k + col].abs())
-                .unwrap_or(core::cmp::Ordering::Equal)
-        }) else {
-            return false;
-        };
-        let p = a[piv * k + col];
-        if !(p.is_finite() && p != T::zero()) {
-            return false;
-        }
-        for j in 0..k {
-            a.swap(col * k + j, piv * k + j);
-            inv.swap(col * k + j, piv * k + j);
-        }
-        let scale = T::one() / p;
-        for j in 0..k {
-            a[col * k + j] = a[col * k + j] * scale;
-            inv[col * k + j] = inv[col * k + j] * scale;
-        }
-        for r in (0..k).filter(|&r| r != col) {
-            let f = a[r * k + col];
-            for j in 0..k {
-                a[r * k + j] = a[r * k + j] - f * a[col * k + j];
-                inv[r * k + j] = inv[r * k + j] - f * inv[col * k + j];
-            }
-        }
-    }
-    inv.iter().all(|v| v.is_finite())
-}
-
-/// The max-row-sum norm of a `k × k` matrix.
-fn inv_norm<T: Real>(a: &[T], k: usize) -> T {
-    a.chunks_exact(k).fold(T::zero(), |m, row| {
-        m.max(row.iter().fold(T::zero(), |s, &v| s + v.abs()))
-    })
-}
-
-/// `v ← D⁻¹ v` with `D⁻¹` given by its `k × k` blocks `inv_d` (`block`: `k` entries of
-/// scratch).
-fn apply_blocks<T: Real>(k: usize, inv_d: &[T], block: &mut [T], v: &mut [T]) {
-    if k == 1 {
-        for (v, &inv) in v.iter_mut().zip(inv_d) {
-            *v = *v * inv;
-        }
-        return;
-    }
-    if k == 2 {
-        // Order 4's stages: the 2 × 2 products unrolled (the same sums as `dot`).
-        for (chunk, inv) in v.chunks_exact_mut(2).zip(inv_d.chunks_exact(4)) {
-            let (a, b) = (chunk[0], chunk[1]);
-            chunk[0] = inv[0] * a + inv[1] * b;
-            chunk[1] = inv[2] * a + inv[3] * b;
-        }
-        return;
-    }
-    for (chunk, inv) in v.chunks_exact_mut(k).zip(inv_d.chunks_exact(k * k)) {
-        block.copy_from_slice(chunk);
-        for (i, o) in chunk.iter_mut().enumerate() {
-            *o = ops::dot(&inv[i * k..(i + 1) * k], block);
-        }
     }
 }
 

@@ -179,3 +179,98 @@ fn a_much_worse_start_is_evaluated() {
     assert_eq!(evaluations, [2, 1, 3, 3], "{evaluations:?}");
     assert!(worst <= 100.0 * 2.0 * f64::EPSILON, "residual {worst:e}");
 }
+
+/// `F(z) = J z − b` on `(q₁, q₂, q₃, ν)` with `J = [[I, cᵀ], [c, 0]]`, `c = (0, 0, s)`: the
+/// iteration's matrix is exact at the constraint's current `s`, and a Schur complement kept
+/// from an earlier `s₀` propagates the multiplier's error by `1 − s²/s₀²`.
+struct Turning {
+    s: f64,
+    b: [f64; 4],
+}
+
+impl Turning {
+    fn root(&self) -> [f64; 4] {
+        let q3 = self.b[3] / self.s;
+        [self.b[0], self.b[1], q3, (self.b[2] - q3) / self.s]
+    }
+}
+
+impl NonlinearProblem<f64> for Turning {
+    type Error = StepError;
+    fn dim(&self) -> usize {
+        4
+    }
+    fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+        f[0] = z[0] - self.b[0];
+        f[1] = z[1] - self.b[1];
+        f[2] = z[2] + self.s * z[3] - self.b[2];
+        f[3] = self.s * z[2] - self.b[3];
+        Ok(())
+    }
+}
+
+impl ReducedBlocks<f64> for Turning {
+    fn multiplier_columns_add(&mut self, v: &[f64], out: &mut [f64]) {
+        out[2] += self.s * v[0];
+    }
+    fn constraint_rows(&mut self, v: &[f64], out: &mut [f64]) {
+        out[0] = self.s * v[2];
+    }
+}
+
+/// Solves `Turning` at each of `s` in turn from its root offset by `1e-3`, consecutive steps of
+/// one size: the factorizations, updates and residual error of each solve.
+fn turning(s: &[f64]) -> Vec<(usize, usize, f64)> {
+    let options = NewtonOptions {
+        max_contraction: 0.5,
+        ..NewtonOptions::default()
+    };
+    let mut schur: SchurIteration<f64, DenseLu<f64>> =
+        SchurIteration::new(&[1.0; 3], &[], 1, Some(&[(0, 2)]), options, &[0.5]).unwrap();
+    schur.begin(0.1);
+    let mut out = Vec::new();
+    for &s in s {
+        let mut problem = Turning {
+            s,
+            b: [1.0, -0.5, 0.5, 0.25],
+        };
+        let root = problem.root();
+        let mut z = root.map(|v| v + 1e-3);
+        let mut report = SolveReport::default();
+        assert!(schur.ready());
+        assert!(schur.solve(&mut problem, &mut z, &mut report).unwrap());
+        let err = z
+            .iter()
+            .zip(&root)
+            .fold(0.0f64, |a, (z, x)| a.max((z - x).abs()));
+        out.push((report.factorizations, report.iterations, err));
+    }
+    out
+}
+
+/// A solve that converged in one update leaves its factored `S` to the next: the same matrix
+/// converges again in one update with no factorization.
+#[test]
+fn a_solve_in_one_update_keeps_its_schur_complement() {
+    let runs = turning(&[1.0, 1.0, 1.0]);
+    assert_eq!(runs[0].0, 1, "{runs:?}");
+    assert!(runs[1..].iter().all(|r| r.0 == 0 && r.1 == 1), "{runs:?}");
+    assert!(runs.iter().all(|r| r.2 <= 1e-15), "{runs:?}");
+}
+
+/// `s` from 1 to 3: the kept `S` (1 against 9) multiplies the multiplier's error by `−8` an
+/// update, which stalls the iteration; the solve starts again from its predictor on a fresh
+/// `S` and converges in one update (one factorization). A small turn (`s` 1 → 1.05, error
+/// factor `1 − 1.1025 ≈ −0.1`) converges on the kept `S` in more than one update, and the solve
+/// after it factors afresh.
+#[test]
+fn a_stale_kept_complement_is_replaced() {
+    let runs = turning(&[1.0, 3.0]);
+    assert_eq!(runs[1].0, 1, "{runs:?}");
+    assert!(runs[1].2 <= 1e-15, "{runs:?}");
+    let runs = turning(&[1.0, 1.05, 1.05]);
+    assert_eq!(runs[1].0, 0, "{runs:?}");
+    assert!(runs[1].1 > 1, "{runs:?}");
+    assert_eq!(runs[2].0, 1, "{runs:?}");
+    assert!(runs.iter().all(|r| r.2 <= 1e-14), "{runs:?}");
+}

@@ -65,6 +65,8 @@ pub(super) struct ConstraintBlocks<T> {
     fresh: bool,
     /// Whether the constraint listed the same entries at every point so far.
     usable: bool,
+    /// Whether `c` and `g` were filled since construction (or a new quadrature).
+    filled: bool,
 }
 
 /// A [`Sink`] that writes the values of a known pattern in order, and notes any entry that
@@ -151,6 +153,7 @@ impl<T: Real> ConstraintBlocks<T> {
             ones,
             fresh: false,
             usable: true,
+            filled: false,
             rows,
             cols,
         })
@@ -175,6 +178,12 @@ impl<T: Real> ConstraintBlocks<T> {
         (self.wc, self.wg) = weights(tables);
         self.vals = vec![T::zero(); tables.s * self.rows.len()];
         self.fresh = false;
+        self.filled = false;
+    }
+
+    /// Whether the blocks hold values from a fill that succeeded (at whatever points it was).
+    pub(super) fn filled(&self) -> bool {
+        self.usable && self.filled
     }
 
     /// The points moved: the blocks are filled again when next asked for.
@@ -255,6 +264,7 @@ impl<T: Real> ConstraintBlocks<T> {
             }
         }
         self.fresh = true;
+        self.filled = true;
         true
     }
 

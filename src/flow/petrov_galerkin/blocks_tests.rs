@@ -49,6 +49,7 @@ fn stages<'a, 'b, Sys>(
         u,
         momentum_block: &[],
         blocks,
+        keep: false,
     }
 }
 

@@ -412,6 +412,7 @@ where
                 u: self.u.as_mut_slice(),
                 momentum_block,
                 blocks: self.blocks.as_mut(),
+                keep: false,
             };
             stages.compress(z);
             solver.predict(z);
@@ -448,22 +449,24 @@ where
         // c_j integrates exactly as the s-point rule does: D = −h Σ_j β_j z(c_j)ᵀ M z(c_j),
         // k products with M instead of s (and ≥ 0 term by term for M = J − R, β_j > 0).
         let mut damping = V::Real::zero();
-        if self.system.structure().is_dissipative() {
-            if let Some(reduced) = self.mechanical.as_ref() {
-                // The momentum rows of `h z(c_j)` are `h W⁻¹` times the projection of `p`,
-                // which is `Y^q_j` exactly (`reduced.rs`); `M = [[0, I], [−I, B]]` pairs the
-                // position rows with them only in the skew part, which `zᵀMz` cancels. So
-                // `z_pᵀ B z_p` from the unknowns: the solve may have stopped without a residual
-                // at the solution.
-                let nq = reduced.nq;
-                for (j, acc) in self.w.accz.iter_mut().enumerate() {
-                    let (aq, ap) = acc.as_mut_slice().split_at_mut(nq);
-                    ops::fill_zero(aq);
-                    ap.copy_from_slice(&u[j * n..j * n + nq]);
-                }
+        if let (true, Some(reduced)) = (
+            self.system.structure().is_dissipative(),
+            self.mechanical.as_ref(),
+        ) {
+            // The momentum rows of `h z(c_j)` are `h W⁻¹` times the projection of `p`, which is
+            // `Y^q_j` exactly (`reduced.rs`); `M = [[0, I], [−I, B]]` pairs the position rows
+            // with them only in the skew part, which `zᵀMz` cancels. So `h² z_pᵀ B z_p =
+            // Y^q_jᵀ B Y^q_j` from the unknowns and the entries of `B` (the solve may have
+            // stopped without a residual at the solution).
+            for (y, &beta) in u.chunks_exact(n).zip(&self.tables.beta) {
+                let zbz = reduced
+                    .momentum_block
+                    .iter()
+                    .fold(V::Real::zero(), |acc, &(r, c, v)| acc + v * y[r] * y[c]);
+                damping = damping - beta * zbz / h;
             }
-            // Otherwise the last residual was evaluated at the solution: `accz` holds its
-            // `h z(c_j)`.
+        } else if self.system.structure().is_dissipative() {
+            // The last residual was evaluated at the solution: `accz` holds its `h z(c_j)`.
             for (acc, &beta) in self.w.accz.iter().zip(&self.tables.beta) {
                 self.system
                     .structure()

@@ -33,7 +33,7 @@ use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
-use num_traits::{Float as _, One, Zero};
+use num_traits::{Float as _, One};
 
 /// The reduced step problem over the full one.
 pub(super) struct Stages<'a, 'b, V: Vector, Sys> {
@@ -46,6 +46,8 @@ pub(super) struct Stages<'a, 'b, V: Vector, Sys> {
     pub(super) momentum_block: &'b [(usize, usize, V::Real)],
     /// The constraint blocks from Jacobian entries, for a constraint that lists them.
     pub(super) blocks: Option<&'b mut ConstraintBlocks<V::Real>>,
+    /// Whether the blocks keep their last fill ([`ReducedBlocks::keep_matrix`]).
+    pub(super) keep: bool,
 }
 
 impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
@@ -64,6 +66,10 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
     /// when the constraint does not list its entries (the products go through the model).
     fn blocks(&mut self) -> Option<&mut ConstraintBlocks<V::Real>> {
         let blocks = self.blocks.as_deref_mut()?;
+        if self.keep {
+            // Those of the kept Schur complement's points.
+            return blocks.filled().then_some(blocks);
+        }
         let full = &mut *self.full;
         let (h, system) = (full.h, full.system);
         // `grad` is the residual's scratch, free between residuals.
@@ -120,7 +126,9 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
         out: &mut [V::Real],
     ) -> Result<(), StepError> {
         self.expand_k::<K>(z);
-        if let Some(blocks) = self.blocks.as_deref_mut() {
+        if let Some(blocks) = self.blocks.as_deref_mut()
+            && !self.keep
+        {
             blocks.stale();
         }
         let (nq, _, _) = self.dims();
@@ -135,20 +143,31 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
         // The momenta of `h x'` are not read (`G` acts on positions).
         ops::fill_zero(&mut sw.dr.as_mut_slice()[nq..]);
         for r in 0..t.s {
-            let row = &t.ell[r * K..(r + 1) * K];
-            let arow = &t.a[r * K..(r + 1) * K];
+            let row: [V::Real; K] = core::array::from_fn(|j| t.ell[r * K + j]);
+            let arow: [V::Real; K] = core::array::from_fn(|j| t.a[r * K + j]);
             let wgt: [V::Real; K] = core::array::from_fn(|i| t.test[r * K + i]);
-            // x_r = x_n + Σ_j A_rj Y_j and h x'_q(e_r) = Σ_j ℓ_j(e_r) Y^q_j, a pass per stage.
-            let xr = sw.xs[r].as_mut_slice();
-            xr.copy_from_slice(x0);
+            // x_r = x_n + Σ_j A_rj Y_j and h x'_q(e_r) = Σ_j ℓ_j(e_r) Y^q_j: one pass over the
+            // components, the stages summed in order (the sums of a pass per stage).
+            let st: [&[V::Real]; K] = core::array::from_fn(|j| &ys[j * n..j * n + n]);
+            let xr = &mut sw.xs[r].as_mut_slice()[..n];
+            let x0 = &x0[..n];
+            for e in 0..n {
+                let mut acc = x0[e];
+                for j in 0..K {
+                    acc = acc + arow[j] * st[j][e];
+                }
+                xr[e] = acc;
+            }
             let dr = &mut sw.dr.as_mut_slice()[..nq];
-            ops::fill_zero(dr);
-            for (j, y) in ys.chunks_exact(n).enumerate() {
-                ops::axpy(xr, arow[j], y);
-                ops::axpy(dr, row[j], &y[..nq]);
+            for (e, o) in dr.iter_mut().enumerate() {
+                let mut acc = row[0] * st[0][e];
+                for j in 1..K {
+                    acc = acc + row[j] * st[j][e];
+                }
+                *o = acc;
             }
             for (o, za) in sw.lr.iter_mut().zip(z[K * nq..].chunks_exact(K)) {
-                *o = ops::dot(row, za);
+                *o = ops::dot(&row, za);
             }
             let xr = &sw.xs[r];
             sys.hamiltonian().gradient(xr, &mut sw.grad);
@@ -169,13 +188,11 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
             }
         }
         // The noise scale of the full residual's rows: the largest `|Y|` and `|M acc|` of a
-        // stage, the position rows (`|Y^q| = |acc_p|`) included. Selects, not `max`: no NaN
-        // handling in the loop (a non-finite row is reported below).
-        let mut scale = V::Real::zero();
+        // stage, the position rows (`|Y^q| = |acc_p|`) included. A select, not `max`: a NaN
+        // in either makes a non-finite row, which is reported below.
+        let (ya, fa) = (ops::norm_inf(&z[..K * nq]), ops::norm_inf(out_p));
+        let mut scale = if ya > fa { ya } else { fa };
         for (o, &y) in out_p.iter_mut().zip(z) {
-            let (ya, fa) = (y.abs(), o.abs());
-            scale = if ya > scale { ya } else { scale };
-            scale = if fa > scale { fa } else { scale };
             *o = *o + y;
         }
         for stage in ys.chunks_exact(n) {
@@ -298,6 +315,17 @@ impl<V: Vector, Sys: Model<V>> ReducedBlocks<V::Real> for Stages<'_, '_, V, Sys>
                     *o = *o + c * g;
                 }
             }
+        }
+    }
+
+    /// The blocks keep the points of their last fill while `keep` (the residual's points
+    /// move on); they are filled again at the next residual's points otherwise.
+    fn keep_matrix(&mut self, keep: bool) {
+        self.keep = keep;
+        if let Some(blocks) = self.blocks.as_deref_mut()
+            && !keep
+        {
+            blocks.stale();
         }
     }
 

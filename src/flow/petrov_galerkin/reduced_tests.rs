@@ -54,6 +54,7 @@ fn check<Sys: Model<DVector<f64>>>(system: &Sys, x0: &DVector<f64>, h: f64) {
             u: &mut u,
             momentum_block: &form.momentum_block,
             blocks: None,
+            keep: false,
         };
         stages.residual(&z, &mut reduced).unwrap();
         let noise = stages.noise_floor();
