@@ -260,3 +260,78 @@ fn products_follow_the_last_residual() {
     let e = relative(&columns);
     assert!(e <= TOL, "blocks at stale points: {e:e}");
 }
+
+/// `C v` by the stages' products (`len` entries).
+fn columns<Sys: Model<DVector<f64>>>(
+    stages: &mut Stages<'_, '_, DVector<f64>, Sys>,
+    v: &[f64],
+    len: usize,
+) -> Vec<f64> {
+    let mut c = vec![0.0; len];
+    stages.multiplier_columns_add(v, &mut c);
+    c
+}
+
+/// Kept (`keep_matrix(true)`, the Schur iteration on a kept complement), the blocks stay those
+/// of their last fill while a residual moves the points, exactly; released, they follow the
+/// next residual's points again.
+#[test]
+fn kept_blocks_keep_the_points_of_their_fill() {
+    use crate::nonlinear::NonlinearProblem;
+    let model = PendulumChain::<f64>::uniform(3, 5).unwrap();
+    let x0: DVector<f64> = model.at_rest(|i| 0.2 + 0.1 * i as f64);
+    let system = model.system();
+    let (n, m, k) = (x0.len(), model.constraints(), 2);
+    let (nq, s) = (n / 2, k + 2);
+    let tables = Tables::<f64>::new(k, s);
+    let constraint = Model::<DVector<f64>>::constraint(&system);
+    let mut blocks = ConstraintBlocks::new(constraint, &x0, nq, &tables).unwrap();
+    let mut w = Scratch::new(&x0, k, s, m);
+    let inv_mass = vec![1.0; nq];
+    let g0 = vec![0.0; m];
+    let mut problem = problem(&x0, &tables, &mut w, &system, &g0);
+    let mut u = vec![0.0; k * (n + m)];
+    let dim = k * (nq + m);
+    let z1: Vec<f64> = (0..dim).map(|i| 0.3 * wave(11, i)).collect();
+    let z2: Vec<f64> = (0..dim).map(|i| 0.3 * wave(13, i)).collect();
+    let vm: Vec<f64> = (0..k * m).map(|i| wave(3, i)).collect();
+    let mut out = vec![0.0; dim];
+    let mut stages = stages(&mut problem, &inv_mass, &mut u, Some(&mut blocks));
+    stages.residual(&z1, &mut out).unwrap();
+    let first = columns(&mut stages, &vm, k * nq);
+    stages.keep_matrix(true);
+    stages.residual(&z2, &mut out).unwrap();
+    let kept = columns(&mut stages, &vm, k * nq);
+    assert_eq!(kept, first, "kept blocks at the first points");
+    stages.keep_matrix(false);
+    let second = columns(&mut stages, &vm, k * nq);
+    stages.residual(&z2, &mut out).unwrap();
+    assert_eq!(columns(&mut stages, &vm, k * nq), second);
+    let e = relative(&[first, second]);
+    assert!(e > 1e3 * TOL, "the points moved the blocks: {e:e}");
+}
+
+/// On the damped shell the stages' solves converge in one update from the predictor, so the
+/// next step keeps the factored Schur complement: after the first steps (no predictor yet) a
+/// factorization follows only a solve that needed a second update, or one that stalled on the
+/// kept complement, each of which adds at least one update beyond one a step. With a fresh
+/// complement every step there would be one factorization a step.
+#[cfg(feature = "scene")]
+#[test]
+fn the_shell_keeps_its_schur_complement_across_steps() {
+    use crate::flow::{Flow, PetrovGalerkin, ProjectionOptions};
+    let (model, x0) =
+        super::super::test_scenes::scene(include_str!("../../../scenes/shell_damped.toml"));
+    let mut flow: PetrovGalerkin<DVector<f64>, _> =
+        PetrovGalerkin::try_new(model, &x0, 4, ProjectionOptions::default()).unwrap();
+    let mut x = x0;
+    let steps = 400u64;
+    for _ in 0..steps {
+        flow.step(0.01, &mut x).unwrap();
+    }
+    let st = flow.stats();
+    let extra = st.newton_iterations - st.newton_solves;
+    assert!(st.factorizations <= 1 + 2 * extra, "{st:?}");
+    assert!(st.factorizations <= steps / 4, "{st:?}");
+    eprintln!("{st:?}");
+}
