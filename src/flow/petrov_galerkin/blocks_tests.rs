@@ -6,8 +6,9 @@ use super::super::tables::Tables;
 use super::ConstraintBlocks;
 use crate::flow::schur::ReducedBlocks;
 use crate::linalg::Triplets;
+use crate::models::pendulum_chain::ChainLinks;
 use crate::models::{PendulumChain, SphereParticles};
-use crate::system::{HolonomicConstraint, Model};
+use crate::system::{Canonical, HolonomicConstraint, Model, System};
 use nalgebra::DVector;
 
 /// A deterministic, irregular value for index `i` of sequence `seed`, in `[−1, 1]`.
@@ -224,41 +225,52 @@ fn blocks_agree_with_model_passes_on_scenes() {
     }
 }
 
-/// The blocks follow the points of the last residual: filled at one `z`, a residual at
-/// another makes the next product fill them again (a product that kept the first points
-/// would differ by the points' change).
-#[test]
-fn products_follow_the_last_residual() {
-    use crate::nonlinear::NonlinearProblem;
-    let model = PendulumChain::<f64>::uniform(3, 5).unwrap();
-    let x0: DVector<f64> = model.at_rest(|i| 0.2 + 0.1 * i as f64);
-    let system = model.system();
-    let (n, m, k) = (x0.len(), model.constraints(), 2);
-    let (nq, s) = (n / 2, k + 2);
-    let tables = Tables::<f64>::new(k, s);
-    let constraint = Model::<DVector<f64>>::constraint(&system);
-    let mut blocks = ConstraintBlocks::new(constraint, &x0, nq, &tables).unwrap();
-    let mut w = Scratch::new(&x0, k, s, m);
-    let inv_mass = vec![1.0; nq];
-    let g0 = vec![0.0; m];
-    let mut problem = problem(&x0, &tables, &mut w, &system, &g0);
-    let mut u = vec![0.0; k * (n + m)];
-    let dim = k * (nq + m);
-    let z1: Vec<f64> = (0..dim).map(|i| 0.3 * wave(11, i)).collect();
-    let z2: Vec<f64> = (0..dim).map(|i| 0.3 * wave(13, i)).collect();
-    let vm: Vec<f64> = (0..k * m).map(|i| wave(3, i)).collect();
-    let mut out = vec![0.0; dim];
-    let mut columns = [vec![0.0; k * nq], vec![0.0; k * nq]];
-    for (with_blocks, columns) in [true, false].into_iter().zip(&mut columns) {
-        let blocks = if with_blocks { Some(&mut blocks) } else { None };
-        let mut stages = stages(&mut problem, &inv_mass, &mut u, blocks);
-        stages.residual(&z1, &mut out).unwrap();
-        stages.multiplier_columns_add(&vm, &mut vec![0.0; k * nq]);
-        stages.residual(&z2, &mut out).unwrap();
-        stages.multiplier_columns_add(&vm, columns);
+/// A chain of five links in 3-D, its order-4 stages (`s = 4`), two sets of unknowns `z1`, `z2`
+/// and multipliers `vm` to apply the columns to: what the tests of the blocks' points run on.
+struct Chain {
+    system: System<Canonical, PendulumChain<f64>, ChainLinks<f64>>,
+    x0: DVector<f64>,
+    tables: Tables<f64>,
+    w: Scratch<DVector<f64>>,
+    blocks: ConstraintBlocks<f64>,
+    inv_mass: Vec<f64>,
+    g0: Vec<f64>,
+    u: Vec<f64>,
+    z1: Vec<f64>,
+    z2: Vec<f64>,
+    vm: Vec<f64>,
+    out: Vec<f64>,
+    /// `k n_q`: the length of `C v`.
+    columns: usize,
+}
+
+impl Chain {
+    fn new() -> Self {
+        let model = PendulumChain::<f64>::uniform(3, 5).unwrap();
+        let x0: DVector<f64> = model.at_rest(|i| 0.2 + 0.1 * i as f64);
+        let system = model.system();
+        let (n, m, k) = (x0.len(), model.constraints(), 2);
+        let (nq, s) = (n / 2, k + 2);
+        let tables = Tables::<f64>::new(k, s);
+        let constraint = Model::<DVector<f64>>::constraint(&system);
+        let blocks = ConstraintBlocks::new(constraint, &x0, nq, &tables).unwrap();
+        let dim = k * (nq + m);
+        Self {
+            w: Scratch::new(&x0, k, s, m),
+            blocks,
+            inv_mass: vec![1.0; nq],
+            g0: vec![0.0; m],
+            u: vec![0.0; k * (n + m)],
+            z1: (0..dim).map(|i| 0.3 * wave(11, i)).collect(),
+            z2: (0..dim).map(|i| 0.3 * wave(13, i)).collect(),
+            vm: (0..k * m).map(|i| wave(3, i)).collect(),
+            out: vec![0.0; dim],
+            columns: k * nq,
+            system,
+            x0,
+            tables,
+        }
     }
-    let e = relative(&columns);
-    assert!(e <= TOL, "blocks at stale points: {e:e}");
 }
 
 /// `C v` by the stages' products (`len` entries).
@@ -272,41 +284,50 @@ fn columns<Sys: Model<DVector<f64>>>(
     c
 }
 
+/// The blocks follow the points of the last residual: filled at one `z`, a residual at
+/// another makes the next product fill them again (a product that kept the first points
+/// would differ by the points' change).
+#[test]
+fn products_follow_the_last_residual() {
+    use crate::nonlinear::NonlinearProblem;
+    let mut c = Chain::new();
+    let mut problem = problem(&c.x0, &c.tables, &mut c.w, &c.system, &c.g0);
+    let mut both = [Vec::new(), Vec::new()];
+    for (with_blocks, columns_at_z2) in [true, false].into_iter().zip(&mut both) {
+        let blocks = if with_blocks {
+            Some(&mut c.blocks)
+        } else {
+            None
+        };
+        let mut stages = stages(&mut problem, &c.inv_mass, &mut c.u, blocks);
+        stages.residual(&c.z1, &mut c.out).unwrap();
+        columns(&mut stages, &c.vm, c.columns);
+        stages.residual(&c.z2, &mut c.out).unwrap();
+        *columns_at_z2 = columns(&mut stages, &c.vm, c.columns);
+    }
+    let e = relative(&both);
+    assert!(e <= TOL, "blocks at stale points: {e:e}");
+}
+
 /// Kept (`keep_matrix(true)`, the Schur iteration on a kept complement), the blocks stay those
 /// of their last fill while a residual moves the points, exactly; released, they follow the
 /// next residual's points again.
 #[test]
 fn kept_blocks_keep_the_points_of_their_fill() {
     use crate::nonlinear::NonlinearProblem;
-    let model = PendulumChain::<f64>::uniform(3, 5).unwrap();
-    let x0: DVector<f64> = model.at_rest(|i| 0.2 + 0.1 * i as f64);
-    let system = model.system();
-    let (n, m, k) = (x0.len(), model.constraints(), 2);
-    let (nq, s) = (n / 2, k + 2);
-    let tables = Tables::<f64>::new(k, s);
-    let constraint = Model::<DVector<f64>>::constraint(&system);
-    let mut blocks = ConstraintBlocks::new(constraint, &x0, nq, &tables).unwrap();
-    let mut w = Scratch::new(&x0, k, s, m);
-    let inv_mass = vec![1.0; nq];
-    let g0 = vec![0.0; m];
-    let mut problem = problem(&x0, &tables, &mut w, &system, &g0);
-    let mut u = vec![0.0; k * (n + m)];
-    let dim = k * (nq + m);
-    let z1: Vec<f64> = (0..dim).map(|i| 0.3 * wave(11, i)).collect();
-    let z2: Vec<f64> = (0..dim).map(|i| 0.3 * wave(13, i)).collect();
-    let vm: Vec<f64> = (0..k * m).map(|i| wave(3, i)).collect();
-    let mut out = vec![0.0; dim];
-    let mut stages = stages(&mut problem, &inv_mass, &mut u, Some(&mut blocks));
-    stages.residual(&z1, &mut out).unwrap();
-    let first = columns(&mut stages, &vm, k * nq);
+    let mut c = Chain::new();
+    let mut problem = problem(&c.x0, &c.tables, &mut c.w, &c.system, &c.g0);
+    let mut stages = stages(&mut problem, &c.inv_mass, &mut c.u, Some(&mut c.blocks));
+    stages.residual(&c.z1, &mut c.out).unwrap();
+    let first = columns(&mut stages, &c.vm, c.columns);
     stages.keep_matrix(true);
-    stages.residual(&z2, &mut out).unwrap();
-    let kept = columns(&mut stages, &vm, k * nq);
+    stages.residual(&c.z2, &mut c.out).unwrap();
+    let kept = columns(&mut stages, &c.vm, c.columns);
     assert_eq!(kept, first, "kept blocks at the first points");
     stages.keep_matrix(false);
-    let second = columns(&mut stages, &vm, k * nq);
-    stages.residual(&z2, &mut out).unwrap();
-    assert_eq!(columns(&mut stages, &vm, k * nq), second);
+    let second = columns(&mut stages, &c.vm, c.columns);
+    stages.residual(&c.z2, &mut c.out).unwrap();
+    assert_eq!(columns(&mut stages, &c.vm, c.columns), second);
     let e = relative(&[first, second]);
     assert!(e > 1e3 * TOL, "the points moved the blocks: {e:e}");
 }

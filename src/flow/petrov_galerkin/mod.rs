@@ -449,30 +449,32 @@ where
         // c_j integrates exactly as the s-point rule does: D = −h Σ_j β_j z(c_j)ᵀ M z(c_j),
         // k products with M instead of s (and ≥ 0 term by term for M = J − R, β_j > 0).
         let mut damping = V::Real::zero();
-        if let (true, Some(reduced)) = (
-            self.system.structure().is_dissipative(),
-            self.mechanical.as_ref(),
-        ) {
-            // The momentum rows of `h z(c_j)` are `h W⁻¹` times the projection of `p`, which is
-            // `Y^q_j` exactly (`reduced.rs`); `M = [[0, I], [−I, B]]` pairs the position rows
-            // with them only in the skew part, which `zᵀMz` cancels. So `h² z_pᵀ B z_p =
-            // Y^q_jᵀ B Y^q_j` from the unknowns and the entries of `B` (the solve may have
-            // stopped without a residual at the solution).
-            for (y, &beta) in u.chunks_exact(n).zip(&self.tables.beta) {
-                let zbz = reduced
-                    .momentum_block
-                    .iter()
-                    .fold(V::Real::zero(), |acc, &(r, c, v)| acc + v * y[r] * y[c]);
-                damping = damping - beta * zbz / h;
+        let dissipative = self.system.structure().is_dissipative();
+        match self.mechanical.as_ref() {
+            _ if !dissipative => {}
+            Some(reduced) => {
+                // The momentum rows of `h z(c_j)` are `h W⁻¹` times the projection of `p`,
+                // which is `Y^q_j` exactly (`reduced.rs`); `M = [[0, I], [−I, B]]` pairs the
+                // position rows with them only in the skew part, which `zᵀMz` cancels. So
+                // `h² z_pᵀ B z_p = Y^q_jᵀ B Y^q_j` from the unknowns and the entries of `B`
+                // (the solve may have stopped without a residual at the solution).
+                for (y, &beta) in u.chunks_exact(n).zip(&self.tables.beta) {
+                    let zbz = reduced
+                        .momentum_block
+                        .iter()
+                        .fold(V::Real::zero(), |acc, &(r, c, v)| acc + v * y[r] * y[c]);
+                    damping = damping - beta * zbz / h;
+                }
             }
-        } else if self.system.structure().is_dissipative() {
-            // The last residual was evaluated at the solution: `accz` holds its `h z(c_j)`.
-            for (acc, &beta) in self.w.accz.iter().zip(&self.tables.beta) {
-                self.system
-                    .structure()
-                    .apply(&self.start, acc, &mut self.t2);
-                let zmz = ops::dot(acc.as_slice(), self.t2.as_slice());
-                damping = damping - beta * zmz / h;
+            None => {
+                // The last residual was evaluated at the solution: `accz` holds its `h z(c_j)`.
+                for (acc, &beta) in self.w.accz.iter().zip(&self.tables.beta) {
+                    self.system
+                        .structure()
+                        .apply(&self.start, acc, &mut self.t2);
+                    let zmz = ops::dot(acc.as_slice(), self.t2.as_slice());
+                    damping = damping - beta * zmz / h;
+                }
             }
         }
         let mut projection = V::Real::zero();

@@ -142,15 +142,15 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
         let (out_p, out_c) = out.split_at_mut(K * nq);
         // The momenta of `h x'` are not read (`G` acts on positions).
         ops::fill_zero(&mut sw.dr.as_mut_slice()[nq..]);
+        let st: [&[V::Real]; K] = core::array::from_fn(|j| &ys[j * n..j * n + n]);
+        let x0 = &x0[..n];
         for r in 0..t.s {
             let row: [V::Real; K] = core::array::from_fn(|j| t.ell[r * K + j]);
             let arow: [V::Real; K] = core::array::from_fn(|j| t.a[r * K + j]);
             let wgt: [V::Real; K] = core::array::from_fn(|i| t.test[r * K + i]);
             // x_r = x_n + Σ_j A_rj Y_j and h x'_q(e_r) = Σ_j ℓ_j(e_r) Y^q_j: one pass over the
             // components, the stages summed in order (the sums of a pass per stage).
-            let st: [&[V::Real]; K] = core::array::from_fn(|j| &ys[j * n..j * n + n]);
             let xr = &mut sw.xs[r].as_mut_slice()[..n];
-            let x0 = &x0[..n];
             for e in 0..n {
                 let mut acc = x0[e];
                 for j in 0..K {
