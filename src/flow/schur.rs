@@ -194,7 +194,8 @@ enum Outcome {
 }
 
 impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
-    /// For `n_q` positions with `diag W⁻¹ = w`, the entries of `B`, and `m ≥ 1` constraints
+    /// For `n_q` positions with `diag W⁻¹ = w`, the entries of `B`, and `m ≥ 0` constraints
+    /// (none: no `S`, each update `Δq = −D⁻¹F₁`)
     /// whose rows touch the positions `g_pattern` (`(constraint, position)`; `None`: all), with
     /// the `k × k` stage matrix `stage` (`[½]` for the midpoint rule).
     pub(crate) fn new(
@@ -428,7 +429,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
             for (d, &f) in dnu.iter_mut().zip(f2) {
                 *d = f - *d;
             }
-            if self.lin.solve_in_place(dnu).is_err() {
+            if !dnu.is_empty() && self.lin.solve_in_place(dnu).is_err() {
                 return Ok(Outcome::Stalled(false));
             }
             ops::fill_zero(dq);
@@ -539,6 +540,10 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
     /// `S = G D⁻¹ C` at the last residual's `z`, by groups of columns that share no row, and
     /// its factorization; `false` when it is singular.
     fn factor_schur<P: ReducedBlocks<T>>(&mut self, problem: &mut P) -> bool {
+        if self.unit.is_empty() {
+            // No constraints: `S` is empty and an update is `Δq = −D⁻¹F₁`.
+            return true;
+        }
         self.lin.clear();
         if problem.schur_complement_add(&self.inv_d, &mut self.lin) {
             return self.lin.factor().is_ok();
@@ -557,7 +562,7 @@ impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
                 self.lin.add(i, j, self.col[i]);
             }
         }
-        !self.unit.is_empty() && self.lin.factor().is_ok()
+        self.lin.factor().is_ok()
     }
 }
 

@@ -288,11 +288,14 @@ pub use super::ports::{EventSpec, InputSpec, OutputSpec, SignalSpec};
 pub struct IntegratorSpec {
     /// `"auto"` (default: the splitting of the declared effects, composed to `order`), a
     /// composition by name: `"strang"`, `"triple-jump"`, `"suzuki4"`, `"yoshida6"`,
-    /// `"kahan-li6"`, `"suzuki-umeno8"`, `"kahan-li8"`; `"discrete-gradient"` (Gonzalez,
+    /// `"kahan-li6"`, `"suzuki-umeno8"`, `"kahan-li8"`; `"extrapolation"` (the splitting
+    /// extrapolated to `order`, every sub-step forward); `"discrete-gradient"` (Gonzalez,
     /// order 2, implicit: energy exactly conserved, or decreasing with damping, up to the
-    /// Newton tolerance; dense Newton on `n + m` unknowns, for small scenes); `"midpoint"` (the
+    /// Newton tolerance); `"petrov-galerkin"` (the energy-consistent scheme of `order` 2 to 8,
+    /// default 4, implicit: `H(x_{n+1}) − H(x_n) = −D_n`, `D_n ≥ 0`); `"midpoint"` (the
     /// implicit midpoint rule, projected); `"modified"` (the paper's §2 scheme, built-in paper
-    /// model only).
+    /// model only). The implicit schemes eliminate the momenta and solve for the positions
+    /// (and multipliers) with the scene's sparsity, at any size (docs/method.md §5c, §11).
     #[serde(default)]
     pub scheme: Method,
     /// The order for `auto` (the even orders 2 to 16, default 2: compositions up to 8, or with

@@ -153,16 +153,16 @@ where
         let (n, m) = (x0.len(), system.constraint().dim());
         let g0 = vec![V::Real::zero(); m];
         let hidden = match case {
-            Case::Degenerate => Some(HiddenSolver::new(
+            Case::Degenerate if m > 0 => Some(HiddenSolver::new(
                 &system,
                 x0,
                 options.newton,
                 pattern.as_deref(),
             )?),
-            Case::NonDegenerate => None,
+            _ => None,
         };
         let mechanical = match MechanicalForm::of(&system, system.hamiltonian(), x0)? {
-            Some(form) if m > 0 => Some(Reduced::new(
+            Some(form) => Some(Reduced::new(
                 form,
                 m,
                 options.newton,

@@ -211,10 +211,7 @@ where
         // the multipliers' pivots look singular.
         let mut newton_options = options.newton;
         newton_options.equilibrate = true;
-        let form = match MechanicalForm::of(&system, system.hamiltonian(), x0)? {
-            Some(form) if m > 0 => Some(form),
-            _ => None,
-        };
+        let form = MechanicalForm::of(&system, system.hamiltonian(), x0)?;
         let (newton, mechanical) = match form {
             // With the constraints' curvature: the Schur iteration goes on while it contracts by
             // 0.5 (`reduced::CURVED_MAX_CONTRACTION`).

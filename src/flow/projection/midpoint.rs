@@ -157,7 +157,7 @@ where
     ///
     /// Errors: those of `Projected` (non-finite or off-manifold `x0`, singular brackets), and
     /// [`SetupError::Dimension`] for the cases this path does not cover — the non-degenerate
-    /// or coupled case, `2m > n`, no constraints.
+    /// or coupled case, `2m > n`, no constraints on a model without a mechanical form.
     pub fn try_new(
         system: Sys,
         inner: K,
@@ -170,9 +170,17 @@ where
                 what: format!("ProjectedMidpoint: {what}; use Projected around ImplicitMidpoint"),
             })
         };
-        // The counts first: the initial-state analysis below costs O(m² n).
-        if m == 0 {
-            return unsupported("no constraints");
+        // The counts first: the initial-state analysis below costs O(m² n). Without
+        // constraints the step is the implicit midpoint rule itself, which this path takes
+        // only for a model of mechanical form (its momenta eliminated, its positions solved
+        // with the model's sparsity): `ImplicitMidpoint` is that rule on any model.
+        if m == 0
+            && !matches!(
+                crate::system::MechanicalForm::of(&system, &inner, x0),
+                Ok(Some(_))
+            )
+        {
+            return unsupported("no constraints and no mechanical form");
         }
         if 2 * m > n {
             return unsupported("need 2m <= n");

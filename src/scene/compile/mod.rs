@@ -39,8 +39,9 @@ pub const MAX_STEPS: usize = 1_000_000_000_000;
 /// [`Assembly::structure`] of a canonical `J`.
 pub const CANONICAL: &str = "J canonical";
 
-/// The largest number of unknowns (`n`, or `n + m` for the joint midpoint system) on which the
-/// implicit schemes factor a dense Newton matrix at every step.
+/// The largest number of unknowns (`n + m` of the joint midpoint system) on which a model
+/// without a mechanical form factors a dense Newton matrix at every step (a scene's model has
+/// one, and solves with its sparsity at any size).
 pub const DENSE_MAX_DIM: usize = 400;
 
 /// What a compiled scene assembled: printed by `lieflow check`.

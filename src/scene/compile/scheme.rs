@@ -219,7 +219,20 @@ pub(super) fn scheme_flow(
     } else if discrete_gradient {
         let setup = |e: SetupError| setup_error(model, e);
         let newton = NewtonOptions::default();
-        if m == 0 {
+        let system = || System::new(model.clone(), model.clone(), model.clone());
+        let mechanical = matches!(MechanicalForm::of(&system(), model, x0), Ok(Some(_)));
+        if m == 0 && mechanical {
+            // Gonzalez's step on the positions alone, the momenta eliminated (the constrained
+            // scheme's reduced solve without constraints): the Schur iteration's `D⁻¹`, or
+            // Newton with the pattern of the springs' Hessian, instead of dense Newton on all
+            // `n` unknowns.
+            scheme_name = "discrete gradient (Gonzalez)";
+            let options = projection_options(model, x0.as_slice(), f64::EPSILON);
+            Box::new(
+                ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system(), x0, options)
+                    .map_err(setup)?,
+            )
+        } else if m == 0 {
             scheme_name = "discrete gradient (Gonzalez)";
             Box::new(
                 DiscreteGradient::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
@@ -233,17 +246,16 @@ pub(super) fn scheme_flow(
         } else {
             scheme_name =
                 "constrained discrete gradient (Gonzalez) with hidden-constraint projection";
-            let system = System::new(model.clone(), model.clone(), model.clone());
             let options = projection_options(model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
             Box::new(
-                ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system, x0, options)
+                ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system(), x0, options)
                     .map_err(setup)?,
             )
         }
     } else if file.integrator.scheme == Method::Midpoint {
-        // The implicit midpoint rule for all of H under M (dense Newton on n unknowns), projected
-        // when there are constraints: the §3 scheme with a general inner flow.
+        // The implicit midpoint rule for all of H under M, projected when there are
+        // constraints: the §3 scheme with a general inner flow.
         let setup = |e: SetupError| setup_error(model, e);
         let midpoint = || {
             ImplicitMidpoint::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
@@ -254,12 +266,24 @@ pub(super) fn scheme_flow(
             )
             .map_err(setup)
         };
+        let system = || System::new(model.clone(), model.clone(), model.clone());
         if m == 0 {
             scheme_name = "implicit midpoint rule";
-            raised::<_, _, SceneSystem<f64>>(midpoint()?, raise, backward, None).map_err(setup)?
+            // A model of mechanical form (every scene) takes the momenta eliminated and the
+            // positions solved with its sparsity (`ProjectedMidpoint` without constraints is
+            // the midpoint rule itself); dense Newton on all `n` unknowns otherwise.
+            let options = projection_options(model, x0.as_slice(), f64::EPSILON);
+            match ProjectedMidpoint::<Col<f64>, _, _>::try_new(system(), model.clone(), x0, options)
+            {
+                Ok(reduced) => raised::<_, _, SceneSystem<f64>>(reduced, raise, backward, None),
+                Err(SetupError::Dimension { .. }) => {
+                    raised::<_, _, SceneSystem<f64>>(midpoint()?, raise, backward, None)
+                }
+                Err(e) => return Err(setup(e)),
+            }
+            .map_err(setup)?
         } else {
             scheme_name = "projection around the implicit midpoint rule";
-            let system = || System::new(model.clone(), model.clone(), model.clone());
             let options = projection_options(model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
             // The same map with the midpoint increment and λ_k as one Newton system where that
