@@ -39,3 +39,50 @@ fn petrov_galerkin_converges_on_a_chain_of_ten_thousand_links() {
         s.newton_iterations
     );
 }
+
+/// Linear time per step: a step's work is a number of iterations, residual evaluations and
+/// band solves each linear in the number of links, so the step is linear in `N` when those
+/// counts do not grow with it. They depend on the stiffness of the chain's top links (their
+/// transverse waves' `ωh`, `ω² = 2T/(mℓ)`), which under one gravity grows with the length: so
+/// the lengths are compared at one tension profile, gravity scaled by `1000/N` (every fraction
+/// of the chain carries the tension of the same fraction of the 1000-link chain).
+#[test]
+fn an_implicit_step_does_no_more_work_a_link_on_a_longer_chain_of_the_same_tension() {
+    let counts = |links: usize, scheme: &str| {
+        let g = 9.81 * 1000.0 / links as f64;
+        let text = CHAIN
+            .replace("links = 1000", &format!("links = {links}"))
+            .replace("g = [0.0, -9.81]", &format!("g = [0.0, {:?}]", -g))
+            .replace(
+                "[integrator]",
+                &format!(
+                    "[[effects]]\ntype = \"damping\"\ncoefficient = 0.01\n\n[integrator]\n{scheme}\ndiagnostics = []"
+                ),
+            );
+        let mut scene = Scene::from_toml(&text, "chain.toml").unwrap_or_else(|e| panic!("{e}"));
+        scene.file.integrator.t_end = 0.01;
+        let mut c = scene.compile().unwrap_or_else(|e| panic!("{e}"));
+        let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+        assert_eq!(s.error, None, "{scheme}, {links} links");
+        assert_eq!(s.steps, 100);
+        let per_step = |v: u64| v as f64 / s.steps as f64;
+        (
+            per_step(s.newton_iterations),
+            per_step(s.residual_evaluations),
+        )
+    };
+    for scheme in [
+        "scheme = \"midpoint\"",
+        "scheme = \"discrete-gradient\"",
+        "scheme = \"petrov-galerkin\"\norder = 4",
+    ] {
+        let (short, long) = (counts(300, scheme), counts(3000, scheme));
+        eprintln!(
+            "{scheme}: iterations, residuals a step: 300 links {short:.2?}, 3000 links {long:.2?}"
+        );
+        // Not more a step on ten times the links (a quarter of an iteration for the spread of
+        // the runs' transients).
+        assert!(long.0 <= short.0 + 0.25, "{scheme}: {short:?} → {long:?}");
+        assert!(long.1 <= short.1 + 0.25, "{scheme}: {short:?} → {long:?}");
+    }
+}
