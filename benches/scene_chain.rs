@@ -18,9 +18,11 @@
 //! cargo bench --bench scene_chain
 //! ```
 
-use lieflow::scene::{Scene, run};
+#[path = "../tests/common/scene_text.rs"]
+mod scene_text;
 
-const CHAIN: &str = include_str!("../scenes/chain1000.toml");
+use lieflow::scene::{Scene, run};
+use scene_text::damped_chain;
 
 const SCHEMES: [(&str, &str); 4] = [
     ("strang", "scheme = \"strang\""),
@@ -31,25 +33,6 @@ const SCHEMES: [(&str, &str); 4] = [
         "scheme = \"petrov-galerkin\"\norder = 4",
     ),
 ];
-
-/// The scene of `links` links under gravity `g`, damped, stepped by `scheme`, 100 steps.
-fn scene(links: usize, g: f64, scheme: &str) -> Scene {
-    let text = CHAIN
-        .replace("links = 1000", &format!("links = {links}"))
-        .replace("g = [0.0, -9.81]", &format!("g = [0.0, {:?}]", -g))
-        .replace(
-            "[integrator]",
-            &format!(
-                "[[effects]]\ntype = \"damping\"\ncoefficient = 0.01\n\n[integrator]\n{scheme}\ndiagnostics = []"
-            ),
-        )
-        .replace("t_end = 0.02", "t_end = 0.01");
-    assert!(
-        text.contains(&format!("links = {links}")),
-        "the link count is set"
-    );
-    Scene::from_toml(&text, "chain.toml").unwrap_or_else(|e| panic!("{e}"))
-}
 
 /// The fastest of `repeats` runs: ns per step and Newton iterations per step.
 fn measure(scene: &Scene, repeats: usize) -> (f64, f64) {
@@ -93,7 +76,7 @@ fn main() {
             let mut row = format!("{n:>7}");
             let mut strang = 0.0;
             for (i, (_, spec)) in SCHEMES.iter().enumerate() {
-                let (ns, it) = measure(&scene(n, g, spec), repeats);
+                let (ns, it) = measure(&damped_chain(n, g, spec, 100), repeats);
                 let per_link = ns / n as f64;
                 if i == 0 {
                     strang = ns;

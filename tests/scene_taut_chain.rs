@@ -4,7 +4,11 @@
 //! floor measures that rounding, so its solve stops there instead of iterating on noise until
 //! Newton gives up; the constraints stay at round-off.
 
+#[path = "common/scene_text.rs"]
+mod scene_text;
+
 use lieflow::scene::{Scene, run};
+use scene_text::{damped_chain, run_scene};
 
 const CHAIN: &str = include_str!("../scenes/chain1000.toml");
 
@@ -49,20 +53,12 @@ fn petrov_galerkin_converges_on_a_chain_of_ten_thousand_links() {
 #[test]
 fn an_implicit_step_does_no_more_work_a_link_on_a_longer_chain_of_the_same_tension() {
     let counts = |links: usize, scheme: &str| {
-        let g = 9.81 * 1000.0 / links as f64;
-        let text = CHAIN
-            .replace("links = 1000", &format!("links = {links}"))
-            .replace("g = [0.0, -9.81]", &format!("g = [0.0, {:?}]", -g))
-            .replace(
-                "[integrator]",
-                &format!(
-                    "[[effects]]\ntype = \"damping\"\ncoefficient = 0.01\n\n[integrator]\n{scheme}\ndiagnostics = []"
-                ),
-            );
-        let mut scene = Scene::from_toml(&text, "chain.toml").unwrap_or_else(|e| panic!("{e}"));
-        scene.file.integrator.t_end = 0.01;
-        let mut c = scene.compile().unwrap_or_else(|e| panic!("{e}"));
-        let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+        let s = run_scene(&damped_chain(
+            links,
+            9.81 * 1000.0 / links as f64,
+            scheme,
+            100,
+        ));
         assert_eq!(s.error, None, "{scheme}, {links} links");
         assert_eq!(s.steps, 100);
         let per_step = |v: u64| v as f64 / s.steps as f64;

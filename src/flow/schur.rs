@@ -194,10 +194,10 @@ enum Outcome {
 }
 
 impl<T: Real, L: LinearSolver<T>> SchurIteration<T, L> {
-    /// For `n_q` positions with `diag W⁻¹ = w`, the entries of `B`, and `m ≥ 0` constraints
-    /// (none: no `S`, each update `Δq = −D⁻¹F₁`)
-    /// whose rows touch the positions `g_pattern` (`(constraint, position)`; `None`: all), with
-    /// the `k × k` stage matrix `stage` (`[½]` for the midpoint rule).
+    /// For `n_q` positions with `diag W⁻¹ = w`, the entries of `B`, and `m` constraints whose
+    /// rows touch the positions `g_pattern` (`(constraint, position)`; `None`: all), with the
+    /// `k × k` stage matrix `stage` (`[½]` for the midpoint rule). With `m = 0` there is no `S`
+    /// and each update is `Δq = −D⁻¹F₁`.
     pub(crate) fn new(
         w: &[T],
         momentum_block: &[(usize, usize, T)],

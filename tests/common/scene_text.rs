@@ -51,3 +51,26 @@ pub fn moving_shell(extra: &str) -> (Arc<SceneModel>, faer::Col<f64>) {
     }
     (c.model.expect("a scene of bodies"), x0)
 }
+
+/// scenes/chain1000.toml with `links` links of its 1 g and 1 mm under gravity `g` (downward),
+/// damped by 0.01 against the ground, stepped by the `[integrator]` lines `scheme` (e.g.
+/// `scheme = "midpoint"`) for `steps` steps of its `h = 1e-4`, nothing observed.
+pub fn damped_chain(links: usize, g: f64, scheme: &str, steps: usize) -> Scene {
+    let base = include_str!("../../scenes/chain1000.toml");
+    assert!(
+        base.contains("links = 1000") && base.contains("g = [0.0, -9.81]"),
+        "the chain's keys as replaced here"
+    );
+    let text = base
+        .replace("links = 1000", &format!("links = {links}"))
+        .replace("g = [0.0, -9.81]", &format!("g = [0.0, {:?}]", -g))
+        .replace(
+            "[integrator]",
+            &format!(
+                "[[effects]]\ntype = \"damping\"\ncoefficient = 0.01\n\n[integrator]\n{scheme}\ndiagnostics = []"
+            ),
+        );
+    let mut scene = parse(&text);
+    scene.file.integrator.t_end = steps as f64 * scene.file.integrator.dt;
+    scene
+}

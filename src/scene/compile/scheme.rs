@@ -218,38 +218,32 @@ pub(super) fn scheme_flow(
         Box::new(scheme)
     } else if discrete_gradient {
         let setup = |e: SetupError| setup_error(model, e);
-        let newton = NewtonOptions::default();
-        let system = || System::new(model.clone(), model.clone(), model.clone());
-        let mechanical = matches!(MechanicalForm::of(&system(), model, x0), Ok(Some(_)));
-        if m == 0 && mechanical {
-            // Gonzalez's step on the positions alone, the momenta eliminated (the constrained
-            // scheme's reduced solve without constraints): the Schur iteration's `D⁻¹`, or
-            // Newton with the pattern of the springs' Hessian, instead of dense Newton on all
-            // `n` unknowns.
-            scheme_name = "discrete gradient (Gonzalez)";
-            let options = projection_options(model, x0.as_slice(), f64::EPSILON);
-            Box::new(
-                ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system(), x0, options)
-                    .map_err(setup)?,
-            )
-        } else if m == 0 {
+        let system = System::new(model.clone(), model.clone(), model.clone());
+        if m == 0 && !matches!(MechanicalForm::of(&system, model, x0), Ok(Some(_))) {
             scheme_name = "discrete gradient (Gonzalez)";
             Box::new(
                 DiscreteGradient::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
                     model.clone(),
                     model.clone(),
                     x0,
-                    newton,
+                    NewtonOptions::default(),
                 )
                 .map_err(setup)?,
             )
         } else {
-            scheme_name =
-                "constrained discrete gradient (Gonzalez) with hidden-constraint projection";
+            // On a model of mechanical form (every scene), with or without constraints, the
+            // momenta eliminated and the positions (and multipliers) solved with the model's
+            // sparsity; without constraints it is Gonzalez's step block by block.
+            if m == 0 {
+                scheme_name = "discrete gradient (Gonzalez)";
+            } else {
+                scheme_name =
+                    "constrained discrete gradient (Gonzalez) with hidden-constraint projection";
+                case = Some("degenerate".to_owned());
+            }
             let options = projection_options(model, x0.as_slice(), f64::EPSILON);
-            case = Some("degenerate".to_owned());
             Box::new(
-                ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system(), x0, options)
+                ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system, x0, options)
                     .map_err(setup)?,
             )
         }
