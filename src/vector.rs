@@ -23,6 +23,10 @@ pub trait Vector: Clone + Debug + Send + Sync + 'static {
     /// `true` when a clone is a plain copy without allocation (stack storage), so that hot
     /// loops may keep a working copy in registers. Default `false`.
     const CLONE_IS_COPY: bool = false;
+    /// The most entries a vector of this type can hold: `N` for a fixed-size vector, unbounded
+    /// (`usize::MAX`) for heap storage. Lets generic code skip compiling cases a fixed size
+    /// rules out (see `Projected`'s small path).
+    const MAX_LEN: usize = usize::MAX;
 
     /// A zero vector with at least `len` entries (fixed-size vectors have exactly `N`; they
     /// panic if `len > N`). Allocates for heap storage: call it at construction, never per step.
@@ -57,6 +61,7 @@ where
     type Real = T;
     type Solver = StackLu<T, N>;
     const CLONE_IS_COPY: bool = true;
+    const MAX_LEN: usize = N;
 
     #[track_caller]
     fn zeros(len: usize) -> Self {

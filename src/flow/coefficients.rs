@@ -2,7 +2,7 @@
 //!
 //! Composing a symmetric method `Φ_h` of order 2 as `Φ_{γ_s h} ∘ … ∘ Φ_{γ_1 h}` raises the order
 //! to the table's order (Yoshida 1990; McLachlan 1995; Kahan & Li 1997; GNI §V.3.2). Values as
-//! tabulated in Hairer's GniCodes; `tests/coefficients.rs` checks `Σγ = 1` and the order conditions.
+//! tabulated in Hairer's GniCodes; `tests/flows/coefficients.rs` checks `Σγ = 1` and the order conditions.
 //!
 //! Every table above order 2 has negative entries: applied to a flow with dissipation, a
 //! negative sub-step runs the dissipation backwards.

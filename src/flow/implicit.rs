@@ -480,7 +480,7 @@ where
     /// factored by the last solve): for `F(δ; x) = δ − h M(x̄) ∇H(x̄)`, `x̄ = x + δ/2`, the
     /// derivative in `x` is `∂F/∂x = 2(J − I)`, so `dδ/dx = 2J⁻¹ − 2I` and `DΦ = I + dδ/dx`.
     /// Exact for the midpoint rule with a closed-form Newton matrix (up to its age, the last
-    /// iterate; `tests/implicit.rs`: 6e-11 against differences); with a kept difference or
+    /// iterate; `tests/flows/implicit.rs`: 6e-11 against differences); with a kept difference or
     /// Broyden-updated matrix, or the discrete-gradient rule (whose correction term the formula
     /// leaves out), a close approximation — all a Newton matrix built from it needs.
     fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {

@@ -14,6 +14,7 @@ mod constrained_dg;
 mod contraction;
 mod exact;
 mod extrapolated;
+mod flow_enum;
 mod implicit;
 mod ledger;
 mod linear;
@@ -29,6 +30,8 @@ pub use compose::{Composition, Strang, Then};
 pub use constrained_dg::{ConstrainedDiscreteGradient, EnergyBalance};
 pub use exact::{FnFlow, FnLedgerFlow, from_fn, from_fn_at, from_fn_with_order};
 pub use extrapolated::{Extrapolated, MAX_ROWS};
+#[cfg_attr(not(feature = "scene"), allow(unused_imports))]
+pub(crate) use flow_enum::flow_enum;
 pub use implicit::{
     DiscreteGradient, GonzalezRule, GradientRule, ImplicitMidpoint, IncrementFlow, MidpointRule,
 };

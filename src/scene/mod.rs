@@ -55,13 +55,18 @@ pub(crate) mod simulation;
 pub(crate) mod validate;
 mod watch;
 
+#[cfg(test)]
+pub(crate) use compile::model_of;
 pub use compile::{
     Assembly, Compiled, DENSE_MAX_DIM, MAX_BODIES, MAX_PAIRS, Raise, Splitting, compile,
-    compile_reference, splitting_flow,
+    compile_reference, heap_splitting, splitting_flow,
 };
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
 pub use gram::MassGram;
-pub use model::{DashpotFlow, EffectKind, FlightCache, FreeFlight, Kick, KickCache, SceneModel};
+pub use model::{
+    DashpotFlow, EffectKind, FlightCache, FreeFlight, Kick, KickCache, SceneKick, SceneModel,
+    SceneSplitting,
+};
 pub use run::{
     Advanced, EffectReport, RunFailure, RunPlan, RunSummary, Sample, Simulation,
     SimulationCheckpoint, advance, advance_plan, advance_plan_until, advance_until, run, run_until,

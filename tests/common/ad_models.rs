@@ -1,4 +1,4 @@
-//! The built-in models written once as autodiff elements, shared by tests/autodiff.rs and
+//! The built-in models written once as autodiff elements, shared by tests/autodiff/autodiff.rs and
 //! benches/autodiff.rs (included with `#[path]`).
 
 use lieflow::autodiff::{AdConstraint, AdHamiltonian, DualNum, Element};

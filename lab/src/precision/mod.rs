@@ -21,7 +21,7 @@ pub use lieflow::scene::DENSE_MAX_DIM;
 pub use plan::{PrecisionPlan, PrecisionRow, Reference};
 pub(crate) use plan::{distance, is_paper, min_median};
 use plan::{final_time, with_scheme};
-pub use reference::{DD_MAX_DIM, reference};
+pub use reference::{DD_MAX_DIM, double_double_splitting, reference};
 
 /// Runs the whole set (see the module docs). `progress` sees every row as it is done.
 pub fn work_precision(

@@ -142,6 +142,31 @@ pub(crate) fn double_double_run(
     h: f64,
     damped: bool,
 ) -> Result<Vec<twofloat::TwoFloat>, String> {
+    let raise = if damped {
+        lieflow::scene::Raise::Extrapolate(8)
+    } else {
+        let table = lieflow::flow::coefficients::table_by_name("kahan-li8").expect("a table");
+        lieflow::scene::Raise::Compose(table)
+    };
+    let steps = (t / h).round().max(1.0) as usize;
+    double_double_splitting(model, x0, t, steps, raise, !damped)
+}
+
+/// The scene's splitting raised by `raise` in double-double arithmetic (twofloat, unit
+/// round-off ~2⁻¹⁰⁶), `steps` equal steps from `x0` to `t`: the final state. `backward` lets a
+/// composition run a mild damping backwards (references only). The one place the
+/// double-double splitting is compiled: every reference and test that needs it calls this.
+///
+/// # Errors
+/// The splitting's setup error or the failed step, as text.
+pub fn double_double_splitting(
+    model: &std::sync::Arc<lieflow::scene::SceneModel>,
+    x0: &[f64],
+    t: f64,
+    steps: usize,
+    raise: lieflow::scene::Raise,
+    backward: bool,
+) -> Result<Vec<twofloat::TwoFloat>, String> {
     use lieflow::Real;
     use twofloat::TwoFloat;
     type V = nalgebra::DVector<TwoFloat>;
@@ -149,25 +174,12 @@ pub(crate) fn double_double_run(
     let mut x = V::from_iterator(x0.len(), x0.iter().map(|&v| TwoFloat::lit(v)));
     // twofloat's `epsilon()` is f64::MIN_POSITIVE; its unit round-off is ~2^-106.
     let eps = TwoFloat::lit(1e-31);
-    let raise = if damped {
-        lieflow::scene::Raise::Extrapolate(8)
-    } else {
-        let table = lieflow::flow::coefficients::table_by_name("kahan-li8").expect("a table");
-        lieflow::scene::Raise::Compose(table)
-    };
     let (mut flow, _, _) =
-        lieflow::scene::splitting_flow(&dd, &x, raise, !damped, eps).map_err(|e| e.to_string())?;
-    let steps = (t / h).round().max(1.0);
-    let step = TwoFloat::lit(t) / TwoFloat::lit(steps);
-    lieflow::integrate(
-        &mut flow,
-        &mut x,
-        TwoFloat::lit(0.0),
-        step,
-        steps as usize,
-        &mut (),
-    )
-    .map_err(|e| e.to_string())?;
+        lieflow::scene::splitting_flow(&dd, &x, raise, backward, eps).map_err(|e| e.to_string())?;
+    let steps = steps.max(1);
+    let step = TwoFloat::lit(t) / TwoFloat::lit(steps as f64);
+    lieflow::integrate(&mut flow, &mut x, TwoFloat::lit(0.0), step, steps, &mut ())
+        .map_err(|e| e.to_string())?;
     Ok(x.iter().copied().collect())
 }
 

@@ -263,7 +263,6 @@ where
     /// `K = 0` on the general one.
     ///
     /// The small path's work is counted in `tally` (see [`Self::tallied`]).
-    #[inline(always)]
     pub(super) fn step_decoupled<const K: usize>(
         &mut self,
         h: V::Real,

@@ -2,16 +2,16 @@
 //! the second half-step of each stage fused with the first of the next, one multiplier solve
 //! per stage (method §4).
 
-use super::{Base, Projected};
+use super::{Base, Projected, SmallFits};
 use crate::error::StepError;
-use crate::flow::{Flow, FlowStats, Ledger};
+use crate::flow::{CompositionTable, Flow, FlowStats, Ledger};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::SMALL_MAX;
 use crate::real::Real;
 use crate::system::Model;
 use crate::vector::Vector;
 use num_traits::Float as _;
-use num_traits::One;
+use num_traits::{One, Zero};
 
 impl<V, F, Sys, L> Projected<V, F, Sys, L>
 where
@@ -31,49 +31,58 @@ where
     ///
     /// The small path's work and the interior stages are counted in `tally` (see
     /// [`Self::tallied`]).
-    #[inline(always)]
     pub(super) fn step_fused<const K: usize>(
         &mut self,
         stages: usize,
-        size: impl Fn(usize) -> V::Real,
+        size: StageSizes<'_, V::Real>,
         x: &V,
         tally: &mut FlowStats,
     ) -> Result<V::Real, StepError> {
         let m = if K == 0 { self.m } else { K };
         let one = V::Real::one();
-        let mut h_prev = size(0);
-        self.w
-            .warm
-            .predict_lambda_k(m, h_prev, self.w.z.as_mut_slice());
-        self.solve_lambda_k::<K>(h_prev, Base::Given(x), tally)?;
-        self.w.warm.record_lambda_k(m, h_prev, self.w.z.as_slice());
-        for i in 1..stages {
-            let hi = size(i);
-            // The previous stage's λ̃ split evenly between its own λ_k and λ_{k+1} estimates
-            // the force per unit time; λ̃ of this stage is that force times (1 + h_prev/h_i).
-            let w = &mut self.w;
-            core::mem::swap(&mut w.y, &mut w.prev);
-            w.y_valid = false;
-            let grow = one + h_prev / hi;
-            // Off the critical path (it depends on the step sizes only).
-            let inv_grow = one / grow;
-            let (z, force) = (w.z.as_mut_slice(), w.r.as_mut_slice());
-            for (v, f) in z[..m].iter_mut().zip(force.iter_mut()) {
-                *f = *v;
-                *v = *v * grow;
-            }
-            // This stage's inner sub-step starts where the previous one ended.
-            self.w.ledger_in = self.w.ledger_y;
-            self.solve_lambda_k::<K>(hi, Base::Prev, tally)?;
-            // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate (the
-            // previous one when the stages nearly cancel, h_prev ≈ −h_i).
-            let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
-            if grow.abs() >= V::Real::lit(1e-3) {
-                z[..m].iter_mut().for_each(|v| *v = *v * inv_grow);
+        let mut h_prev = V::Real::zero();
+        let mut inv_grow = one;
+        let mut grow = one;
+        // One call site of the λ_k solve (inlined with the inner flow): the first stage starts
+        // from `x` with the warm start's prediction, the others from the previous stage's `y`.
+        for i in 0..stages {
+            let hi = size.at(i);
+            let base = if i == 0 {
+                self.w.warm.predict_lambda_k(m, hi, self.w.z.as_mut_slice());
+                Base::Given(x)
             } else {
-                z[..m].copy_from_slice(&force[..m]);
+                // The previous stage's λ̃ split evenly between its own λ_k and λ_{k+1}
+                // estimates the force per unit time; λ̃ of this stage is that force times
+                // (1 + h_prev/h_i).
+                let w = &mut self.w;
+                core::mem::swap(&mut w.y, &mut w.prev);
+                w.y_valid = false;
+                grow = one + h_prev / hi;
+                // Off the critical path (it depends on the step sizes only).
+                inv_grow = one / grow;
+                let (z, force) = (w.z.as_mut_slice(), w.r.as_mut_slice());
+                for (v, f) in z[..m].iter_mut().zip(force.iter_mut()) {
+                    *f = *v;
+                    *v = *v * grow;
+                }
+                // This stage's inner sub-step starts where the previous one ended.
+                w.ledger_in = w.ledger_y;
+                Base::Prev
+            };
+            self.solve_lambda_k::<K>(hi, base, tally)?;
+            if i == 0 {
+                self.w.warm.record_lambda_k(m, hi, self.w.z.as_slice());
+            } else {
+                // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate
+                // (the previous one when the stages nearly cancel, h_prev ≈ −h_i).
+                let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
+                if grow.abs() >= V::Real::lit(1e-3) {
+                    z[..m].iter_mut().for_each(|v| *v = *v * inv_grow);
+                } else {
+                    z[..m].copy_from_slice(&force[..m]);
+                }
+                tally.projected_steps += 1;
             }
-            tally.projected_steps += 1;
             h_prev = hi;
         }
         // The last stage's λ_{k+1}, predicted as the force estimate.
@@ -96,7 +105,7 @@ where
         h: V::Real,
         x: &mut V,
         stages: usize,
-        size: impl Fn(usize) -> V::Real + Copy,
+        size: StageSizes<'_, V::Real>,
     ) -> Result<(), StepError> {
         self.w.ledger_in = *ledger;
         let fused = self.run_atomic(h, x, |flow, x| flow.fused_stages(stages, size, x))?;
@@ -112,16 +121,38 @@ where
     fn fused_stages(
         &mut self,
         stages: usize,
-        size: impl Fn(usize) -> V::Real + Copy,
+        size: StageSizes<'_, V::Real>,
         x: &V,
     ) -> Result<V::Real, StepError> {
         self.w.y_valid = false;
         self.tallied(|flow, t| match (flow.small.is_some(), flow.m) {
-            (false, _) => flow.step_fused::<0>(stages, size, x, t),
             (true, 1) => flow.step_fused::<1>(stages, size, x, t),
-            (true, 2) => flow.step_fused::<2>(stages, size, x, t),
-            (true, 3) => flow.step_fused::<3>(stages, size, x, t),
-            (true, _) => flow.step_fused::<SMALL_MAX>(stages, size, x, t),
+            (true, 2) if SmallFits::<V, 2>::OK => flow.step_fused::<2>(stages, size, x, t),
+            (true, 3) if SmallFits::<V, 3>::OK => flow.step_fused::<3>(stages, size, x, t),
+            (true, _) if SmallFits::<V, SMALL_MAX>::OK => {
+                flow.step_fused::<SMALL_MAX>(stages, size, x, t)
+            }
+            _ => flow.step_fused::<0>(stages, size, x, t),
         })
+    }
+}
+
+/// The sizes of fused stages: a composition's `γ_i h`, or `n` equal steps `h`. A value, not a
+/// closure, so that the fused step is compiled once per flow, not once per caller.
+#[derive(Clone, Copy)]
+pub(super) enum StageSizes<'a, T> {
+    /// Stage `i` of `table` on a step `h`.
+    Table(&'a CompositionTable, T),
+    /// Every stage `h`.
+    Equal(T),
+}
+
+impl<T: Real> StageSizes<'_, T> {
+    #[inline]
+    fn at(self, i: usize) -> T {
+        match self {
+            StageSizes::Table(table, h) => table.gamma_in::<T>(i) * h,
+            StageSizes::Equal(h) => h,
+        }
     }
 }

@@ -44,6 +44,7 @@ use crate::system::{
 };
 use crate::vector::{Vector, ops, take};
 use entry::EntryCheck;
+use fused::StageSizes;
 pub(crate) use hidden::{Hidden, HiddenSolver};
 use num_traits::{One, Zero};
 use small::SmallPath;
@@ -386,11 +387,13 @@ where
         self.w.y_valid = false;
         match self.scheme {
             Scheme::Decoupled => self.tallied(|flow, t| match (flow.small.is_some(), flow.m) {
-                (false, _) => flow.step_decoupled::<0>(h, x, t),
                 (true, 1) => flow.step_decoupled::<1>(h, x, t),
-                (true, 2) => flow.step_decoupled::<2>(h, x, t),
-                (true, 3) => flow.step_decoupled::<3>(h, x, t),
-                (true, _) => flow.step_decoupled::<SMALL_MAX>(h, x, t),
+                (true, 2) if SmallFits::<V, 2>::OK => flow.step_decoupled::<2>(h, x, t),
+                (true, 3) if SmallFits::<V, 3>::OK => flow.step_decoupled::<3>(h, x, t),
+                (true, _) if SmallFits::<V, SMALL_MAX>::OK => {
+                    flow.step_decoupled::<SMALL_MAX>(h, x, t)
+                }
+                _ => flow.step_decoupled::<0>(h, x, t),
             }),
             Scheme::Coupled => self.solve(
                 Mode::Coupled,
@@ -486,9 +489,7 @@ where
             }
             return Ok(());
         }
-        self.run_fused(ledger, h, x, table.stages, |i| {
-            table.gamma_in::<V::Real>(i) * h
-        })
+        self.run_fused(ledger, h, x, table.stages, StageSizes::Table(table, h))
     }
     /// `n` equal steps fused as a composition's stages are (decoupled scheme, `n ≥ 2`): one
     /// multiplier solve a step plus the last step's `λ_{k+1}`.
@@ -502,7 +503,7 @@ where
         if self.scheme != Scheme::Decoupled || n < 2 {
             return super::step_each(self, ledger, h, n, x);
         }
-        self.run_fused(ledger, h, x, n as usize, |_| h)
+        self.run_fused(ledger, h, x, n as usize, StageSizes::Equal(h))
     }
     /// The fused composition works on the workspace and swaps the result in only on success.
     fn step_table_is_atomic(&self) -> bool {
@@ -524,6 +525,16 @@ where
     fn dissipates(&self) -> bool {
         self.inner.dissipates() || self.system.structure().is_dissipative()
     }
+}
+
+/// Whether `K` multipliers fit a degenerate projection of states of type `V` (`2K ≤ n`, which
+/// [`Projected::try_new`] requires): the small path's dispatch is compiled only for the counts a
+/// state can hold (a stack state of 4 entries takes at most 2), the others fall to the general
+/// path they can never reach. A constant per type, so the unreachable steps are not generated.
+struct SmallFits<V, const K: usize>(core::marker::PhantomData<V>);
+
+impl<V: Vector, const K: usize> SmallFits<V, K> {
+    const OK: bool = 2 * K <= V::MAX_LEN;
 }
 
 /// The stage names errors carry.

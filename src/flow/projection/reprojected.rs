@@ -31,6 +31,12 @@ use num_traits::One as _;
 /// inner flow's local error, so the balance keeps the inner flow's order.
 pub struct Reprojected<V: Vector, F, Sys> {
     inner: F,
+    /// Everything but the inner flow: compiled once per model and storage, not per flow.
+    projector: Projector<V, Sys>,
+}
+
+/// The two projections of [`Reprojected`] and their workspace.
+struct Projector<V: Vector, Sys> {
     system: Sys,
     /// Newton for `μ` (positions).
     positions: Newton<V>,
@@ -54,8 +60,8 @@ impl<V: Vector, F: core::fmt::Debug, Sys> core::fmt::Debug for Reprojected<V, F,
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Reprojected")
             .field("inner", &self.inner)
-            .field("hidden_projection", &self.hidden.is_some())
-            .field("projections", &self.projections)
+            .field("hidden_projection", &self.projector.hidden.is_some())
+            .field("projections", &self.projector.projections)
             .finish_non_exhaustive()
     }
 }
@@ -89,8 +95,7 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
                 Case::NonDegenerate => None,
             };
         let zero = <V::Real as num_traits::Zero>::zero();
-        Ok(Self {
-            inner,
+        let projector = Projector {
             system,
             positions,
             hidden,
@@ -104,7 +109,8 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
             ftol: options.newton.ftol,
             stats: FlowStats::default(),
             projections: 0,
-        })
+        };
+        Ok(Self { inner, projector })
     }
 
     /// The wrapped flow.
@@ -114,9 +120,11 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
 
     /// Steps after which the state had to be moved (a residual above the tolerance).
     pub fn projections(&self) -> u64 {
-        self.projections
+        self.projector.projections
     }
+}
 
+impl<V: Vector, Sys: Model<V>> Projector<V, Sys> {
     /// The hidden-constraint projection from `base` into `x` (`K = m` on the small path).
     #[inline(always)]
     fn project_hidden<const K: usize>(
@@ -188,6 +196,37 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
     }
 }
 
+impl<V: Vector, Sys: Model<V>> Projector<V, Sys> {
+    /// Projects the inner flow's result `x`; on failure (or a non-finite result) `x` and
+    /// `ledger` go back to the step's start and `ledger_start`.
+    fn finish(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        ledger_start: Ledger<V::Real>,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        let result = self
+            .project(x)
+            .and_then(|()| match ops::first_non_finite(x.as_slice()) {
+                Some(component) => Err(StepError::NonFinite { component }),
+                None => Ok(()),
+            });
+        if result.is_err() {
+            x.copy_from(&self.start);
+            *ledger = ledger_start;
+        }
+        result
+    }
+
+    /// Forgets the kept Jacobians (the projections start from zero every step).
+    fn invalidate(&mut self) {
+        self.positions.invalidate_jacobian();
+        if let Some(HiddenSolver::General(n)) = self.hidden.as_mut() {
+            n.invalidate_jacobian();
+        }
+    }
+}
+
 /// `F(μ) = g(base + G(base)ᵀ μ)`.
 struct Onto<'a, V: Vector, Sys> {
     base: &'a V,
@@ -253,27 +292,18 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Flow<V> for Reprojected<V, F, Sys> {
         h: V::Real,
         x: &mut V,
     ) -> Result<(), StepError> {
-        if x.len() != self.start.len() {
+        let p = &mut self.projector;
+        if x.len() != p.start.len() {
             return Err(StepError::StateLength {
                 flow: "re-projection",
-                expected: self.start.len(),
+                expected: p.start.len(),
                 got: x.len(),
             });
         }
-        self.start.copy_from(x);
+        p.start.copy_from(x);
         let l0 = *ledger;
         self.inner.step_at(ledger, h, x)?;
-        if let Err(e) = self.project(x) {
-            x.copy_from(&self.start);
-            *ledger = l0;
-            return Err(e);
-        }
-        if let Some(component) = ops::first_non_finite(x.as_slice()) {
-            x.copy_from(&self.start);
-            *ledger = l0;
-            return Err(StepError::NonFinite { component });
-        }
-        Ok(())
+        p.finish(ledger, l0, x)
     }
 
     fn order(&self) -> u32 {
@@ -289,7 +319,7 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Flow<V> for Reprojected<V, F, Sys> {
     }
 
     fn stats(&self) -> FlowStats {
-        self.inner.stats() + self.stats
+        self.inner.stats() + self.projector.stats
     }
 
     fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
@@ -302,18 +332,12 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Flow<V> for Reprojected<V, F, Sys> {
 
     fn save_memory(&mut self, out: &mut Vec<V::Real>) {
         // The projections start from zero every step; their kept Jacobians cannot be saved.
-        self.positions.invalidate_jacobian();
-        if let Some(HiddenSolver::General(n)) = self.hidden.as_mut() {
-            n.invalidate_jacobian();
-        }
+        self.projector.invalidate();
         self.inner.save_memory(out);
     }
 
     fn restore_memory(&mut self, from: &mut &[V::Real]) {
-        self.positions.invalidate_jacobian();
-        if let Some(HiddenSolver::General(n)) = self.hidden.as_mut() {
-            n.invalidate_jacobian();
-        }
+        self.projector.invalidate();
         self.inner.restore_memory(from);
     }
 }

@@ -1,6 +1,7 @@
 //! Scene → model and scheme: validation with located errors, the assembly of only the declared
 //! terms, the choice of scheme, and the initial-state checks.
 
+mod assemble;
 pub(crate) mod bodies;
 mod builtin;
 mod columns;
@@ -16,20 +17,16 @@ pub use crate::scene::bodies::MAX_BODIES;
 pub use crate::scene::effects::MAX_PAIRS;
 
 use super::error::{FieldPath, SceneError, SceneErrorKind};
-use super::model::{ConstraintKind, ConstraintTerm, SceneModel};
-use super::ports::{SceneEvents, compile_events, compile_inputs, compile_outputs};
+use super::model::{ConstraintKind, SceneModel};
+use super::ports::{SceneEvents, compile_events, compile_outputs};
 use super::run::{RunPlan, Simulation};
-use super::schema::{Method, Redundant, SCENE_VERSION, SceneFile};
-use crate::vector::Vector;
-use bodies::expand_bodies;
+use super::schema::{SCENE_VERSION, SceneFile};
+use assemble::{Assembled, assemble};
 use builtin::compile_builtin;
-use constraints::{check_independent, constraint_term, constraint_terms, drop_dependent};
-use effects::assemble_effects;
 use faer::Col;
-use initial::{ROUND_OFF_RATIO, constraint_offset, off_constraints, project_initial};
 pub use raise::Raise;
-use scheme::{SchemeFlow, choose_scheme, plan, scheme_flow};
-pub use scheme::{Splitting, splitting_flow};
+use scheme::{SchemeFlow, scheme_flow};
+pub use scheme::{Splitting, heap_splitting, splitting_flow};
 use std::sync::Arc;
 use storage::{EventSource, RunParts};
 
@@ -139,18 +136,43 @@ pub fn compile_reference(file: &SceneFile) -> Result<Compiled> {
     compile_impl(file, true)
 }
 
-fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
-    let root = FieldPath::root();
+/// The model of a scene of bodies and its initial state, without the scheme's flow: for what
+/// needs the model alone (the library's unit tests build no flow of a scene this way).
+///
+/// # Errors
+/// As [`compile`]; a built-in model has no scene model ([`SceneErrorKind::Unsupported`]).
+#[cfg(test)]
+pub(crate) fn model_of(file: &SceneFile) -> Result<(Arc<SceneModel>, Col<f64>)> {
+    check_version(file)?;
+    if file.builtin.is_some() {
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            FieldPath::root().key("builtin"),
+            "a built-in model is not a scene model",
+        ));
+    }
+    let a = assemble(file, false)?;
+    Ok((a.model, a.x0))
+}
+
+/// The scene file's version is the one this library reads.
+fn check_version(file: &SceneFile) -> Result<()> {
     if file.version != SCENE_VERSION {
         return Err(err(
             SceneErrorKind::Version,
-            root.key("version"),
+            FieldPath::root().key("version"),
             format!(
                 "version {} is not supported; this library reads version {SCENE_VERSION}",
                 file.version
             ),
         ));
     }
+    Ok(())
+}
+
+fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
+    let root = FieldPath::root();
+    check_version(file)?;
     if let Some(b) = &file.builtin {
         if !file.bodies.is_empty()
             || !file.chains.is_empty()
@@ -170,177 +192,23 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         }
         return compile_builtin(file, b);
     }
-    let dim = match file.dim {
-        Some(d @ (2 | 3)) => d,
-        Some(d) => {
-            return Err(err(
-                SceneErrorKind::Dimension,
-                root.key("dim"),
-                format!("dim = {d}: scenes are 2- or 3-dimensional"),
-            ));
-        }
-        None => {
-            return Err(err(
-                SceneErrorKind::Syntax,
-                root.key("dim"),
-                "missing `dim` (2 or 3)",
-            ));
-        }
-    };
-    let (run_plan, profile) = plan(&file.integrator, &file.flags)?;
-    let steps = run_plan.total_steps();
-    let (bodies, generated) = expand_bodies(file, dim)?;
-    let mut disabled = Vec::new();
-    check_off_names(file)?;
-    let constraints = constraint_terms(file, &bodies, generated, &mut disabled)?;
-    let constraints = if file.flags.constraints {
-        constraints
-    } else {
-        if !constraints.is_empty() {
-            disabled.push(format!("{} constraints", constraints.len()));
-        }
-        Vec::new()
-    };
-    let fx = assemble_effects(file, &bodies)?;
-    disabled.extend(fx.disabled);
-    let mut row = 0;
-    let terms: Vec<ConstraintTerm> = constraints
-        .into_iter()
-        .map(|(kind, label, path)| {
-            let t = ConstraintTerm {
-                kind,
-                row,
-                label,
-                path,
-            };
-            row += t.rows(dim);
-            t
-        })
-        .collect();
-    let effects: Vec<(String, String)> =
-        std::iter::once(("kinetic".to_owned(), "kinetic".to_owned()))
-            .chain(
-                fx.potentials
-                    .iter()
-                    .map(|t| (t.label.clone(), t.kind.name().to_owned())),
-            )
-            .chain(
-                fx.damping
-                    .iter()
-                    .map(|t| (t.label.clone(), "damping".to_owned())),
-            )
-            .chain(
-                fx.dashpots
-                    .iter()
-                    .map(|t| (t.label.clone(), "dashpot".to_owned())),
-            )
-            .chain(
-                fx.magnetic
-                    .iter()
-                    .map(|t| (t.label.clone(), "magnetic".to_owned())),
-            )
-            .collect();
-    let masses: Vec<f64> = bodies.list.iter().map(|b| b.mass).collect();
-    let mut model = SceneModel::new(
+    let Assembled {
         dim,
-        masses,
-        fx.potentials,
-        terms,
-        fx.damping,
-        fx.magnetic,
-        profile,
-    );
-    model.inputs = compile_inputs(&file.inputs, &bodies, dim)?;
-    model.zero_damping = fx.zero_damping && fx.dashpots.is_none();
-    model.dashpots = fx.dashpots;
-    let splitting = !matches!(
-        file.integrator.scheme,
-        Method::DiscreteGradient | Method::Midpoint | Method::Modified
-    );
-    if model.inputs.is_some() && !splitting {
-        return Err(err(
-            SceneErrorKind::Unsupported,
-            root.key("integrator").key("scheme"),
-            format!(
-                "inputs enter the splitting schemes (their exact sub-flow joins the kick); scheme '{}' takes none: use \"auto\" or a composition",
-                file.integrator.scheme
-            ),
-        ));
-    }
-    let dropped_constraints = match file.integrator.redundant {
-        Redundant::Refuse => Vec::new(),
-        Redundant::DropDependent => {
-            let q0: Vec<f64> = bodies
-                .list
-                .iter()
-                .flat_map(|b| b.q[..dim].to_vec())
-                .collect();
-            drop_dependent(&mut model, &q0)?
-        }
-    };
-    model.state_names = columns::state_names(&bodies);
-    model.multiplier_names = columns::multiplier_names(&model, &bodies, file);
-    let model = Arc::new(model);
-    let n = model.state_len();
-    let nq = n / 2;
-    let mut x0 = Col::<f64>::zeros(n);
-    for (b, body) in bodies.list.iter().enumerate() {
-        for k in 0..dim {
-            x0[b * dim + k] = body.q[k];
-            x0[nq + b * dim + k] = body.mass * body.v[k];
-        }
-    }
-    let (raise, order) = choose_scheme(&file.integrator, model.is_dissipative() && !backward)?;
-    let m = model.m;
-    let mut initial_projection = None;
-    let mut notes = gravity_notes(file);
-    if m > 0 {
-        if file.integrator.consistent_velocities && !file.integrator.project_initial {
-            // The velocities only, from positions that must hold as given (checked next).
-            initial_projection = Some(project_initial(&model, &mut x0, true).map_err(|e| {
-                err(
-                    SceneErrorKind::OffConstraints,
-                    root.key("integrator").key("consistent_velocities"),
-                    e,
-                )
-            })?);
-        }
-        let off = off_constraints(&model, &x0);
-        if let Some((value, row, level)) = off {
-            if file.integrator.project_initial {
-                initial_projection =
-                    Some(project_initial(&model, &mut x0, false).map_err(|e| {
-                        err(
-                            SceneErrorKind::OffConstraints,
-                            root.key("integrator").key("project_initial"),
-                            e,
-                        )
-                    })?);
-            } else {
-                let (path, label) = constraint_term(&model, row)
-                    .map_or((root.clone(), String::new()), |c| {
-                        (c.path.clone(), c.label.clone())
-                    });
-                return Err(err(
-                    SceneErrorKind::OffConstraints,
-                    path,
-                    format!(
-                        "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `integrator.project_initial = true` to project them (mass-weighted, reported), or `integrator.consistent_velocities = true` for the velocities alone"
-                    ),
-                ));
-            }
-        }
-        if initial_projection.is_none()
-            && let Some((ratio, value, row, level)) =
-                constraint_offset(&model, &x0, ROUND_OFF_RATIO)
-        {
-            let label = constraint_term(&model, row).map_or_else(String::new, |c| c.label.clone());
-            notes.push(format!(
-                "the initial {level}s are off the constraints by {value:.1e} at {label} ({ratio:.0e} of its scale: accepted below √ε = 1.5e-8, above round-off); the first step projects them, so max |g| reports it at t = 0; fix the {level}s or set `integrator.project_initial = true`"
-            ));
-        }
-        check_independent(&model, &x0.as_slice()[..nq], &bodies)?;
-    }
+        bodies,
+        model,
+        x0,
+        run_plan,
+        steps,
+        disabled,
+        effects,
+        dropped_constraints,
+        initial_projection,
+        notes,
+        raise,
+        order,
+        splitting,
+    } = assemble(file, backward)?;
+    let (n, m) = (model.state_len(), model.m);
     let dt = file.integrator.dt;
     let dissipative = model.is_dissipative();
     let SchemeFlow {

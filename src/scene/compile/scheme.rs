@@ -13,7 +13,9 @@ use crate::nonlinear::{NewtonOptions, SMALL_MAX};
 use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::model::{ConstraintKind, DashpotFlow, FreeFlight, Kick, SceneModel};
+use crate::scene::model::{
+    ConstraintKind, DashpotFlow, FreeFlight, Kick, SceneKick, SceneModel, SceneSplitting,
+};
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
 use crate::system::{Case, Hamiltonian, MechanicalForm, System};
@@ -425,68 +427,70 @@ pub fn splitting_flow<V: Vector + 'static>(
     backward: bool,
     eps: V::Real,
 ) -> std::result::Result<Splitting<V>, SetupError> {
-    let kick = Kick::new(model.clone());
+    let kick = scene_kick(model)?;
     // The exact free flight (booking the energy a damping removes, exactly, per sub-step).
     let drift = FreeFlight::new(model.clone());
-    if let Some(dashpots) = DashpotFlow::new(model.clone()) {
-        // Dashpots couple bodies, so their flow is not part of the per-body flight: it joins
-        // the kick as `D(τ/2) ∘ K(τ) ∘ D(τ/2)` (the dashpots alone without a kick), a symmetric
-        // composition of exact flows.
-        let kick: Box<dyn Flow<V>> = if model.has_kick() {
-            Box::new(dashpots.strang(kick))
-        } else {
-            Box::new(dashpots)
-        };
-        return with_inputs(model, x0, raise, backward, eps, kick, drift);
-    }
-    with_inputs(model, x0, raise, backward, eps, kick, drift)
+    assemble(model, x0, raise, backward, eps, kick, drift)
 }
 
-/// The splitting with the scene's inputs joined to the kick when it declares any (their
-/// sub-flow carries the time and books the energy supplied); the kick and drift alone
-/// otherwise, at no cost.
-fn with_inputs<V, K, D>(
-    model: &Arc<SceneModel<V::Real>>,
-    x0: &V,
+/// [`splitting_flow`] in `f64` on a heap column, the storage of every scene of more than three
+/// bodies: a non-generic entry (compiled once, in the library) for callers that compare it with
+/// a compiled scene's run.
+///
+/// # Errors
+/// The projection's setup errors at `x0` ([`SetupError`]).
+pub fn heap_splitting(
+    model: &Arc<SceneModel>,
+    x0: &Col<f64>,
     raise: Raise,
     backward: bool,
-    eps: V::Real,
-    kick: K,
-    drift: D,
-) -> std::result::Result<Splitting<V>, SetupError>
-where
-    V: Vector + 'static,
-    K: Flow<V> + 'static,
-    D: Flow<V> + 'static,
-{
-    match model.inputs.as_ref() {
-        None => assemble(model, x0, raise, backward, eps, kick, drift),
-        Some(inputs) => {
-            // The inputs are forces on the bodies: a kick, like the potential's.
-            let input = InputFlow::try_new(inputs.map.clone(), inputs.signals.clone())?
-                .kick()
-                .supplying(model.clone());
-            assemble(model, x0, raise, backward, eps, kick.strang(input), drift)
+) -> std::result::Result<Splitting<Col<f64>>, SetupError> {
+    splitting_flow(model, x0, raise, backward, f64::EPSILON)
+}
+
+/// The scene's kick (see [`SceneKick`]): the potential's alone, or composed with the dashpots
+/// and the inputs the scene declares.
+fn scene_kick<V: Vector + 'static>(
+    model: &Arc<SceneModel<V::Real>>,
+) -> std::result::Result<SceneKick<V>, SetupError> {
+    // Dashpots couple bodies, so their flow is not part of the per-body flight: it joins the
+    // kick as `D(τ/2) ∘ K(τ) ∘ D(τ/2)` (the dashpots alone without a kick), a symmetric
+    // composition of exact flows.
+    let damped: Option<Box<dyn Flow<V>>> = DashpotFlow::new(model.clone()).map(|dashpots| {
+        if model.has_kick() {
+            Box::new(dashpots.strang(Kick::new(model.clone()))) as Box<dyn Flow<V>>
+        } else {
+            Box::new(dashpots)
         }
-    }
+    });
+    // The inputs are forces on the bodies: a kick, like the potential's; their sub-flow
+    // carries the time and books the energy supplied.
+    let Some(inputs) = model.inputs.as_ref() else {
+        return Ok(match damped {
+            Some(flow) => SceneKick::Composed(flow),
+            None => SceneKick::potential(model.clone()),
+        });
+    };
+    let input = InputFlow::try_new(inputs.map.clone(), inputs.signals.clone())?
+        .kick()
+        .supplying(model.clone());
+    Ok(SceneKick::Composed(match damped {
+        Some(flow) => Box::new(flow.strang(input)),
+        None => Box::new(Kick::new(model.clone()).strang(input)),
+    }))
 }
 
 /// The splitting of a kick (with the inputs, when the model has any) and a drift, projected
 /// when constrained.
-fn assemble<V, K, D>(
+fn assemble<V: Vector + 'static>(
     model: &Arc<SceneModel<V::Real>>,
     x0: &V,
     raise: Raise,
     backward: bool,
     eps: V::Real,
-    kick: K,
-    drift: D,
-) -> std::result::Result<Splitting<V>, SetupError>
-where
-    V: Vector + 'static,
-    K: Flow<V> + 'static,
-    D: Flow<V> + 'static,
-{
+    kick: SceneKick<V>,
+    drift: FreeFlight<V::Real>,
+) -> std::result::Result<Splitting<V>, SetupError> {
     let forced = model.inputs.is_some();
     let has_potential = model.has_kick() || forced || model.has_dashpots();
     if model.m == 0 {
@@ -508,13 +512,9 @@ where
     }
     let system = System::new(model.clone(), model.clone(), model.clone());
     let options = projection_options(model, x0.as_slice(), eps);
-    if has_potential {
-        let p = kick.strang(drift).projected(system.clone(), x0, options)?;
-        boxed_projection(
-            p,
-            raise,
-            backward,
-            (system, x0, options),
+    let (splitting, name) = if has_potential {
+        (
+            SceneSplitting::Kicked(kick.strang(drift)),
             match (forced, model.has_dashpots()) {
                 (true, _) => {
                     "projection around kick and inputs ∘ free flight ∘ kick and inputs (Strang, RATTLE)"
@@ -525,20 +525,19 @@ where
                 (false, false) => "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)",
             },
         )
-    } else {
-        let p = drift.projected(system.clone(), x0, options)?;
-        boxed_projection(
-            p,
-            raise,
-            backward,
-            (system, x0, options),
-            if model.gravity_in_flight() {
-                "projection around free flight under gravity (exact)"
-            } else {
-                "projection around free flight (exact)"
-            },
+    } else if model.gravity_in_flight() {
+        (
+            SceneSplitting::Drift(drift),
+            "projection around free flight under gravity (exact)",
         )
-    }
+    } else {
+        (
+            SceneSplitting::Drift(drift),
+            "projection around free flight (exact)",
+        )
+    };
+    let p = splitting.projected(system.clone(), x0, options)?;
+    boxed_projection(p, raise, backward, (system, x0, options), name)
 }
 
 /// A scene's splitting: the flow, its description and, when projected, the projection variant,

@@ -24,6 +24,7 @@ mod flight;
 mod hamiltonian;
 mod potential;
 mod scalar;
+mod splitting;
 mod structure;
 mod terms;
 
@@ -34,6 +35,7 @@ pub(crate) use dashpot::Dashpots;
 use flight::Flight;
 pub use flight::{FlightCache, FreeFlight};
 pub use potential::{Kick, KickCache};
+pub use splitting::{SceneKick, SceneSplitting};
 pub(crate) use terms::{ConstraintKind, ConstraintTerm, StructureTerm};
 
 use crate::real::Real;

@@ -6,12 +6,11 @@ use faer::Col;
 use lieflow::scene::{DEFAULT_SCENE, Scene, SceneErrorKind, SceneFile};
 use lieflow::{Hamiltonian, Vector};
 
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 
 use scene_text::{parse, run_scene, set};
 
-const ALL_EFFECTS: &str = include_str!("../scenes/all_effects.toml");
+const ALL_EFFECTS: &str = include_str!("../../scenes/all_effects.toml");
 
 #[test]
 fn refused_combinations_name_the_field() {

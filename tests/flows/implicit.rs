@@ -1,6 +1,6 @@
 //! The implicit midpoint rule on the free rigid body (Lie–Poisson, state-dependent `M`).
 
-mod common;
+use crate::common;
 
 use common::fitted_order;
 use lieflow::flow::ImplicitMidpoint;

@@ -3,7 +3,7 @@
 //! the constraint and hidden constraint at round-off after every macro step, the booked energy
 //! balance at the scheme's order, and the refusals.
 
-mod common;
+use crate::common;
 
 use common::fitted_order;
 use lieflow::flow::{Extrapolated, Ledger, LinearFlow};

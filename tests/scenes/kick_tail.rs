@@ -8,8 +8,7 @@ use lieflow::flow::{FlowExt, Ledger, from_fn};
 use lieflow::models::sphere_particles::SphereParticles;
 use lieflow::{Flow, HolonomicConstraint};
 
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 
 use scene_text::{parse, run_scene};
 

@@ -2,7 +2,7 @@
 //! constrained discrete gradient — residuals, order against the angle-equation reference, the
 //! energy balance, and monotone decay.
 
-mod common;
+use crate::common;
 
 use faer::Col;
 use lieflow::flow::{ConstrainedDiscreteGradient, LinearFlow};

@@ -1,6 +1,6 @@
 //! The pseudo-Poisson brackets against closed forms, and the case each model falls in.
 
-mod common;
+use crate::common;
 
 use common::{V3, V4, gradient_sphere};
 use lieflow::models::{SphericalPendulum, paper};

@@ -4,13 +4,12 @@
 //! floor measures that rounding, so its solve stops there instead of iterating on noise until
 //! Newton gives up; the constraints stay at round-off.
 
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 
 use lieflow::scene::{Scene, run};
 use scene_text::{damped_chain, run_scene};
 
-const CHAIN: &str = include_str!("../scenes/chain1000.toml");
+const CHAIN: &str = include_str!("../../scenes/chain1000.toml");
 
 #[test]
 fn petrov_galerkin_converges_on_a_chain_of_ten_thousand_links() {

@@ -1,16 +1,16 @@
 //! Damped scenes at high order: `order = 4 | 6 | 8` extrapolates the projected Strang step
 //! (every sub-step forward). Fitted orders against a double-double reference on the damped
 //! pendulum and on ten damped particles on a sphere, with the constraints at round-off; the
-//! same for `scheme = "petrov-galerkin"` at orders 4 and 6.
+//! same for `scheme = "petrov-galerkin"` at orders 4 and 6. The reference runs through the
+//! lab's double-double splitting, compiled once in the lab, not again in this test.
 
 use lieflow::Real as _;
 use lieflow::flow::coefficients::table_by_name;
-use lieflow::scene::{Raise, RunSummary, Scene, run, splitting_flow};
-use nalgebra::DVector;
-use twofloat::TwoFloat;
+use lieflow::scene::{Raise, RunSummary, Scene, run};
+use lieflow_lab::precision::double_double_splitting;
 
-const DAMPED_PENDULUM: &str = include_str!("../scenes/damped_pendulum.toml");
-const SHELL_DAMPED: &str = include_str!("../scenes/shell_damped.toml");
+const DAMPED_PENDULUM: &str = include_str!("../../scenes/damped_pendulum.toml");
+const SHELL_DAMPED: &str = include_str!("../../scenes/shell_damped.toml");
 
 /// `text` at `order`, with `scheme` when given (else the automatic choice: extrapolation).
 fn with(text: &str, scheme: Option<&str>, order: u32, t_end: f64) -> Scene {
@@ -35,26 +35,12 @@ fn run_at(scene: &Scene, dt: f64) -> RunSummary {
 /// damping are harmless for a reference), at `steps` and `2 steps`: the final state and the
 /// gap of the two.
 fn reference(scene: &Scene, t_end: f64, steps: usize) -> (Vec<f64>, f64) {
-    type V = DVector<TwoFloat>;
     let c = scene.compile().unwrap();
-    let model = std::sync::Arc::new(c.model.unwrap().with_scalar::<TwoFloat>());
+    let model = c.model.unwrap();
     let x0 = c.simulation.state().to_vec();
     let table = table_by_name("kahan-li8").unwrap();
     let at = |n: usize| {
-        let mut x = V::from_iterator(x0.len(), x0.iter().map(|&v| TwoFloat::lit(v)));
-        let (mut flow, _, _) = splitting_flow(
-            &model,
-            &x,
-            Raise::Compose(table),
-            true,
-            TwoFloat::lit(1e-31),
-        )
-        .unwrap();
-        let h = TwoFloat::lit(t_end) / TwoFloat::lit(n as f64);
-        for _ in 0..n {
-            flow.step(h, &mut x).unwrap();
-        }
-        x
+        double_double_splitting(&model, &x0, t_end, n, Raise::Compose(table), true).unwrap()
     };
     let (a, b) = (at(steps), at(2 * steps));
     let gap = a

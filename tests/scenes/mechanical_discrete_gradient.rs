@@ -8,8 +8,7 @@ use faer::Col;
 use lieflow::prelude::*;
 use std::sync::Arc;
 
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 use scene_text::moving_shell;
 
 type V = Col<f64>;

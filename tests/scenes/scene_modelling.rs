@@ -2,8 +2,7 @@
 //! by its angles and angular velocities, and initial velocities made consistent with the
 //! constraints. Each checked against its closed form or the constraint it must satisfy.
 
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 
 use scene_text::{parse, run_scene};
 

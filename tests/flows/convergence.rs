@@ -1,6 +1,6 @@
 //! Fitted convergence orders against references computed independently of the schemes.
 
-mod common;
+use crate::common;
 
 use common::{V3, V4, fitted_order, gradient_sphere};
 use lieflow::flow::CompositionTable;

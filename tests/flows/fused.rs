@@ -9,7 +9,7 @@ use lieflow::models::{PendulumChain, paper};
 use lieflow::prelude::*;
 use nalgebra::SVector;
 
-mod common;
+use crate::common;
 
 type V = SVector<f64, 4>;
 

@@ -1,7 +1,7 @@
 //! The stepping object for embedders: checkpoints that continue bit for bit, advancing to a
 //! time, dense output, events located on it, and re-projection after an external change.
 
-mod common;
+use crate::common;
 
 use faer::Col;
 use lieflow::flow::{CompositionTable, coefficients};

@@ -1,7 +1,7 @@
 //! The Gonzalez discrete-gradient flow: exact discrete energy balance for a non-quadratic `H`,
 //! conservation for skew `M`, monotone decay for `M + Mᵀ ⪯ 0`, order 2, and no 0/0 as `x' → x`.
 
-mod common;
+use crate::common;
 
 use common::fitted_order;
 use lieflow::flow::{DiscreteGradient, GonzalezRule, GradientRule, ImplicitMidpoint};

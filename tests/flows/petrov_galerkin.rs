@@ -2,7 +2,7 @@
 //! the exact discrete energy balance `H_{n+1} − H_n = −D_n` with `D_n ≥ 0` at every step, the
 //! constraint and the hidden constraint at round-off, and the refusals.
 
-mod common;
+use crate::common;
 
 use common::fitted_order;
 use lieflow::flow::{Ledger, PetrovGalerkin};

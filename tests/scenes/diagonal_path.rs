@@ -4,10 +4,7 @@
 //! multiplier system in one iteration, with one pair-force sum per base step of an extrapolation
 //! (the rows' common first force computed once).
 
-mod common;
-
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 
 use lieflow::error::{LinearSolveError, NewtonError};
 use lieflow::nonlinear::{DiagonalNewton, NewtonOptions, NonlinearProblem, NonlinearSolver};
@@ -171,7 +168,7 @@ fn a_zero_diagonal_is_singular() {
 fn the_shell_solves_each_multiplier_system_in_one_iteration() {
     let text =
         // No diagnostics: an energy observation would evaluate the pair term too.
-        include_str!("../scenes/shell_damped.toml")
+        include_str!("../../scenes/shell_damped.toml")
             .replace("dt = 0.01", "dt = 0.25\norder = 8\ndiagnostics = []");
     let summary = run_scene(&parse(&text));
     assert!(summary.error.is_none(), "{:?}", summary.error);

@@ -1,7 +1,7 @@
 //! Geometry: constraint residuals every step, time symmetry, invariants without drift, and the
 //! coupled and decoupled solves agreeing.
 
-mod common;
+use crate::common;
 
 use common::{V3, V4, gradient_sphere};
 use lieflow::models::{SphericalPendulum, paper};

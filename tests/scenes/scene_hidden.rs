@@ -71,10 +71,10 @@ fn check(text: &str) {
 
 #[test]
 fn the_direct_hidden_constraint_and_constraint_force_are_the_generic_ones() {
-    check(include_str!("../scenes/all_effects.toml"));
-    check(include_str!("../scenes/shell_damped.toml"));
-    check(include_str!("../scenes/parallel_cranks.toml"));
-    check(include_str!("../scenes/stiff_chain.toml"));
+    check(include_str!("../../scenes/all_effects.toml"));
+    check(include_str!("../../scenes/shell_damped.toml"));
+    check(include_str!("../../scenes/parallel_cranks.toml"));
+    check(include_str!("../../scenes/stiff_chain.toml"));
     // A dashpot between two bodies on rods to fixed points: its block of R couples momenta.
     check(
         r#"version = 1

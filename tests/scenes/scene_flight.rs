@@ -8,8 +8,7 @@ use faer::Col;
 use lieflow::Flow;
 use lieflow::scene::FreeFlight;
 
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 
 use scene_text::{parse, run_scene};
 
@@ -206,7 +205,7 @@ fn the_free_flight_tangent_is_its_derivative() {
 /// recomputed when positions moved.
 #[test]
 fn the_kept_kick_gradient_is_the_gradient_at_the_positions() {
-    let compiled = parse(include_str!("../scenes/shell_damped.toml"))
+    let compiled = parse(include_str!("../../scenes/shell_damped.toml"))
         .compile()
         .unwrap_or_else(|e| panic!("{e}"));
     let model = compiled.model.expect("a scene model");

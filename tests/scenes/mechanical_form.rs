@@ -10,8 +10,7 @@ use lieflow::scene::Scene;
 use lieflow::system::MechanicalForm;
 use std::sync::Arc;
 
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 use scene_text::moving_shell;
 
 type V = Col<f64>;
@@ -162,7 +161,7 @@ fn a_step_the_forces_do_not_make_stiff_needs_no_force_jacobian() {
 /// typed error that says what failed.
 #[test]
 fn a_false_declaration_is_refused() {
-    let (model, mut x0) = compile(include_str!("../scenes/shell_damped.toml"));
+    let (model, mut x0) = compile(include_str!("../../scenes/shell_damped.toml"));
     let n = x0.nrows();
     // Momenta that are not zero (the probe of ∇H's momentum part needs them).
     for b in 0..n / 6 {

@@ -1,7 +1,7 @@
 //! Inputs `x' = … + B u(t)`: fitted orders with time-dependent inputs, the energy balance
 //! `H(x_T) − H(x_0) = −dissipated + supplied`, and held inputs set between steps.
 
-mod common;
+use crate::common;
 
 use common::fitted_order;
 use lieflow::flow::{Ledger, coefficients, from_fn_at};

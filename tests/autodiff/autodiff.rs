@@ -3,8 +3,7 @@
 //! their hand-written derivatives (to 1e-13 relative), pass `check_model`, and run the same
 //! trajectories.
 
-#[path = "common/ad_models.rs"]
-mod ad_models;
+use crate::ad_models;
 
 use ad_models::{ad_chain, ad_paper, ad_paper_whole, chain_rattle_pair};
 use lieflow::autodiff::{AdConstraint, AdHamiltonian, DualNum, Element};

@@ -8,7 +8,7 @@ use lieflow::nonlinear::{NewtonOptions, NonlinearProblem, NonlinearSolver, Small
 use lieflow::prelude::*;
 use nalgebra::SVector;
 
-mod common;
+use crate::common;
 
 type V = SVector<f64, 4>;
 

@@ -1,5 +1,5 @@
 //! Scenes: only what is declared is assembled and evaluated; the assembled sub-flows are exact
-//! and compose to the promised orders (errors: tests/scene_errors.rs).
+//! and compose to the promised orders (errors: tests/scenes/scene_errors.rs).
 
 use faer::Col;
 use lieflow::flow::FlowExt;
@@ -7,12 +7,11 @@ use lieflow::models::pendulum_chain::PendulumChain;
 use lieflow::scene::{DEFAULT_SCENE, EffectReport};
 use lieflow::{Flow, Hamiltonian, HolonomicConstraint, Vector};
 
-#[path = "common/scene_text.rs"]
-mod scene_text;
+use crate::scene_text;
 
 use scene_text::{parse, run_scene, set};
 
-const ALL_EFFECTS: &str = include_str!("../scenes/all_effects.toml");
+const ALL_EFFECTS: &str = include_str!("../../scenes/all_effects.toml");
 
 fn counts(effects: &[EffectReport]) -> Vec<(String, u64)> {
     effects
@@ -493,14 +492,14 @@ fn time_shares_are_shares_of_the_run() {
 }
 
 /// A splitting of 4, 6, 8 or 12 state entries runs on a stack state (`SVector`); the same
-/// splitting on a heap column (`splitting_flow::<Col<f64>>`, what every larger scene runs) agrees
+/// splitting on a heap column (`heap_splitting`, what every larger scene runs) agrees
 /// with it step for step — base and extrapolated, planar and in space, with damping and a field —
 /// to the round-off the two storages' different operation order can accumulate over the run
 /// (`64 ε` per step relative to the state).
 #[test]
 fn small_scenes_on_the_stack_agree_with_the_heap_column() {
-    use lieflow::scene::{Raise, splitting_flow};
-    let pendulum = include_str!("../scenes/damped_pendulum.toml");
+    use lieflow::scene::{Raise, heap_splitting};
+    let pendulum = include_str!("../../scenes/damped_pendulum.toml");
     let double_3d = r#"
         version = 1
         dim = 3
@@ -553,8 +552,7 @@ fn small_scenes_on_the_stack_agree_with_the_heap_column() {
         let model = compiled.model.expect("a scene model");
         let mut x = Col::<f64>::zeros(n);
         x.as_mut_slice().copy_from_slice(sim.state());
-        let (mut heap, _, _) =
-            splitting_flow::<Col<f64>>(&model, &x, raise, false, f64::EPSILON).expect("a flow");
+        let (mut heap, _, _) = heap_splitting(&model, &x, raise, false).expect("a flow");
         let steps = 300;
         let mut worst = 0.0f64;
         for _ in 0..steps {

@@ -1,0 +1,23 @@
+//! Scene files compiled and run: their effects, errors, orders, storages and the paths their
+//! multiplier solves take.
+//!
+//! One test binary for the suite (a module a file): the generic code the files share is
+//! compiled and linked once.
+
+#[path = "../common/mod.rs"]
+mod common;
+#[path = "../common/scene_text.rs"]
+mod scene_text;
+
+mod diagonal_path;
+mod kick_tail;
+mod mechanical_discrete_gradient;
+mod mechanical_form;
+mod scene;
+mod scene_errors;
+mod scene_flight;
+mod scene_hidden;
+mod scene_modelling;
+mod scene_ports;
+mod scene_taut_chain;
+mod scene_unconstrained;
