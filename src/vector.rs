@@ -200,7 +200,7 @@ pub mod ops {
     }
 
     /// Max-norm `max |x_i|` (0 for an empty slice; NaN propagates).
-    #[inline]
+    #[inline(always)]
     pub fn norm_inf<T: Real>(x: &[T]) -> T {
         // A select and a flag rather than a branch on each entry: the loop has no
         // data-dependent jump (the norms of a step's residuals and updates are taken often).

@@ -419,6 +419,7 @@ impl<T: Real> NonlinearSolver<T> for SmallNewton<T> {
 /// Column `j` of the Jacobian by a forward difference, `δ = fd_step · max(|z_j|, ‖z‖∞, 1/|s|)`
 /// with `s` the problem's Jacobian scale (see [`Newton`](super::Newton)). Leaves the problem's
 /// state at `z + δ e_j`.
+#[inline]
 fn forward_difference<T: Real, P: NonlinearProblem<T>, const K: usize>(
     problem: &mut P,
     z: &mut [T; K],

@@ -11,6 +11,7 @@ pub(crate) const NOISE_FACTOR: f64 = 100.0;
 
 /// The residual as the convergence test sees it: the rows the problem's noise floor applies to
 /// count as zero while within `4 · noise_floor`; the other rows count as they are.
+#[inline]
 pub(crate) fn effective_residual<T: Real, P: NonlinearProblem<T>>(problem: &P, f: &[T]) -> T {
     let (noisy, exact) = f.split_at(problem.noisy_rows().min(f.len()));
     let r_noisy = ops::norm_inf(noisy);
@@ -39,6 +40,7 @@ pub(crate) fn effective_residual<T: Real, P: NonlinearProblem<T>>(problem: &P, f
 ///   constraint of a light body between heavy ones, rounds far above ε times its own size),
 ///   with a fresh Jacobian, only both together for a full step: the update is at round-off of
 ///   `z` and did not halve the residual — no representable `z` does better.
+#[inline]
 pub(crate) fn converged_after_update<T: Real>(
     opts: &NewtonOptions<T>,
     r: T,

@@ -11,7 +11,7 @@ use crate::real::Real;
 use crate::system::Model;
 use crate::vector::Vector;
 use num_traits::Float as _;
-use num_traits::{One, Zero};
+use num_traits::One;
 
 impl<V, F, Sys, L> Projected<V, F, Sys, L>
 where
@@ -40,49 +40,39 @@ where
     ) -> Result<V::Real, StepError> {
         let m = if K == 0 { self.m } else { K };
         let one = V::Real::one();
-        let mut h_prev = V::Real::zero();
-        let mut inv_grow = one;
-        let mut grow = one;
-        // One call site of the λ_k solve (inlined with the inner flow): the first stage starts
-        // from `x` with the warm start's prediction, the others from the previous stage's `y`.
-        for i in 0..stages {
+        let mut h_prev = size.at(0);
+        self.w
+            .warm
+            .predict_lambda_k(m, h_prev, self.w.z.as_mut_slice());
+        self.solve_lambda_k::<K>(h_prev, Base::Given(x), tally)?;
+        self.w.warm.record_lambda_k(m, h_prev, self.w.z.as_slice());
+        for i in 1..stages {
             let hi = size.at(i);
-            let base = if i == 0 {
-                self.w.warm.predict_lambda_k(m, hi, self.w.z.as_mut_slice());
-                Base::Given(x)
-            } else {
-                // The previous stage's λ̃ split evenly between its own λ_k and λ_{k+1}
-                // estimates the force per unit time; λ̃ of this stage is that force times
-                // (1 + h_prev/h_i).
-                let w = &mut self.w;
-                core::mem::swap(&mut w.y, &mut w.prev);
-                w.y_valid = false;
-                grow = one + h_prev / hi;
-                // Off the critical path (it depends on the step sizes only).
-                inv_grow = one / grow;
-                let (z, force) = (w.z.as_mut_slice(), w.r.as_mut_slice());
-                for (v, f) in z[..m].iter_mut().zip(force.iter_mut()) {
-                    *f = *v;
-                    *v = *v * grow;
-                }
-                // This stage's inner sub-step starts where the previous one ended.
-                w.ledger_in = w.ledger_y;
-                Base::Prev
-            };
-            self.solve_lambda_k::<K>(hi, base, tally)?;
-            if i == 0 {
-                self.w.warm.record_lambda_k(m, hi, self.w.z.as_slice());
-            } else {
-                // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate
-                // (the previous one when the stages nearly cancel, h_prev ≈ −h_i).
-                let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
-                if grow.abs() >= V::Real::lit(1e-3) {
-                    z[..m].iter_mut().for_each(|v| *v = *v * inv_grow);
-                } else {
-                    z[..m].copy_from_slice(&force[..m]);
-                }
-                tally.projected_steps += 1;
+            // The previous stage's λ̃ split evenly between its own λ_k and λ_{k+1} estimates
+            // the force per unit time; λ̃ of this stage is that force times (1 + h_prev/h_i).
+            let w = &mut self.w;
+            core::mem::swap(&mut w.y, &mut w.prev);
+            w.y_valid = false;
+            let grow = one + h_prev / hi;
+            // Off the critical path (it depends on the step sizes only).
+            let inv_grow = one / grow;
+            let (z, force) = (w.z.as_mut_slice(), w.r.as_mut_slice());
+            for (v, f) in z[..m].iter_mut().zip(force.iter_mut()) {
+                *f = *v;
+                *v = *v * grow;
             }
+            // This stage's inner sub-step starts where the previous one ended.
+            self.w.ledger_in = self.w.ledger_y;
+            self.solve_lambda_k::<K>(hi, Base::Prev, tally)?;
+            // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate (the
+            // previous one when the stages nearly cancel, h_prev ≈ −h_i).
+            let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
+            if grow.abs() >= V::Real::lit(1e-3) {
+                z[..m].iter_mut().for_each(|v| *v = *v * inv_grow);
+            } else {
+                z[..m].copy_from_slice(&force[..m]);
+            }
+            tally.projected_steps += 1;
             h_prev = hi;
         }
         // The last stage's λ_{k+1}, predicted as the force estimate.

@@ -169,6 +169,7 @@ where
     Sys: Model<V>,
 {
     /// Forms `w_j = d_j + h M(x) ∇²H(x) d_j` (`Unavailable` without a Hessian product).
+    #[inline(always)]
     fn form_columns(&mut self) {
         let (sys, h) = (self.system, self.h);
         for (dj, wj) in self.d.iter().zip(self.w.iter_mut()) {
