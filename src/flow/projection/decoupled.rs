@@ -223,6 +223,8 @@ where
     /// The `λ_k` system from `base`: on the small path for `K = m`, the general one for `K = 0`.
     /// The small path counts its work in `tally` (a local of the step, kept in registers), the
     /// general one in the flow's statistics.
+    ///
+    /// Inlined into its one call site, the stage loop of `step_fused`.
     #[inline(always)]
     pub(super) fn solve_lambda_k<const K: usize>(
         &mut self,
@@ -243,8 +245,8 @@ where
     }
 
     /// The `λ_{k+1}` system from `y`: on the small path for `K = m`, the general one for `K = 0`
-    /// (`tally` as for [`Self::solve_lambda_k`]).
-    #[inline(always)]
+    /// (`tally` as for [`Self::solve_lambda_k`]). Not inlined, as that one.
+    #[inline(never)]
     pub(super) fn solve_lambda_k1<const K: usize>(
         &mut self,
         h: V::Real,
@@ -256,27 +258,6 @@ where
         } else {
             self.solve_small::<K>(true, h, Base::Given(x), tally)
         }
-    }
-
-    /// The decoupled step (RATTLE-like): `λ_k` from `g(x_{k+1}) = 0`, then `λ_{k+1}` from
-    /// `φ(x_{k+1}) = 0`. `K = m` on the small path (every loop over the multipliers unrolls),
-    /// `K = 0` on the general one.
-    ///
-    /// The small path's work is counted in `tally` (see [`Self::tallied`]).
-    pub(super) fn step_decoupled<const K: usize>(
-        &mut self,
-        h: V::Real,
-        x: &V,
-        tally: &mut FlowStats,
-    ) -> Result<(), StepError> {
-        let m = if K == 0 { self.m } else { K };
-        self.w.warm.predict_lambda_k(m, h, self.w.z.as_mut_slice());
-        self.solve_lambda_k::<K>(h, Base::Given(x), tally)?;
-        self.w.warm.record_lambda_k(m, h, self.w.z.as_slice());
-        self.w.warm.predict_lambda_k1(m, h, self.w.z.as_mut_slice());
-        self.solve_lambda_k1::<K>(h, x, tally)?;
-        self.w.warm.record_lambda_k1(m, h, self.w.z.as_slice());
-        self.decoupling_guard::<K>(m)
     }
 
     /// The decoupling assumption: the second half-step did not move `g` (for position

@@ -20,7 +20,11 @@ where
     Sys: Model<V>,
     L: LinearSolver<V::Real>,
 {
-    /// A composition's stages as one fused step (decoupled scheme). Stage `i`'s second
+    /// A composition's stages as one fused step (decoupled scheme); with
+    /// [`StageSizes::Single`], the decoupled step itself (RATTLE-like: `λ_k` from
+    /// `g(x_{k+1}) = 0`, then `λ_{k+1}` from `φ(x_{k+1}) = 0`, each from its own warm start), so
+    /// that a flow compiles one step for both. `K = m` on the small path (every loop over the
+    /// multipliers unrolls), `K = 0` on the general one. Stage `i`'s second
     /// half-step `y_i + (h_i/2) M Gᵀ(y_i) λ_{k+1}` and stage `i+1`'s first half-step act along
     /// the same direction `M Gᵀ(y_i)` (which the second half-step does not change), so together
     /// they are one shift `y_i + (h_{i+1}/2) M Gᵀ λ̃` with `λ̃ = λ_k + (h_i/h_{i+1}) λ_{k+1}`, and
@@ -44,44 +48,64 @@ where
         self.w
             .warm
             .predict_lambda_k(m, h_prev, self.w.z.as_mut_slice());
-        self.solve_lambda_k::<K>(h_prev, Base::Given(x), tally)?;
-        self.w.warm.record_lambda_k(m, h_prev, self.w.z.as_slice());
-        for i in 1..stages {
-            let hi = size.at(i);
+        let mut base = Base::Given(x);
+        let mut hi = h_prev;
+        // The λ_k solve has one call site, inlined once: stage 0 from `x`, the others from the
+        // previous stage's `y` with the force estimate carried over.
+        for i in 0..stages {
+            self.solve_lambda_k::<K>(hi, base, tally)?;
+            if i == 0 {
+                self.w.warm.record_lambda_k(m, hi, self.w.z.as_slice());
+            } else {
+                // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate
+                // (the previous one when the stages nearly cancel, h_prev ≈ −h_i).
+                let grow = one + h_prev / hi;
+                let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
+                if grow.abs() >= V::Real::lit(1e-3) {
+                    let inv_grow = one / grow;
+                    z[..m].iter_mut().for_each(|v| *v = *v * inv_grow);
+                } else {
+                    z[..m].copy_from_slice(&force[..m]);
+                }
+                tally.projected_steps += 1;
+            }
+            if i + 1 == stages {
+                break;
+            }
+            h_prev = hi;
+            hi = size.at(i + 1);
             // The previous stage's λ̃ split evenly between its own λ_k and λ_{k+1} estimates
             // the force per unit time; λ̃ of this stage is that force times (1 + h_prev/h_i).
             let w = &mut self.w;
             core::mem::swap(&mut w.y, &mut w.prev);
             w.y_valid = false;
             let grow = one + h_prev / hi;
-            // Off the critical path (it depends on the step sizes only).
-            let inv_grow = one / grow;
             let (z, force) = (w.z.as_mut_slice(), w.r.as_mut_slice());
             for (v, f) in z[..m].iter_mut().zip(force.iter_mut()) {
                 *f = *v;
                 *v = *v * grow;
             }
             // This stage's inner sub-step starts where the previous one ended.
-            self.w.ledger_in = self.w.ledger_y;
-            self.solve_lambda_k::<K>(hi, Base::Prev, tally)?;
-            // λ̃ = λ_k + (h_prev/h_i) λ_{k+1} ≈ (1 + h_prev/h_i) λ: the force estimate (the
-            // previous one when the stages nearly cancel, h_prev ≈ −h_i).
-            let (z, force) = (self.w.z.as_mut_slice(), self.w.r.as_slice());
-            if grow.abs() >= V::Real::lit(1e-3) {
-                z[..m].iter_mut().for_each(|v| *v = *v * inv_grow);
-            } else {
-                z[..m].copy_from_slice(&force[..m]);
-            }
-            tally.projected_steps += 1;
-            h_prev = hi;
+            w.ledger_in = w.ledger_y;
+            base = Base::Prev;
         }
-        // The last stage's λ_{k+1}, predicted as the force estimate.
-        {
+        let h_prev = hi;
+        // λ_{k+1}: one step from its own warm start (which it then records), the last stage of
+        // a composition from the force estimate. One call site of the solve, which is inlined.
+        let single = size.is_single();
+        if single {
+            self.w
+                .warm
+                .predict_lambda_k1(m, h_prev, self.w.z.as_mut_slice());
+        } else {
             let z = self.w.z.as_mut_slice();
             let (a, b) = z.split_at_mut(m);
             b[..m].copy_from_slice(a);
         }
         self.solve_lambda_k1::<K>(h_prev, x, tally)?;
+        if single {
+            self.w.warm.record_lambda_k1(m, h_prev, self.w.z.as_slice());
+        }
         self.decoupling_guard::<K>(m)?;
         Ok(h_prev)
     }
@@ -108,7 +132,7 @@ where
     }
 
     /// `stages` fused stages of sizes `size(i)`, dispatched on the multiplier count.
-    fn fused_stages(
+    pub(super) fn fused_stages(
         &mut self,
         stages: usize,
         size: StageSizes<'_, V::Real>,
@@ -135,6 +159,8 @@ pub(super) enum StageSizes<'a, T> {
     Table(&'a CompositionTable, T),
     /// Every stage `h`.
     Equal(T),
+    /// One step `h`, not part of a composition: its `λ_{k+1}` has a warm start of its own.
+    Single(T),
 }
 
 impl<T: Real> StageSizes<'_, T> {
@@ -142,7 +168,12 @@ impl<T: Real> StageSizes<'_, T> {
     fn at(self, i: usize) -> T {
         match self {
             StageSizes::Table(table, h) => table.gamma_in::<T>(i) * h,
-            StageSizes::Equal(h) => h,
+            StageSizes::Equal(h) | StageSizes::Single(h) => h,
         }
+    }
+
+    #[inline]
+    fn is_single(self) -> bool {
+        matches!(self, StageSizes::Single(_))
     }
 }

@@ -36,7 +36,7 @@ mod warm;
 use super::{CompositionTable, Flow, FlowStats, Ledger, Multipliers};
 use crate::error::{SetupError, StepError};
 use crate::linalg::LinearSolver;
-use crate::nonlinear::{DiagonalNewton, Newton, SMALL_MAX};
+use crate::nonlinear::{DiagonalNewton, Newton};
 use crate::system::Model;
 use crate::system::{
     Case, HolonomicConstraint, MechanicalForm, StructureMatrix, check_initial_state,
@@ -276,7 +276,7 @@ where
     }
 
     /// `true` when the flow runs the small decoupled path: the decoupled scheme with a dense
-    /// `G` of at most [`SMALL_MAX`] constraints and a Hamiltonian with a Hessian — full Newton
+    /// `G` of at most [`SMALL_MAX`](crate::nonlinear::SMALL_MAX) constraints and a Hamiltonian with a Hessian — full Newton
     /// on stack arrays with closed-form Jacobians ([`SmallNewton`](crate::nonlinear::SmallNewton)), and one linear solve for
     /// `λ_{k+1}` when `H` is quadratic and `M` constant. Otherwise the multiplier systems go
     /// to [`Newton`] with kept, Broyden-updated or grouped Jacobians.
@@ -386,15 +386,7 @@ where
     fn step_impl(&mut self, h: V::Real, x: &V) -> Result<(), StepError> {
         self.w.y_valid = false;
         match self.scheme {
-            Scheme::Decoupled => self.tallied(|flow, t| match (flow.small.is_some(), flow.m) {
-                (true, 1) => flow.step_decoupled::<1>(h, x, t),
-                (true, 2) if SmallFits::<V, 2>::OK => flow.step_decoupled::<2>(h, x, t),
-                (true, 3) if SmallFits::<V, 3>::OK => flow.step_decoupled::<3>(h, x, t),
-                (true, _) if SmallFits::<V, SMALL_MAX>::OK => {
-                    flow.step_decoupled::<SMALL_MAX>(h, x, t)
-                }
-                _ => flow.step_decoupled::<0>(h, x, t),
-            }),
+            Scheme::Decoupled => self.fused_stages(1, StageSizes::Single(h), x).map(drop),
             Scheme::Coupled => self.solve(
                 Mode::Coupled,
                 h,
@@ -531,10 +523,10 @@ where
 /// [`Projected::try_new`] requires): the small path's dispatch is compiled only for the counts a
 /// state can hold (a stack state of 4 entries takes at most 2), the others fall to the general
 /// path they can never reach. A constant per type, so the unreachable steps are not generated.
-struct SmallFits<V, const K: usize>(core::marker::PhantomData<V>);
+pub(crate) struct SmallFits<V, const K: usize>(core::marker::PhantomData<V>);
 
 impl<V: Vector, const K: usize> SmallFits<V, K> {
-    const OK: bool = 2 * K <= V::MAX_LEN;
+    pub(crate) const OK: bool = 2 * K <= V::MAX_LEN;
 }
 
 /// The stage names errors carry.

@@ -2,7 +2,7 @@
 //! constraint `φ = 0`: the wrapper that keeps a non-symmetric scheme (an extrapolation) on the
 //! manifold.
 
-use super::{HiddenSolver, ProjectionOptions};
+use super::{HiddenSolver, ProjectionOptions, SmallFits};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::flow::{Flow, FlowStats, Ledger, Multipliers};
 use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver, SMALL_MAX};
@@ -86,14 +86,15 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
         let m = system.constraint().dim();
         let pattern = pattern.filter(|_| m > SMALL_MAX);
         let positions = Newton::with_pattern(m, options.newton, pattern.as_deref())?;
-        let hidden =
-            match case {
-                Case::Degenerate if m > SMALL_MAX => Some(HiddenSolver::General(
-                    Newton::with_pattern(m, options.newton, pattern.as_deref())?,
-                )),
-                Case::Degenerate => Some(HiddenSolver::new(&system, x0, options.newton, None)?),
-                Case::NonDegenerate => None,
-            };
+        let hidden = match case {
+            // The small solver only for the counts the dispatch in `project` compiles (a
+            // stack state holds at most half its length in multipliers there).
+            Case::Degenerate if m > SMALL_MAX || 2 * m > V::MAX_LEN => Some(HiddenSolver::General(
+                Newton::with_pattern(m, options.newton, pattern.as_deref())?,
+            )),
+            Case::Degenerate => Some(HiddenSolver::new(&system, x0, options.newton, None)?),
+            Case::NonDegenerate => None,
+        };
         let zero = <V::Real as num_traits::Zero>::zero();
         let projector = Projector {
             system,
@@ -173,11 +174,13 @@ impl<V: Vector, Sys: Model<V>> Projector<V, Sys> {
                 moved = true;
                 self.base.copy_from(x);
                 ops::fill_zero(&mut self.nu);
+                // Only the counts the storage can hold on the small path (the general path,
+                // which any count can take, otherwise).
                 let solved = match self.r.len() {
                     1 => self.project_hidden::<1>(x),
-                    2 => self.project_hidden::<2>(x),
-                    3 => self.project_hidden::<3>(x),
-                    4 => self.project_hidden::<SMALL_MAX>(x),
+                    2 if SmallFits::<V, 2>::OK => self.project_hidden::<2>(x),
+                    3 if SmallFits::<V, 3>::OK => self.project_hidden::<3>(x),
+                    4 if SmallFits::<V, SMALL_MAX>::OK => self.project_hidden::<SMALL_MAX>(x),
                     _ => self.project_hidden::<0>(x),
                 };
                 let report = solved.map_err(|e| {

@@ -2,14 +2,14 @@
 //! the splitting of the exact sub-flows, projected when constrained, or an implicit scheme.
 
 use super::raise::{Raise, raised};
-use super::{DENSE_MAX_DIM, MAX_STEPS, Result, constraints::setup_error, err, validate::positive};
+use super::{MAX_STEPS, Result, constraints::setup_error, err, validate::positive};
 use crate::error::SetupError;
 use crate::flow::{
     CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
     ImplicitMidpoint, PetrovGalerkin, Projected, ProjectedMidpoint, ProjectionOptions, Scheme,
 };
 use crate::linalg::LinearSolver;
-use crate::nonlinear::{NewtonOptions, SMALL_MAX};
+use crate::nonlinear::NewtonOptions;
 use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
@@ -282,40 +282,25 @@ pub(super) fn scheme_flow(
             scheme_name = "projection around the implicit midpoint rule";
             let options = projection_options(model, x0.as_slice(), f64::EPSILON);
             case = Some("degenerate".to_owned());
-            // The same map with the midpoint increment and λ_k as one Newton system where that
-            // path applies (the decoupled case; above 4 constraints its general path factors
-            // a dense (n + m)-square matrix at every step, so only up to DENSE_MAX_DIM
-            // unknowns); nested solves otherwise.
-            // A model of mechanical form (every scene) solves its joint system on
-            // the positions and multipliers with the model's sparsity, at any size.
-            let mechanical = matches!(MechanicalForm::of(&system(), model, x0), Ok(Some(_)));
-            let joint = if m <= SMALL_MAX || mechanical || x0.nrows() + m <= DENSE_MAX_DIM {
-                match ProjectedMidpoint::<Col<f64>, _, _>::try_new(
-                    system(),
-                    model.clone(),
-                    x0,
-                    options,
-                ) {
-                    Ok(joint) => Some(joint),
-                    Err(SetupError::Dimension { .. }) => None,
-                    Err(e) => return Err(setup(e)),
-                }
-            } else {
-                None
-            };
-            let onto = Some((system(), x0, options));
-            match joint {
-                Some(joint) => raised(joint, raise, backward, onto),
-                None => raised(
-                    midpoint()?
-                        .projected(system(), x0, options)
-                        .map_err(setup)?,
-                    raise,
-                    backward,
-                    onto,
-                ),
-            }
-            .map_err(setup)?
+            // The midpoint increment and λ_k as one Newton system (the decoupled case, which a
+            // scene's position constraints are): a scene's model has a mechanical form, so the
+            // joint system is solved on the positions and multipliers with its sparsity at any
+            // size. The projection around a separate midpoint solve (`Projected` around
+            // `ImplicitMidpoint`) is the library's path for models without that form; a scene
+            // never needs it, and it is not compiled for scenes.
+            let joint =
+                ProjectedMidpoint::<Col<f64>, _, _>::try_new(system(), model.clone(), x0, options)
+                    .map_err(|e| match e {
+                        SetupError::Dimension { what } => err(
+                            SceneErrorKind::Unsupported,
+                            root.key("integrator").key("scheme"),
+                            format!(
+                                "the projected midpoint rule does not apply to this scene: {what}"
+                            ),
+                        ),
+                        e => setup(e),
+                    })?;
+            raised(joint, raise, backward, Some((system(), x0, options))).map_err(setup)?
         }
     } else if file.integrator.scheme == Method::Modified {
         return Err(err(
