@@ -123,6 +123,10 @@ pub fn set_parameter(
 /// spring-coupled triple pendulum pair under gravity.
 pub const DEFAULT_SCENE: &str = include_str!("default.toml");
 
+/// The largest scene file [`Scene::from_path`] reads: 64 MiB (a scene of 10⁵ bodies written out
+/// one by one is a few megabytes).
+pub const MAX_SCENE_BYTES: u64 = 64 << 20;
+
 /// A parsed scene with its source text, so that errors found while compiling point at the file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
@@ -146,16 +150,44 @@ impl Scene {
         })
     }
 
-    /// Reads and parses a scene file.
+    /// Reads and parses a scene file: a regular file (not a device, FIFO or directory, which
+    /// could block or never end) of at most [`MAX_SCENE_BYTES`].
+    ///
+    /// # Errors
+    /// [`SceneErrorKind::Io`] when the file cannot be read, is not a regular file or is larger
+    /// than the limit; the parse errors of [`Scene::from_toml`].
     pub fn from_path(path: &Path) -> Result<Self, SceneError> {
+        use std::io::Read as _;
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| {
+        let io = |what: String| {
             SceneError::new(
                 SceneErrorKind::Io,
                 FieldPath::root(),
-                format!("cannot read {name}: {e}"),
+                format!("cannot read {name}: {what}"),
             )
-        })?;
+        };
+        let meta = std::fs::metadata(path).map_err(|e| io(e.to_string()))?;
+        if !meta.is_file() {
+            return Err(io(
+                "not a regular file (a scene is read from a file, not from a device, a FIFO or a directory)".to_owned(),
+            ));
+        }
+        let too_large = |len: u64| {
+            io(format!(
+                "{len} bytes, more than the {MAX_SCENE_BYTES} a scene file may have"
+            ))
+        };
+        if meta.len() > MAX_SCENE_BYTES {
+            return Err(too_large(meta.len()));
+        }
+        // The limit again while reading: the file may have grown since.
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_string(&mut text))
+            .map_err(|e| io(e.to_string()))?;
+        if text.len() as u64 > MAX_SCENE_BYTES {
+            return Err(too_large(text.len() as u64));
+        }
         Self::from_toml(&text, &name)
     }
 

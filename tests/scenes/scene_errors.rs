@@ -478,3 +478,33 @@ fn degenerate_parameters_stay_finite_or_assemble_nothing() {
         assert!((a - b).abs() < 1e-14, "{:?} vs {:?}", s.x, plain.x);
     }
 }
+
+/// A scene file is a regular file of at most `MAX_SCENE_BYTES`: a device that never ends
+/// (`/dev/zero`), a directory, or a larger file is refused with an `Io` error before anything
+/// is read, instead of a read without bound.
+#[test]
+fn scene_files_are_regular_and_bounded() {
+    use lieflow::scene::MAX_SCENE_BYTES;
+    let refused = |path: &std::path::Path, what: &str| {
+        let e = Scene::from_path(path).expect_err("refused");
+        assert_eq!(e.kind, SceneErrorKind::Io, "{e}");
+        assert!(e.to_string().contains(what), "{e}");
+    };
+    if std::path::Path::new("/dev/zero").exists() {
+        refused(std::path::Path::new("/dev/zero"), "not a regular file");
+    }
+    let dir = std::env::temp_dir().join(format!("lieflow-scene-files-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    refused(&dir, "not a regular file");
+    // A sparse file just over the limit: refused by its length, not read.
+    let big = dir.join("big.toml");
+    std::fs::File::create(&big)
+        .and_then(|f| f.set_len(MAX_SCENE_BYTES + 1))
+        .unwrap();
+    refused(&big, "more than the");
+    // The default scene as a file reads as before.
+    let ok = dir.join("default.toml");
+    std::fs::write(&ok, DEFAULT_SCENE).unwrap();
+    assert!(Scene::from_path(&ok).is_ok());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
