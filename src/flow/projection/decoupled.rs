@@ -245,7 +245,8 @@ where
     }
 
     /// The `λ_{k+1}` system from `y`: on the small path for `K = m`, the general one for `K = 0`
-    /// (`tally` as for [`Self::solve_lambda_k`]). Not inlined, as that one.
+    /// (`tally` as for [`Self::solve_lambda_k`]). Not inlined: one function per flow and
+    /// multiplier count (inlining it at its one call site measured no faster).
     #[inline(never)]
     pub(super) fn solve_lambda_k1<const K: usize>(
         &mut self,
