@@ -199,6 +199,17 @@ pub enum StepError {
         /// First non-finite component.
         component: usize,
     },
+    /// An input's value is not finite (a division by zero, a logarithm outside its domain,
+    /// an overflow of a held value): the state would be, and nothing a smaller step does helps.
+    #[error("input {input} is {value} at t = {t}: its signal is not finite there")]
+    NonFiniteInput {
+        /// The input's index, in the order the inputs were declared.
+        input: usize,
+        /// The time at which it was evaluated.
+        t: f64,
+        /// Its value there (or its integral over the sub-step divided by its length).
+        value: f64,
+    },
     /// The step size is not finite.
     #[error("step size {h} is not finite")]
     BadStepSize {

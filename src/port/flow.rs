@@ -6,7 +6,7 @@ use crate::flow::{EXACT, Flow, Ledger};
 use crate::real::Real;
 use crate::system::Hamiltonian;
 use crate::vector::Vector;
-use num_traits::Zero;
+use num_traits::{Float as _, Zero};
 
 /// The exact flow of `x' = B(x) u(t)` over a sub-step `[τ, τ + h]`: `x ← x + B(x) w` with
 /// `w_j = ∫_τ^{τ+h} u_j dt` (exact under the [`InputMap`] contract).
@@ -109,6 +109,23 @@ impl<V: Vector, B, H> InputFlow<V, B, H> {
     }
 }
 
+/// The error of input `j` whose integral `w` over `[a, b]` is not finite: at the first of
+/// `a`, the midpoint and `b` where its value is not, or at the midpoint with the mean value.
+#[cold]
+fn non_finite_input<T: Real>(j: usize, signal: &Signal<T>, a: T, b: T, w: T) -> StepError {
+    let mid = (a + b) * T::lit(0.5);
+    let (t, value) = [a, mid, b]
+        .into_iter()
+        .map(|t| (t, signal.value(t)))
+        .find(|(_, u)| !u.is_finite())
+        .unwrap_or((mid, w / (b - a)));
+    StepError::NonFiniteInput {
+        input: j,
+        t: t.to_f64_lossy(),
+        value: value.to_f64_lossy(),
+    }
+}
+
 /// What the input flow does with the energy: nothing, or account for it with a Hamiltonian.
 pub trait SuppliedEnergy<V: Vector> {
     /// `true` when the energy is accounted for.
@@ -156,6 +173,9 @@ where
         for (wj, s) in self.w.iter_mut().zip(&self.signals) {
             *wj = s.integral(a, b);
         }
+        if let Some(j) = self.w.iter().position(|w| !w.is_finite()) {
+            return Err(non_finite_input(j, &self.signals[j], a, b, self.w[j]));
+        }
         if H::ACCOUNTS {
             let before = self.before.get_or_insert_with(|| x.clone());
             before.copy_from(x);
@@ -175,6 +195,9 @@ where
     fn is_symmetric(&self) -> bool {
         true
     }
+    /// Closed-form: it fails only on a signal that is not finite, before it moves the state
+    /// (a composition around it may have moved it; [`Stepper`](crate::stepper::Stepper)
+    /// restores the state before the step).
     fn is_fallible(&self) -> bool {
         false
     }

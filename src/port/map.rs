@@ -18,6 +18,24 @@ pub trait InputMap<V: Vector> {
     fn apply(&self, x: &mut V, w: &[V::Real]);
     /// `y = B(x)ᵀ e` (`k` entries; overwrites).
     fn transpose_apply(&self, x: &V, e: &V, y: &mut [V::Real]);
+    /// `out ← out + B(x) w`, with `B` at `x` and `x` unchanged: the force of the inputs at a
+    /// state an implicit scheme visits (the Petrov–Galerkin residual's `B(x(e_r)) u(e_r)`).
+    ///
+    /// The default applies `w` to `scratch` (a copy of `x`) through [`apply`](Self::apply) and
+    /// adds the difference `scratch − x`, which rounds at `ε |x|` rather than `ε |B w|`; the maps
+    /// of this module override it with the product itself, and a map of one's own should too.
+    fn add_product(&self, x: &V, w: &[V::Real], out: &mut V, scratch: &mut V) {
+        scratch.copy_from(x);
+        self.apply(scratch, w);
+        for ((o, &s), &xi) in out
+            .as_mut_slice()
+            .iter_mut()
+            .zip(scratch.as_slice())
+            .zip(x.as_slice())
+        {
+            *o = *o + (s - xi);
+        }
+    }
     /// The collocated output `y = B(x)ᵀ ∇H(x)` (`grad`: scratch for `∇H`). With it, the power
     /// the inputs supply is `yᵀu`.
     fn output<H: Hamiltonian<V>>(&self, hamiltonian: &H, x: &V, grad: &mut V, y: &mut [V::Real])
@@ -38,6 +56,9 @@ impl<V: Vector, B: InputMap<V> + ?Sized> InputMap<V> for &B {
     }
     fn transpose_apply(&self, x: &V, e: &V, y: &mut [V::Real]) {
         (**self).transpose_apply(x, e, y)
+    }
+    fn add_product(&self, x: &V, w: &[V::Real], out: &mut V, scratch: &mut V) {
+        (**self).add_product(x, w, out, scratch)
     }
 }
 
@@ -83,6 +104,10 @@ impl<V: Vector> InputMap<V> for InputMatrix<V::Real> {
                 .fold(V::Real::zero(), |s, (&b, &ei)| s + b * ei);
         }
     }
+    /// `B` is constant: applied to `out` directly.
+    fn add_product(&self, _x: &V, w: &[V::Real], out: &mut V, _scratch: &mut V) {
+        <Self as InputMap<V>>::apply(self, out, w);
+    }
 }
 
 /// Each input drives one component of the state with a gain: `B = Σ_j gain_j e_{c_j} e_jᵀ`
@@ -126,6 +151,10 @@ impl<V: Vector> InputMap<V> for ComponentInputs<V::Real> {
         for ((&c, &g), yj) in self.components.iter().zip(&self.gains).zip(y.iter_mut()) {
             *yj = g * e[c];
         }
+    }
+    /// `B` is constant: applied to `out` directly.
+    fn add_product(&self, _x: &V, w: &[V::Real], out: &mut V, _scratch: &mut V) {
+        <Self as InputMap<V>>::apply(self, out, w);
     }
 }
 

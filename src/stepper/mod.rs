@@ -143,7 +143,13 @@ where
         self.last_ledger = self.ledger;
         self.last_ledger.t = t;
         let mut ledger = self.last_ledger;
-        self.flow.step_at(&mut ledger, h, x)?;
+        if let Err(e) = self.flow.step_at(&mut ledger, h, x) {
+            // A flow restores its own state, except where a sub-flow that does not fail a
+            // step of its own fails (an input signal that is not finite, in a composition
+            // that saves no copy): the copy above is the state before the step either way.
+            x.copy_from(&self.last);
+            return Err(e);
+        }
         if let Some(component) = ops::first_non_finite(x.as_slice()) {
             x.copy_from(&self.last);
             return Err(StepError::NonFinite { component });

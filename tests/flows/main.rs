@@ -27,6 +27,7 @@ mod hostile;
 mod implicit;
 mod long_runs;
 mod petrov_galerkin;
+mod petrov_galerkin_inputs;
 mod ports;
 mod projected_midpoint;
 mod small_path;

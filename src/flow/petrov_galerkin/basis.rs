@@ -44,6 +44,8 @@ pub(super) struct Basis {
     pub(super) s: usize,
     /// `β_j = ∫₀¹ ℓ_j`: also `x_{n+1} = x_n + h Σ_j β_j x'(c_j)`.
     pub(super) beta: Vec<f64>,
+    /// `e_r`, the quadrature nodes on `[0, 1]`.
+    pub(super) e: Vec<f64>,
     /// `b_r`, the quadrature weights.
     pub(super) b: Vec<f64>,
     /// `ℓ_j(e_r)`, row-major `[r][j]`.
@@ -94,6 +96,7 @@ impl Basis {
             k,
             s,
             beta,
+            e,
             b,
             ell,
             a,

@@ -33,6 +33,7 @@ fn problem<'a, Sys>(
         g0,
         noise: 0.0,
         floor: 0.0,
+        forcing: None,
     }
 }
 

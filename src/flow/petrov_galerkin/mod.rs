@@ -1,8 +1,11 @@
 //! The energy-consistent Petrov–Galerkin step in time (order `2k`, an exact discrete energy
-//! balance) for `x' = (J − R)(∇H + Gᵀλ)`, `g(x) = 0`.
+//! balance) for `x' = (J − R)(∇H + Gᵀλ) + B(x) u(t)`, `g(x) = 0` (the inputs optional).
 
 mod basis;
 mod blocks;
+mod dissipation;
+mod end;
+mod forcing;
 mod problem;
 mod quadrature;
 #[cfg(all(test, feature = "scene"))]
@@ -18,7 +21,7 @@ use super::projection::HiddenSolver;
 use super::reduced::Reduced;
 use super::{Flow, FlowStats, Ledger, ProjectionOptions};
 use crate::error::{SetupError, StepError};
-use crate::nonlinear::{Newton, NonlinearSolver, SMALL_MAX};
+use crate::nonlinear::{Newton, NonlinearSolver};
 use crate::real::Real;
 use crate::system::{
     Case, Hamiltonian, HolonomicConstraint, MechanicalForm, Model, StructureMatrix,
@@ -26,34 +29,14 @@ use crate::system::{
 };
 use crate::vector::{Vector, ops};
 use blocks::ConstraintBlocks;
+pub use dissipation::DiscreteDissipation;
+use forcing::Forcing;
 use num_traits::Zero;
 use problem::{Problem, Scratch};
 use quadrature::constraint_is_quadratic;
 pub use quadrature::exact_quadrature;
 use reduced::Stages;
 use tables::Tables;
-
-/// The energy of one step: `H(x_{n+1}) − H(x_n) = −D_n` to the Newton tolerance (and the
-/// quadrature of a non-polynomial `H`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DiscreteDissipation<T> {
-    /// `H(x_n)`.
-    pub before: T,
-    /// `H(x_{n+1})`: the step's end energy less the energy the projection removed (for a
-    /// model of mechanical form the kinetic difference, so equal to `H(x_{n+1})` to rounding).
-    pub after: T,
-    /// `h ∫₀¹ zᵀ R z dτ ≥ 0`, by the quadrature: what the damping removed.
-    pub damping: T,
-    /// The kinetic energy the hidden-constraint projection removed, `≥ 0`.
-    pub projection: T,
-}
-
-impl<T: Real> DiscreteDissipation<T> {
-    /// `D_n = damping + projection`.
-    pub fn total(&self) -> T {
-        self.damping + self.projection
-    }
-}
 
 /// The energy-consistent Petrov–Galerkin method in time (Egger, Habrich & Shashkov, CMAM 21,
 /// 2021; Giesselmann, Karsai & Tscherpel, arXiv 2404.12480; with algebraic constraints
@@ -106,8 +89,11 @@ pub struct PetrovGalerkin<
     /// The reduced solve's constraint blocks, when the constraint lists its Jacobian entries.
     blocks: Option<ConstraintBlocks<V::Real>>,
     hidden: Option<HiddenSolver<V>>,
+    /// The inputs `B(x) u(t)`, when the system is open ([`with_inputs`](Self::with_inputs)).
+    forcing: Option<Forcing<V>>,
     u: W,
-    /// Where the last step ended (for the reduced solve's predictor), when `ended`.
+    /// Where the last step ended (for the reduced solve's predictor), when `ended`; `x0`
+    /// before the first step.
     end: V,
     ended: bool,
     w: Scratch<V>,
@@ -119,9 +105,9 @@ pub struct PetrovGalerkin<
     g0: Vec<V::Real>,
     /// The rounding floor's perturbation signs, `±ε/2` per component (`rounding.rs`).
     signs: Vec<V::Real>,
-    /// The last step's damping and projection terms of `D_n` (its energies are evaluated
-    /// when asked for).
-    last: Option<(V::Real, V::Real)>,
+    /// The last step's damping and projection terms of `D_n` and its supplied work `S_n` (its
+    /// energies are evaluated when asked for).
+    last: Option<(V::Real, V::Real, V::Real)>,
     stats: FlowStats,
 }
 
@@ -250,8 +236,9 @@ where
             mechanical,
             blocks,
             hidden,
+            forcing: None,
             u: W::zeros(k * (n + m)),
-            end: x0.zeros_like(),
+            end: x0.clone(),
             ended: false,
             w: Scratch::new(x0, k, s, m),
             start: x0.zeros_like(),
@@ -271,6 +258,28 @@ where
     /// [`with_quadrature`](Self::with_quadrature)).
     pub fn quadrature_points(&self) -> usize {
         self.tables.s
+    }
+
+    /// The same scheme for the open system `x' = M (∇H + Gᵀλ) + B(x) u(t)`: `map` is `B`,
+    /// `signals` the inputs `u` (one per input). The step integrates `B u` against the test
+    /// functions by its quadrature, reads the time from the [`Ledger`] (and advances it), and
+    /// books the supplied work `S_n` (see `forcing.rs`) in the ledger and in
+    /// [`last_dissipation`](Self::last_dissipation): `H_{n+1} − H_n = −D_n + S_n`.
+    ///
+    /// # Errors
+    /// [`SetupError::Dimension`] when the signals and the map's inputs differ in number;
+    /// [`SetupError::Scheme`] when the model has a mechanical form (its positions are
+    /// eliminated) and `B(x0)` moves a position: inputs must be forces there.
+    pub fn with_inputs(
+        mut self,
+        map: impl crate::port::InputMap<V> + 'static,
+        signals: Vec<crate::port::Signal<V::Real>>,
+    ) -> Result<Self, SetupError> {
+        let nq = self.mechanical.as_ref().map(|reduced| reduced.nq);
+        let forcing = Forcing::try_new(Box::new(map), signals, &self.system, &self.end, nq)?;
+        self.w.forced(self.tables.k);
+        self.forcing = Some(forcing);
+        Ok(self)
     }
 
     /// The same scheme with an `s`-point Gauss rule for its integrals (`s ≥ k`).
@@ -317,13 +326,14 @@ where
     /// projection (both kept until the next step): a run that does not ask pays for no energy
     /// evaluation.
     pub fn last_dissipation(&self) -> Option<DiscreteDissipation<V::Real>> {
-        let (damping, projection) = self.last?;
+        let (damping, projection, supplied) = self.last?;
         let energy = self.system.hamiltonian();
         Some(DiscreteDissipation {
             before: energy.energy(&self.start),
             after: energy.energy(&self.xe) - projection,
             damping,
             projection,
+            supplied,
         })
     }
 
@@ -381,6 +391,16 @@ where
         // Whether this step continues the last one (its predictor and measured contraction).
         let continued = self.ended && self.start.as_slice() == self.end.as_slice();
         self.guess(h, x);
+        let t0 = ledger.t;
+        if let Some(forcing) = self.forcing.as_mut()
+            && let Err((input, t, value)) = forcing.begin(t0, h, &self.tables.nodes)
+        {
+            return Err(StepError::NonFiniteInput {
+                input,
+                t: t.to_f64_lossy(),
+                value: value.to_f64_lossy(),
+            });
+        }
         let floor = self.rounding_floor(x);
         self.system.constraint().residual(x, &mut self.g0);
         let (k, n) = (self.tables.k, x.len());
@@ -393,6 +413,7 @@ where
             g0: &self.g0,
             noise: V::Real::zero(),
             floor,
+            forcing: self.forcing.as_mut(),
         };
         let solved = if let Some(reduced) = self.mechanical.as_mut() {
             let Reduced {
@@ -474,6 +495,20 @@ where
                 }
             }
         }
+        let supplied = match self.forcing.as_mut() {
+            None => V::Real::zero(),
+            Some(forcing) => match self.mechanical.as_ref() {
+                Some(reduced) => forcing.supplied_mechanical(
+                    &self.tables,
+                    &self.start,
+                    u,
+                    reduced.nq,
+                    h,
+                    &mut self.t2,
+                ),
+                None => forcing.supplied(&self.tables, &self.w, h),
+            },
+        };
         let mut projection = V::Real::zero();
         if self.hidden.is_some() {
             // φ(x_{n+1} + M Gᵀν) = 0: the base is xe, the result goes to x.
@@ -481,48 +516,15 @@ where
             let Some(hidden) = self.hidden.as_mut() else {
                 unreachable!()
             };
-            let solved = match self.nu.len() {
-                1 => hidden.project::<1, _>(
-                    &self.system,
-                    &self.xe,
-                    x,
-                    &mut self.tmp,
-                    &mut self.t2,
-                    &mut self.nu,
-                ),
-                2 => hidden.project::<2, _>(
-                    &self.system,
-                    &self.xe,
-                    x,
-                    &mut self.tmp,
-                    &mut self.t2,
-                    &mut self.nu,
-                ),
-                3 => hidden.project::<3, _>(
-                    &self.system,
-                    &self.xe,
-                    x,
-                    &mut self.tmp,
-                    &mut self.t2,
-                    &mut self.nu,
-                ),
-                4 => hidden.project::<SMALL_MAX, _>(
-                    &self.system,
-                    &self.xe,
-                    x,
-                    &mut self.tmp,
-                    &mut self.t2,
-                    &mut self.nu,
-                ),
-                _ => hidden.project::<0, _>(
-                    &self.system,
-                    &self.xe,
-                    x,
-                    &mut self.tmp,
-                    &mut self.t2,
-                    &mut self.nu,
-                ),
-            };
+            let solved = end::project(
+                hidden,
+                &self.system,
+                &self.xe,
+                x,
+                &mut self.tmp,
+                &mut self.t2,
+                &mut self.nu,
+            );
             if let Err(e) = solved {
                 x.copy_from(&self.start);
                 self.ended = false;
@@ -531,27 +533,12 @@ where
                 }
                 return Err(StepError::from_newton("hidden-constraint projection", e));
             }
-            projection = match self.mechanical.as_ref() {
-                // Only the momenta moved (`M Gᵀν` has no position rows): the kinetic energy
-                // removed, `Σ ½ w_d (p_d − p'_d)(p_d + p'_d)`, without a second potential.
-                Some(reduced) => {
-                    let nq = reduced.nq;
-                    let (pe, p) = (&self.xe.as_slice()[nq..], &x.as_slice()[nq..]);
-                    let half = V::Real::lit(0.5);
-                    reduced
-                        .w
-                        .iter()
-                        .zip(pe)
-                        .zip(p)
-                        .fold(V::Real::zero(), |acc, ((&w, &a), &b)| {
-                            acc + half * w * (a - b) * (a + b)
-                        })
-                }
-                None => {
-                    let energy = self.system.hamiltonian();
-                    energy.energy(&self.xe) - energy.energy(x)
-                }
-            };
+            projection = end::removed_energy(
+                &self.system,
+                self.mechanical.as_ref().map(|r| (r.nq, &r.w[..])),
+                &self.xe,
+                x,
+            );
         } else {
             x.copy_from(&self.xe);
         }
@@ -564,7 +551,12 @@ where
         self.end.copy_from(x);
         self.ended = true;
         ledger.dissipated = ledger.dissipated + damping + projection;
-        self.last = Some((damping, projection));
+        if self.forcing.is_some() {
+            // The step carries the time of its inputs.
+            ledger.supplied = ledger.supplied + supplied;
+            ledger.t = t0 + h;
+        }
+        self.last = Some((damping, projection, supplied));
         self.stats.projected_steps += 1;
         Ok(())
     }

@@ -2,6 +2,7 @@
 //! scaled multipliers `L_j = h λ(c_j)` at the `k` Gauss points.
 
 use super::Tables;
+use super::forcing::Forcing;
 use crate::error::StepError;
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
@@ -22,6 +23,9 @@ pub(super) struct Scratch<V: Vector> {
     pub(super) acc: Vec<V>,
     /// The `∇H` part of `acc_i`, `h z(c_i)`: what the damping acts on.
     pub(super) accz: Vec<V>,
+    /// The inputs' part of the increments, `(1/β_i) Σ_r b_r ℓ_i(e_r) h B(x_r) u(t_r)`, one per
+    /// Gauss point; empty without inputs.
+    pub(super) accu: Vec<V>,
     /// `L(e_r)` and `G(x_r) h x'(e_r)`.
     pub(super) lr: Vec<V::Real>,
     pub(super) cr: Vec<V::Real>,
@@ -30,6 +34,11 @@ pub(super) struct Scratch<V: Vector> {
 }
 
 impl<V: Vector> Scratch<V> {
+    /// Room for the inputs' part of `k` stages.
+    pub(super) fn forced(&mut self, k: usize) {
+        self.accu = vec![self.dr.zeros_like(); k];
+    }
+
     pub(super) fn new(x0: &V, k: usize, s: usize, m: usize) -> Self {
         Self {
             grad: x0.zeros_like(),
@@ -37,6 +46,7 @@ impl<V: Vector> Scratch<V> {
             f: x0.zeros_like(),
             acc: vec![x0.zeros_like(); k],
             accz: vec![x0.zeros_like(); k],
+            accu: Vec::new(),
             lr: vec![V::Real::zero(); m],
             cr: vec![V::Real::zero(); m],
             xs: vec![x0.zeros_like(); s],
@@ -47,12 +57,13 @@ impl<V: Vector> Scratch<V> {
 /// `F(Y, L)`: for each Gauss point `c_i` (test function `ℓ_i`),
 ///
 /// ```text
-/// (a)  Y_i − M acc_i = 0,     acc_i = (1/β_i) Σ_r b_r ℓ_i(e_r) (h ∇H(x_r) + G(x_r)ᵀ L(e_r))
+/// (a)  Y_i − M acc_i − accu_i = 0,
+///      acc_i = (1/β_i) Σ_r b_r ℓ_i(e_r) (h ∇H(x_r) + G(x_r)ᵀ L(e_r))
 /// (c)  (1/β_i) Σ_r b_r ℓ_i(e_r) G(x_r) (Σ_j ℓ_j(e_r) Y_j) + g(x_n) = 0
 /// ```
 ///
-/// with `x_r = x_n + Σ_j A_rj Y_j`. The `z`-equation (b) is eliminated: `h z(c_i)` is the
-/// `∇H` part of `acc_i` (the L²-projection of `h ∇H(x(t))` onto `P_{k−1}`, whose mass matrix
+/// with `x_r = x_n + Σ_j A_rj Y_j` and `accu_i` the inputs' part (`forcing.rs`; none without).
+/// The `z`-equation (b) is eliminated: `h z(c_i)` is the `∇H` part of `acc_i` (the L²-projection of `h ∇H(x(t))` onto `P_{k−1}`, whose mass matrix
 /// is `diag(β)` in the Lagrange basis at the Gauss points). The `g(x_n)` in (c) — zero on the
 /// manifold — makes `Σ_i β_i (c)_i = g(x_{n+1}) = 0` instead of `g(x_{n+1}) = g(x_n)`, so the
 /// rounding of each step's solve does not accumulate into a drift of `g`; it adds
@@ -70,6 +81,8 @@ pub(super) struct Problem<'a, V: Vector, Sys> {
     /// The step's rounding floor of the state rows from the positions' rounding
     /// ([`PetrovGalerkin::rounding_floor`](super::PetrovGalerkin)).
     pub(super) floor: V::Real,
+    /// The inputs, their values at this step's quadrature points evaluated.
+    pub(super) forcing: Option<&'a mut Forcing<V>>,
 }
 
 impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
@@ -88,6 +101,9 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
         let m = self.w.lr.len();
         let (ys, ls) = u.split_at(k * n);
         for acc in self.w.acc.iter_mut().chain(&mut self.w.accz) {
+            ops::fill_zero(acc.as_mut_slice());
+        }
+        for acc in &mut self.w.accu {
             ops::fill_zero(acc.as_mut_slice());
         }
         if let Some(c) = out_c.as_deref_mut() {
@@ -115,6 +131,12 @@ impl<V: Vector, Sys: Model<V>> Problem<'_, V, Sys> {
                 ops::axpy(&mut self.w.lr, row[j], &ls[j * m..(j + 1) * m]);
             }
             let xr = &self.w.xs[r];
+            if let Some(forcing) = self.forcing.as_deref_mut() {
+                let force = forcing.force_at(r, xr);
+                for (i, acc) in self.w.accu.iter_mut().enumerate() {
+                    ops::axpy(acc.as_mut_slice(), t.test[r * k + i], force.as_slice());
+                }
+            }
             sys.hamiltonian().gradient(xr, &mut self.w.grad);
             for gi in self.w.grad.as_mut_slice() {
                 *gi = *gi * self.h;
@@ -182,6 +204,9 @@ impl<V: Vector, Sys: Model<V>> NonlinearProblem<V::Real> for Problem<'_, V, Sys>
             self.system
                 .structure()
                 .apply(self.x, &self.w.acc[i], &mut self.w.f);
+            if let Some(accu) = self.w.accu.get(i) {
+                ops::axpy(self.w.f.as_mut_slice(), V::Real::one(), accu.as_slice());
+            }
             let yi = &u[i * n..(i + 1) * n];
             for ((o, &y), &f) in out_a[i * n..(i + 1) * n]
                 .iter_mut()

@@ -9,11 +9,12 @@
 //! momentum rows and the `k m` constraint rows in `(Y^p, L)`,
 //!
 //! ```text
-//! F^p_i = Y^p_i + (1/β_i) Σ_r b_r ℓ_i(e_r) (h ∇V(q_r) + G(q_r)ᵀ L(e_r)) − B Y^q_i
+//! F^p_i = Y^p_i + (1/β_i) Σ_r b_r ℓ_i(e_r) (h ∇V(q_r) + G(q_r)ᵀ L(e_r) − h F(q_r) u(t_r)) − B Y^q_i
 //! F^c_i = (1/β_i) Σ_r b_r ℓ_i(e_r) G(q_r) h q'(e_r) + g(q_n)
 //! ```
 //!
-//! (the full residual of [`Problem`], read at these rows), whose Newton matrix is
+//! (the full residual of [`Problem`], read at these rows; `F u` the inputs' forces, when the
+//! system is open), whose Newton matrix is
 //! `[[I − h Â ⊗ B W⁻¹ + O(h² ∇²V), C], [G, 0]]`: `C` the multipliers' columns
 //! `(1/β_i) Σ_r b_r ℓ_i(e_r) ℓ_j(e_r) G(q_r)ᵀ`, `G` the constraint rows through the eliminated
 //! `Y^q`. Without the force Jacobian and the constraints' curvature this is the
@@ -173,6 +174,14 @@ impl<V: Vector, Sys: Model<V>> Stages<'_, '_, V, Sys> {
             sys.hamiltonian().gradient(xr, &mut sw.grad);
             for gi in &mut sw.grad.as_mut_slice()[..nq] {
                 *gi = *gi * h;
+            }
+            // The inputs' forces `h (B u)_p(x_r)` join the momentum rows with the force's sign
+            // (`F^p = Y^p − (M acc)_p − accu_p`, and these rows hold `acc_q`).
+            if let Some(forcing) = full.forcing.as_deref_mut() {
+                let force = &forcing.force_at(r, xr).as_slice()[nq..n];
+                for (gi, &f) in sw.grad.as_mut_slice()[..nq].iter_mut().zip(force) {
+                    *gi = *gi - f;
+                }
             }
             // `G_q(x_r)ᵀ L` adds nothing to the momenta: the rows read stay the positions'.
             sys.constraint()

@@ -43,6 +43,7 @@ fn check<Sys: Model<DVector<f64>>>(system: &Sys, x0: &DVector<f64>, h: f64) {
             g0: &g0,
             noise: 0.0,
             floor: 0.0,
+            forcing: None,
         };
         let mut u = vec![0.0; k * (n + m)];
         let dim = k * (nq + m);

@@ -11,6 +11,9 @@ pub(crate) struct Tables<T> {
     pub(super) k: usize,
     pub(super) s: usize,
     pub(super) beta: Vec<T>,
+    /// The quadrature nodes `e_r` and weights `b_r` on `[0, 1]`.
+    pub(super) nodes: Vec<T>,
+    pub(super) b: Vec<T>,
     pub(super) ell: Vec<T>,
     pub(super) a: Vec<T>,
     /// `Â_ij = (1/β_i) Σ_r b_r ℓ_i(e_r) A_rj` (`k × k`): for a mechanical model the position
@@ -64,6 +67,8 @@ impl<T: Real> Tables<T> {
             .collect();
         Self {
             test,
+            nodes: cast(&basis.e),
+            b,
             k: basis.k,
             s: basis.s,
             beta,

@@ -134,7 +134,7 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
             SceneErrorKind::Unsupported,
             root.key("integrator").key("scheme"),
             format!(
-                "inputs enter the splitting schemes (their exact sub-flow joins the kick); scheme '{}' takes none: use \"auto\" or a composition",
+                "scheme '{}' takes no inputs (its step has no input term); the splittings (\"auto\", the compositions, \"extrapolation\") and the implicit \"petrov-galerkin\" take them",
                 file.integrator.scheme
             ),
         ));

@@ -204,8 +204,14 @@ pub(super) fn scheme_flow(
         if m > 0 {
             case = Some("degenerate".to_owned());
         }
-        let scheme = PetrovGalerkin::<Col<f64>, _>::try_new(system, x0, order, options)
+        let mut scheme = PetrovGalerkin::<Col<f64>, _>::try_new(system, x0, order, options)
             .map_err(|e| setup_error(model, e))?;
+        if let Some(inputs) = model.inputs.as_ref() {
+            // The inputs' forces in its residual, their work booked as supplied.
+            scheme = scheme
+                .with_inputs(inputs.map.clone(), inputs.signals.clone())
+                .map_err(|e| setup_error(model, e))?;
+        }
         let points = scheme.quadrature_points();
         detail = Some(if Hamiltonian::<Col<f64>>::is_quadratic(model) {
             format!(

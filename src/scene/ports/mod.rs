@@ -28,7 +28,7 @@ use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::validate::{Result, err};
 use crate::vector::Vector;
-use num_traits::{One, Zero};
+use num_traits::Zero;
 use std::sync::Arc;
 
 /// The compiled inputs of a scene: where each acts, its signal and its name.
@@ -139,27 +139,13 @@ impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
         self.terms.len()
     }
     fn apply(&self, x: &mut V, w: &[V::Real]) {
-        let d = self.dim;
         let (q, p) = x.as_mut_slice().split_at_mut(self.nq);
-        for (term, &wj) in self.terms.iter().zip(w) {
-            let f = term.unit_force(q, d);
-            let mut push = |b: usize, s: V::Real| {
-                for k in 0..d {
-                    p[b * d + k] = p[b * d + k] + s * wj * f[k];
-                }
-            };
-            match term {
-                InputTerm::Force { bodies, .. } => {
-                    bodies.iter().for_each(|&b| push(b, V::Real::one()))
-                }
-                InputTerm::Torque { body, pivot, .. } => {
-                    push(*body, V::Real::one());
-                    if let input::Pivot::Body(a) = pivot {
-                        push(*a, -V::Real::one());
-                    }
-                }
-            }
-        }
+        self.push(q, p, w);
+    }
+    /// `B(q)` at `x`'s positions onto `out`'s momenta: exact.
+    fn add_product(&self, x: &V, w: &[V::Real], out: &mut V, _scratch: &mut V) {
+        let q = &x.as_slice()[..self.nq];
+        self.push(q, &mut out.as_mut_slice()[self.nq..], w);
     }
     fn transpose_apply(&self, x: &V, e: &V, y: &mut [V::Real]) {
         let d = self.dim;
@@ -182,6 +168,31 @@ impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
                     }
                 }
             };
+        }
+    }
+}
+
+impl<T: Real> SceneInputMap<T> {
+    /// `p ← p + B(q) w`: each input's unit force at `q`, times its `w`, on the momenta of the
+    /// bodies it drives.
+    fn push(&self, q: &[T], p: &mut [T], w: &[T]) {
+        let d = self.dim;
+        for (term, &wj) in self.terms.iter().zip(w) {
+            let f = term.unit_force(q, d);
+            let mut push = |b: usize, s: T| {
+                for k in 0..d {
+                    p[b * d + k] = p[b * d + k] + s * wj * f[k];
+                }
+            };
+            match term {
+                InputTerm::Force { bodies, .. } => bodies.iter().for_each(|&b| push(b, T::one())),
+                InputTerm::Torque { body, pivot, .. } => {
+                    push(*body, T::one());
+                    if let input::Pivot::Body(a) = pivot {
+                        push(*a, -T::one());
+                    }
+                }
+            }
         }
     }
 }

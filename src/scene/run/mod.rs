@@ -81,7 +81,18 @@ fn failure(step: usize, sim: &dyn Simulation, e: &crate::error::StepError) -> Ru
         step,
         t: sim.time(),
         kind: step_error_kind(e).to_owned(),
-        message: e.to_string(),
+        message: match e {
+            // The input by its name.
+            crate::error::StepError::NonFiniteInput { input, t, value } => {
+                match sim.input_names().get(*input) {
+                    Some(name) => format!(
+                        "input '{name}' is {value} at t = {t}: its signal is not finite there"
+                    ),
+                    None => e.to_string(),
+                }
+            }
+            e => e.to_string(),
+        },
         advice: step_error_advice(e, sim.dt()),
     }
 }

@@ -143,6 +143,9 @@ pub(crate) fn step_error_advice(e: &StepError, dt: f64) -> Option<String> {
         StepError::NonFinite { .. } => Some(format!(
             "the state grew without bound: the step is past the explicit splitting's stability limit (ω dt < 2 for a spring of angular frequency ω); try {smaller}, or an implicit scheme (`scheme = \"midpoint\"`)"
         )),
+        StepError::NonFiniteInput { .. } => Some(
+            "a smaller step does not help: the input's signal must be finite wherever the run samples it (every step reads it inside the step as well as at its ends); define it there, e.g. `max(t - 1, 1e-9)` inside a logarithm".to_owned(),
+        ),
         _ => None,
     }
 }
@@ -153,6 +156,7 @@ pub(crate) fn step_error_kind(e: &StepError) -> &'static str {
         StepError::Newton { .. } => "Newton",
         StepError::FixedPointNotConverged { .. } => "FixedPointNotConverged",
         StepError::NonFinite { .. } => "NonFinite",
+        StepError::NonFiniteInput { .. } => "NonFiniteInput",
         StepError::BadStepSize { .. } => "BadStepSize",
         StepError::BackwardDissipation { .. } => "BackwardDissipation",
         StepError::CouplingViolated { .. } => "CouplingViolated",
