@@ -91,7 +91,7 @@ fn peer(tol: f64, t_end: f64, repeat: usize) -> Row {
         let mut x = start;
         let clock = Instant::now();
         let stats = Dop853::new(4, tol, tol)
-            .solve(index1, &mut x, t_end, |_, _| {})
+            .solve(|_, x, dx| index1(x, dx), &mut x, t_end, |_, _| {})
             .unwrap_or_else(|e| fatal(&format!("DOP853 at tol {tol:e}: {e}")));
         (x, clock.elapsed().as_secs_f64(), stats.evaluations)
     };

@@ -44,13 +44,16 @@ pub enum Dop853Error {
     },
 }
 
-/// DOP853 for autonomous systems (the nodes `c` are not needed), with scalar tolerances `rtol`, `atol`, workspace for states of `n` entries.
+/// DOP853 for `y' = f(t, y)`, with scalar tolerances `rtol`, `atol`, workspace for states of
+/// `n` entries.
 #[derive(Debug, Clone)]
 pub struct Dop853 {
     rtol: f64,
     atol: f64,
     max_steps: u64,
     a: [[f64; STAGES]; STAGES],
+    /// The nodes `c_i = Σ_j a_ij`.
+    c: [f64; STAGES],
     b: [f64; STAGES],
     er: [f64; STAGES],
     bh: [f64; STAGES],
@@ -67,11 +70,13 @@ impl Dop853 {
         for (row, full) in a.iter_mut().zip(&t.a) {
             row.copy_from_slice(&full[..STAGES]);
         }
+        let c = a.map(|row| row.iter().sum());
         Self {
             rtol,
             atol,
             max_steps: u64::MAX,
             a,
+            c,
             b: t.b,
             er: t.er.expect("DOP853 has an error estimator"),
             bh: t.bh.expect("DOP853 has its 3rd-order estimator"),
@@ -93,7 +98,7 @@ impl Dop853 {
     }
 
     /// Hairer's `HINIT`: an initial step from `f(y)` (in `k[0]`) and one more evaluation.
-    fn initial_step<F: FnMut(&[f64], &mut [f64])>(
+    fn initial_step<F: FnMut(f64, &[f64], &mut [f64])>(
         &mut self,
         f: &mut F,
         y: &[f64],
@@ -114,7 +119,7 @@ impl Dop853 {
         for (i, &yi) in y.iter().enumerate() {
             self.stage[i] = yi + h * self.k[0][i];
         }
-        f(&self.stage, &mut self.k[1]);
+        f(h, &self.stage, &mut self.k[1]);
         let mut der2 = 0.0;
         for (i, &yi) in y.iter().enumerate() {
             let sk = self.atol + self.rtol * yi.abs();
@@ -130,7 +135,7 @@ impl Dop853 {
         (100.0 * h.abs()).min(h1).min(span)
     }
 
-    /// Integrates `y' = f(y)` from `t = 0` to `t_end > 0` in place, calling `accepted(t, y)`
+    /// Integrates `y' = f(t, y)` from `t = 0` to `t_end > 0` in place, calling `accepted(t, y)`
     /// after every accepted step.
     ///
     /// A step whose error estimate is not finite is rejected with the largest decrease (`h/3`),
@@ -147,7 +152,7 @@ impl Dop853 {
         mut accepted: O,
     ) -> Result<Dop853Stats, Dop853Error>
     where
-        F: FnMut(&[f64], &mut [f64]),
+        F: FnMut(f64, &[f64], &mut [f64]),
         O: FnMut(f64, &[f64]),
     {
         const SAFE: f64 = 0.9;
@@ -156,7 +161,7 @@ impl Dop853 {
         const EXPO1: f64 = 1.0 / 8.0;
         let n = y.len();
         let mut stats = Dop853Stats::default();
-        f(y, &mut self.k[0]);
+        f(0.0, y, &mut self.k[0]);
         let mut h = self.initial_step(&mut f, y, t_end);
         stats.evaluations = 2;
         let (mut t, mut last, mut reject) = (0.0f64, false, false);
@@ -184,7 +189,7 @@ impl Dop853 {
                         }
                     }
                 }
-                f(&self.stage, &mut self.k[i]);
+                f(t + self.c[i] * h, &self.stage, &mut self.k[i]);
             }
             stats.evaluations += (STAGES - 1) as u64;
             let (mut err, mut err2) = (0.0, 0.0);
@@ -217,7 +222,8 @@ impl Dop853 {
             if err <= 1.0 {
                 stats.accepted += 1;
                 // The last stage's slot takes f(y_new), which is the next step's k[0] (FSAL).
-                f(&self.y_new, &mut self.k[STAGES - 1]);
+                let t_new = if last { t_end } else { t + h };
+                f(t_new, &self.y_new, &mut self.k[STAGES - 1]);
                 stats.evaluations += 1;
                 self.k.swap(0, STAGES - 1);
                 y.copy_from_slice(&self.y_new);
@@ -258,7 +264,7 @@ mod tests {
             // Harmonic oscillator: y = (cos t, −sin t).
             let stats = dop
                 .solve(
-                    |x, dx| {
+                    |_, x, dx| {
                         dx[0] = x[1];
                         dx[1] = -x[0];
                     },
@@ -278,12 +284,25 @@ mod tests {
         }
     }
 
+    /// `y' = cos(t) y`: `y = exp(sin t)`, which the stages see only through their times.
+    #[test]
+    fn a_time_dependent_field_is_evaluated_at_the_stage_times() {
+        for tol in [1e-6, 1e-10] {
+            let mut y = [1.0];
+            Dop853::new(1, tol, tol)
+                .solve(|t, x, dx| dx[0] = t.cos() * x[0], &mut y, 7.0, |_, _| {})
+                .unwrap();
+            let err = (y[0] - 7f64.sin().exp()).abs();
+            assert!(err < 1e2 * tol, "tol {tol:e}: {err:e}");
+        }
+    }
+
     #[test]
     fn it_ends_exactly_at_t_end() {
         let mut y = [1.0];
         let mut t_last = 0.0;
         Dop853::new(1, 1e-8, 1e-8)
-            .solve(|x, dx| dx[0] = -x[0], &mut y, 3.7, |t, _| t_last = t)
+            .solve(|_, x, dx| dx[0] = -x[0], &mut y, 3.7, |t, _| t_last = t)
             .unwrap();
         assert_eq!(t_last, 3.7);
         assert!((y[0] - (-3.7f64).exp()).abs() < 1e-8);

@@ -19,7 +19,6 @@ use crate::precision::plan::{PrecisionPlan, PrecisionRow, Reference, distance, m
 use dop853::Dop853;
 use lieflow::scene::{Scene, SceneModel};
 use problem::{Paper, PeerProblem, ScenePeer};
-use radau5::RADAU_DIMS;
 use std::time::Instant;
 
 /// The most steps a peer may take in one run (a run whose steps keep shrinking stops there,
@@ -125,7 +124,7 @@ fn solve_dop853<P: PeerProblem + ?Sized>(
     let stats = Dop853::new(x.len(), tol, tol)
         .max_steps(PEER_MAX_STEPS)
         .solve(
-            |x, dx| problem.index1(x, &mut mu, dx),
+            |t, x, dx| problem.index1(t, x, &mut mu, dx),
             &mut x,
             t_end,
             |_, x| tracked.record(problem, x, observe),
@@ -192,24 +191,6 @@ pub(crate) fn peer_rows(
         for &tol in &plan.tolerances {
             if stopped() {
                 return rows;
-            }
-            if peer == Peer::Radau5 && !RADAU_DIMS.contains(&(problem.n() + problem.m())) {
-                rows.push(PrecisionRow::failed(
-                    name,
-                    None,
-                    Some(tol),
-                    "Skipped",
-                    format!(
-                        "Radau5 runs beside scenes of n + m = {} unknowns only; this one has {}: DOP853 is the peer here",
-                        RADAU_DIMS
-                            .iter()
-                            .map(ToString::to_string)
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                        problem.n() + problem.m()
-                    ),
-                ));
-                continue;
             }
             let observed = match solve_peer(&*problem, peer, &x0, t_end, tol, true) {
                 Ok(r) => r,

@@ -10,6 +10,7 @@
 use faer::Col;
 use lieflow::System;
 use lieflow::Vector;
+use lieflow::port::InputMap;
 use lieflow::scene::MassGram;
 use lieflow::scene::SceneModel;
 use lieflow::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
@@ -20,14 +21,15 @@ use std::sync::Arc;
 pub(super) trait PeerProblem {
     fn n(&self) -> usize;
     fn m(&self) -> usize;
-    /// `out = M (∇H + Gᵀλ)` at `x`.
-    fn field(&self, x: &[f64], lambda: &[f64], out: &mut [f64]);
-    /// The index-1 multiplier `μ(x)`.
-    fn mu(&self, x: &[f64], out: &mut [f64]);
-    /// `out = M (∇H + Gᵀμ(x))`, the index-1 right-hand side (`mu` is scratch of `m` entries).
-    fn index1(&self, x: &[f64], mu: &mut [f64], out: &mut [f64]) {
-        self.mu(x, mu);
-        self.field(x, mu, out);
+    /// `out = M (∇H + Gᵀλ) + B(x) u(t)` at `(t, x)` (the inputs' term with inputs only).
+    fn field(&self, t: f64, x: &[f64], lambda: &[f64], out: &mut [f64]);
+    /// The index-1 multiplier `μ(t, x)`.
+    fn mu(&self, t: f64, x: &[f64], out: &mut [f64]);
+    /// `out = M (∇H + Gᵀμ) + B u(t)`, the index-1 right-hand side (`mu` is scratch of `m`
+    /// entries).
+    fn index1(&self, t: f64, x: &[f64], mu: &mut [f64], out: &mut [f64]) {
+        self.mu(t, x, mu);
+        self.field(t, x, mu, out);
     }
     /// LU factorizations per right-hand side of the index-1 ODE (the solve for `μ`).
     fn factorizations_per_rhs(&self) -> u64 {
@@ -52,13 +54,13 @@ impl PeerProblem for Paper {
     fn m(&self) -> usize {
         1
     }
-    fn field(&self, x: &[f64], l: &[f64], out: &mut [f64]) {
+    fn field(&self, _t: f64, x: &[f64], l: &[f64], out: &mut [f64]) {
         out[0] = x[2];
         out[1] = x[3];
         out[2] = -l[0] * x[0];
         out[3] = -2.0 * l[0] * x[1];
     }
-    fn mu(&self, x: &[f64], out: &mut [f64]) {
+    fn mu(&self, _t: f64, x: &[f64], out: &mut [f64]) {
         out[0] = (x[2] * x[2] + x[3] * x[3]) / (x[0] * x[0] + 2.0 * x[1] * x[1]);
     }
     fn g(&self, x: &[f64], out: &mut [f64]) {
@@ -84,6 +86,9 @@ struct SceneWork {
     full: Col<f64>,
     mu: Vec<f64>,
     gram: MassGram,
+    /// `u(t)` and scratch of the inputs' product.
+    u: Vec<f64>,
+    scratch: Col<f64>,
 }
 
 /// A scene as a peer problem (see the module docs).
@@ -111,6 +116,8 @@ impl ScenePeer {
                 full: Col::<f64>::zeros(n),
                 mu: vec![0.0; m],
                 gram,
+                u: vec![0.0; model.inputs().map_or(0, |i| i.names().len())],
+                scratch: Col::<f64>::zeros(n),
             }),
             system: System::new(model.clone(), model.clone(), model.clone()),
             model,
@@ -119,7 +126,34 @@ impl ScenePeer {
 }
 
 impl ScenePeer {
-    /// `μ(x)` with `∇V(q)` already in `w.grad`.
+    /// `out += B(x) u(t)` with `x` in `w.x` (nothing without inputs).
+    fn inputs_add(&self, w: &mut SceneWork, t: f64, out: &mut Col<f64>) {
+        let Some(inputs) = self.model.inputs() else {
+            return;
+        };
+        for (u, s) in w.u.iter_mut().zip(inputs.signals()) {
+            *u = s.value(t);
+        }
+        inputs.map().add_product(&w.x, &w.u, out, &mut w.scratch);
+    }
+
+    /// `w.grad ← w.grad − F(q) u(t)`: the inputs' forces join `−∇V` in `μ`'s right-hand side
+    /// (`x` in `w.x`).
+    fn forces_into_gradient(&self, w: &mut SceneWork, t: f64) {
+        if self.model.inputs().is_none() {
+            return;
+        }
+        let nq = self.model.state_len() / 2;
+        let mut force = std::mem::replace(&mut w.t2, Col::<f64>::zeros(0));
+        force.as_mut_slice().fill(0.0);
+        self.inputs_add(w, t, &mut force);
+        for (g, &f) in w.grad.iter_mut().zip(&force.as_slice()[nq..]) {
+            *g -= f;
+        }
+        w.t2 = force;
+    }
+
+    /// `μ(x)` with `∇V(q) − F(q) u(t)` already in `w.grad`.
     fn mu_from(&self, w: &mut SceneWork, x: &[f64], out: &mut [f64]) {
         let model = &self.model;
         let (n, d) = (model.state_len(), model.space_dim());
@@ -156,7 +190,7 @@ impl PeerProblem for ScenePeer {
     fn m(&self) -> usize {
         self.model.constraint_rows()
     }
-    fn field(&self, x: &[f64], lambda: &[f64], out: &mut [f64]) {
+    fn field(&self, t: f64, x: &[f64], lambda: &[f64], out: &mut [f64]) {
         let mut w = self.work.borrow_mut();
         let w = &mut *w;
         w.x.as_mut_slice().copy_from_slice(x);
@@ -164,9 +198,12 @@ impl PeerProblem for ScenePeer {
         self.model
             .jacobian_transpose_apply_add(&w.x, lambda, 1.0, &mut w.t1);
         self.model.apply(&w.x, &w.t1, &mut w.t2);
-        out.copy_from_slice(w.t2.as_slice());
+        let mut field = std::mem::replace(&mut w.t2, Col::<f64>::zeros(0));
+        self.inputs_add(w, t, &mut field);
+        out.copy_from_slice(field.as_slice());
+        w.t2 = field;
     }
-    fn mu(&self, x: &[f64], out: &mut [f64]) {
+    fn mu(&self, t: f64, x: &[f64], out: &mut [f64]) {
         let mut w = self.work.borrow_mut();
         let w = &mut *w;
         w.x.as_mut_slice().copy_from_slice(x);
@@ -174,9 +211,10 @@ impl PeerProblem for ScenePeer {
         let nq = self.model.state_len() / 2;
         self.model
             .potential_gradient_add(&x[..nq], 1.0, &mut w.grad);
+        self.forces_into_gradient(w, t);
         self.mu_from(w, x, out);
     }
-    fn index1(&self, x: &[f64], _mu: &mut [f64], out: &mut [f64]) {
+    fn index1(&self, t: f64, x: &[f64], _mu: &mut [f64], out: &mut [f64]) {
         // ∇H once: its q-half is ∇V for μ's right-hand side, all of it for the field.
         let mut w = self.work.borrow_mut();
         let w = &mut *w;
@@ -184,13 +222,17 @@ impl PeerProblem for ScenePeer {
         w.x.as_mut_slice().copy_from_slice(x);
         self.model.gradient(&w.x, &mut w.full);
         w.grad.copy_from_slice(&w.full.as_slice()[..nq]);
+        self.forces_into_gradient(w, t);
         let mut mu = std::mem::take(&mut w.mu);
         self.mu_from(w, x, &mut mu);
         self.model
             .jacobian_transpose_apply_add(&w.x, &mu, 1.0, &mut w.full);
         w.mu = mu;
         self.model.apply(&w.x, &w.full, &mut w.t2);
-        out.copy_from_slice(w.t2.as_slice());
+        let mut field = std::mem::replace(&mut w.t2, Col::<f64>::zeros(0));
+        self.inputs_add(w, t, &mut field);
+        out.copy_from_slice(field.as_slice());
+        w.t2 = field;
     }
     fn factorizations_per_rhs(&self) -> u64 {
         // A diagonal G W⁻¹ Gᵀ is divided, not factored.

@@ -59,6 +59,14 @@ impl<T: Real> SceneInputs<T> {
     pub fn value(&self, j: usize, t: T) -> T {
         self.signals[j].value(t)
     }
+    /// The input map `B(q)` (the inputs' unit forces on the momenta).
+    pub fn map(&self) -> &SceneInputMap<T> {
+        &self.map
+    }
+    /// The signals, one per input, in file order.
+    pub fn signals(&self) -> &[Signal<T>] {
+        &self.signals
+    }
     /// The same inputs in another scalar (reference runs): expressions are evaluated in `f64`.
     pub(crate) fn with_scalar<S: Real>(&self) -> SceneInputs<S> {
         let signals = self
