@@ -385,3 +385,178 @@ fn the_petrov_galerkin_scheme_is_driven_by_the_inputs_and_books_their_work() {
     assert!(pg.max_energy_balance_error.unwrap() < 1e-11);
     assert!(pg.max_abs_g.unwrap() < 1e-14);
 }
+
+/// A cart on a rail (a plane constraint, row 0) carrying a pendulum (a rod, row 1).
+/// `off` names the constraints switched off, as `lieflow run --off NAME` does.
+fn cart_pole(outputs: &str, off: &[&str]) -> Scene {
+    let mut scene = parse(&format!(
+        r#"
+version = 1
+dim = 2
+[[bodies]]
+name = "cart"
+mass = 2.0
+position = [0.0, 0.0]
+velocity = [0.5, 0.0]
+[[bodies]]
+name = "bob"
+mass = 0.5
+position = [0.6, -0.8]
+velocity = [0.5, 0.0]
+[[constraints]]
+name = "rail"
+type = "plane"
+bodies = ["cart"]
+normal = [0.0, 1.0]
+[[constraints]]
+name = "pole"
+type = "rod"
+bodies = ["cart", "bob"]
+[[effects]]
+type = "gravity"
+g = [0.0, -9.81]
+{outputs}
+[integrator]
+dt = 0.001
+t_end = 0.5
+"#
+    ));
+    scene.file.off = off.iter().map(|s| s.to_string()).collect();
+    scene
+}
+
+#[test]
+fn multiplier_outputs_name_constraints_and_keep_them_when_one_is_switched_off() {
+    let outputs = r#"
+[[outputs]]
+quantity = "multiplier"
+constraint = "pole"
+[[outputs]]
+quantity = "multiplier"
+constraint = 1
+"#;
+    let last = |scene: Scene| {
+        let mut c = scene.compile().unwrap_or_else(|e| panic!("{e}"));
+        let mut out = vec![];
+        let s = run(c.simulation.as_mut(), &c.plan, &mut |s| {
+            out = s.outputs.to_vec()
+        });
+        assert!(s.error.is_none());
+        (c.assembly.outputs.clone(), out)
+    };
+    let (names, on) = last(cart_pole(outputs, &[]));
+    assert_eq!(names, ["lambda_pole", "lambda1"]);
+    assert_eq!(on[0], on[1]);
+    assert!(on[0] != 0.0 && on[0].is_finite());
+    // The rail switched off: row 1 is still the pole's (the assembled model's row 0), by name
+    // and by the declared row alike; before, `constraint = 1` fell off the end.
+    let (_, off) = last(cart_pole(outputs, &["rail"]));
+    assert_eq!(off[0], off[1]);
+    assert!(off[0] != 0.0 && off[0].is_finite());
+    // An output on the switched-off constraint is refused, naming it, by name or by row.
+    for (sel, path) in [
+        ("\"rail\"", "outputs[0].constraint"),
+        ("0", "outputs[0].constraint"),
+    ] {
+        let scene = cart_pole(
+            &format!("[[outputs]]\nquantity = \"multiplier\"\nconstraint = {sel}\n"),
+            &["rail"],
+        );
+        let e = scene.compile().unwrap_err();
+        assert_eq!(e.path.to_string(), path, "{e}");
+        assert!(e.to_string().contains("switched off"), "{e}");
+    }
+    // A name that is not a constraint's, and a row past the declared ones.
+    for (sel, message) in [
+        ("\"cable\"", "no constraint is named 'cable'"),
+        ("2", "declares 2 rows"),
+    ] {
+        let scene = cart_pole(
+            &format!("[[outputs]]\nquantity = \"multiplier\"\nconstraint = {sel}\n"),
+            &[],
+        );
+        let e = scene.compile().unwrap_err();
+        assert!(e.to_string().contains(message), "{e}");
+    }
+}
+
+#[test]
+fn constraint_forces_are_newtons_with_their_documented_signs() {
+    // Three bodies at rest under gravity: one hanging from a rod (tension m g, positive), one
+    // on a floor (the floor pushes up along its normal, m g), one pinned (the pin's vertical
+    // force component, m g); their multipliers are λ of each internal form.
+    let text = r#"
+version = 1
+dim = 2
+[[bodies]]
+name = "bob"
+mass = 2.0
+position = [0.0, -1.5]
+[[bodies]]
+name = "block"
+mass = 3.0
+position = [5.0, 0.0]
+[[bodies]]
+name = "nail"
+mass = 0.5
+position = [-5.0, 1.0]
+[[constraints]]
+name = "rod"
+type = "rod"
+bodies = ["bob"]
+point = [0.0, 0.0]
+[[constraints]]
+name = "floor"
+type = "plane"
+bodies = ["block"]
+normal = [0.0, 1.0]
+[[constraints]]
+name = "pin"
+type = "pin"
+bodies = ["nail"]
+[[effects]]
+type = "gravity"
+g = [0.0, -9.81]
+[[outputs]]
+quantity = "constraint-force"
+constraint = "rod"
+[[outputs]]
+quantity = "constraint-force"
+constraint = "floor"
+[[outputs]]
+quantity = "constraint-force"
+constraint = "pin"
+component = 1
+[[outputs]]
+quantity = "multiplier"
+constraint = "rod"
+[integrator]
+dt = 0.01
+t_end = 0.1
+"#;
+    let mut c = parse(text).compile().unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        c.assembly.outputs,
+        ["force_rod", "force_floor", "force_pin_1", "lambda_rod"]
+    );
+    let mut out = vec![];
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |s| {
+        out = s.outputs.to_vec()
+    });
+    assert!(s.error.is_none());
+    let g = 9.81;
+    // At rest the step's multipliers are the static ones, to rounding.
+    for (value, expected) in [(out[0], 2.0 * g), (out[1], 3.0 * g), (out[2], 0.5 * g)] {
+        assert!((value - expected).abs() <= 1e-12 * expected, "{out:?}");
+    }
+    // g = (|d|² − L²)/2 for the rod: |∇g| = L = 1.5, so λ = T / L.
+    assert!((out[3] - 2.0 * g / 1.5).abs() <= 1e-12, "{out:?}");
+    // An event cannot watch a constraint force (it is not a function of the state).
+    let e = parse(&text.replace(
+        "[integrator]",
+        "[[events]]\nname = \"slack\"\nquantity = \"constraint-force\"\n[integrator]",
+    ))
+    .compile()
+    .unwrap_err();
+    assert!(e.to_string().contains("not multipliers"), "{e}");
+}

@@ -12,7 +12,7 @@ use super::{Raise, Result, check_off_names, columns, err, gravity_notes};
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{ConstraintTerm, SceneModel};
-use crate::scene::ports::compile_inputs;
+use crate::scene::ports::{ConstraintRows, compile_inputs};
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Method, Redundant, SceneFile};
 use crate::vector::Vector;
@@ -30,6 +30,8 @@ pub(super) struct Assembled {
     pub(super) disabled: Vec<String>,
     pub(super) effects: Vec<(String, String)>,
     pub(super) dropped_constraints: Vec<String>,
+    /// The constraint rows as declared and as assembled (what outputs name).
+    pub(super) rows: ConstraintRows,
     pub(super) initial_projection: Option<(f64, f64)>,
     pub(super) notes: Vec<String>,
     pub(super) raise: Raise,
@@ -64,7 +66,26 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
     let (bodies, generated) = expand_bodies(file, dim)?;
     let mut disabled = Vec::new();
     check_off_names(file)?;
+    // The terms as declared (every constraint on): outputs number their rows.
+    let all_on = if file.off.is_empty() {
+        None
+    } else {
+        let mut all = file.clone();
+        all.off.clear();
+        Some(constraint_terms(
+            &all,
+            &bodies,
+            generated.clone(),
+            &mut Vec::new(),
+        )?)
+    };
     let constraints = constraint_terms(file, &bodies, generated, &mut disabled)?;
+    let declared: Vec<(String, FieldPath, usize)> = all_on
+        .as_ref()
+        .unwrap_or(&constraints)
+        .iter()
+        .map(|(kind, label, path)| (label.clone(), path.clone(), kind.rows(dim)))
+        .collect();
     let constraints = if file.flags.constraints {
         constraints
     } else {
@@ -152,6 +173,20 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
     };
     model.state_names = columns::state_names(&bodies);
     model.multiplier_names = columns::multiplier_names(&model, &bodies, file);
+    let rows = ConstraintRows::new(
+        declared,
+        model
+            .constraints
+            .iter()
+            .map(|t| (t.label.clone(), t.path.clone(), t.row, t.rows(dim))),
+        file.constraints
+            .iter()
+            .enumerate()
+            .filter_map(|(i, c)| Some((c.name()?.to_owned(), root.key("constraints").index(i)))),
+        file.off.clone(),
+        dropped_constraints.clone(),
+        !file.flags.constraints,
+    );
     let model = Arc::new(model);
     let n = model.state_len();
     let nq = n / 2;
@@ -223,6 +258,7 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
         disabled,
         effects,
         dropped_constraints,
+        rows,
         initial_projection,
         notes,
         raise,

@@ -202,6 +202,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         disabled,
         effects,
         dropped_constraints,
+        rows,
         initial_projection,
         notes,
         raise,
@@ -240,7 +241,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             None => constraint_counts.push((kind.to_owned(), t.rows(dim))),
         }
     }
-    let outputs = compile_outputs(&file.outputs, &bodies, dim, model.inputs.as_ref(), m)?;
+    let outputs = compile_outputs(&file.outputs, &bodies, dim, model.inputs.as_ref(), &rows)?;
     // Compiled here for the checks (and again for a stack state's run).
     let _: SceneEvents<Col<f64>> =
         compile_events(&file.events, &bodies, dim, model.inputs.as_ref(), &model)?;

@@ -29,6 +29,43 @@ pub(crate) enum ConstraintKind<T = f64> {
     },
 }
 
+impl<T> ConstraintKind<T> {
+    /// Number of rows (`d` for a pin, 1 otherwise).
+    pub(crate) fn rows(&self, d: usize) -> usize {
+        match self {
+            ConstraintKind::Pin { .. } => d,
+            _ => 1,
+        }
+    }
+}
+
+impl ConstraintKind<f64> {
+    /// The force of a row per unit multiplier at positions `q` (`d` per body), with the sign
+    /// of its output (`constraint-force`): the force on the body is `−G_qᵀλ`, so a rod pulls
+    /// its ends together with the tension `λ |q_a − r|`, a sphere pulls toward its centre with
+    /// `λ |q − c|`, a plane pushes along its unit normal with `−λ`, a pin with `−λ_k` along
+    /// axis `k`.
+    pub(crate) fn force_per_multiplier(&self, q: &[f64], d: usize) -> f64 {
+        let distance = |b: usize, r: &[f64; 3]| {
+            (0..d)
+                .map(|k| (q[b * d + k] - r[k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        match self {
+            ConstraintKind::Pin { .. } | ConstraintKind::Plane { .. } => -1.0,
+            ConstraintKind::Rod { a, b, point, .. } => {
+                let r = match b {
+                    Some(b) => core::array::from_fn(|k| if k < d { q[b * d + k] } else { 0.0 }),
+                    None => *point,
+                };
+                distance(*a, &r)
+            }
+            ConstraintKind::Sphere { body, center, .. } => distance(*body, center),
+        }
+    }
+}
+
 /// A constraint term, its first row in `g`, and a label naming where it came from.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct ConstraintTerm<T = f64> {
@@ -42,10 +79,7 @@ pub(crate) struct ConstraintTerm<T = f64> {
 impl<T> ConstraintTerm<T> {
     /// Number of rows (`d` for a pin, 1 otherwise).
     pub(crate) fn rows(&self, d: usize) -> usize {
-        match self.kind {
-            ConstraintKind::Pin { .. } => d,
-            _ => 1,
-        }
+        self.kind.rows(d)
     }
 }
 

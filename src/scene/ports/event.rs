@@ -161,7 +161,7 @@ pub(crate) fn compile_events<V: Vector<Real = f64> + 'static>(
                     bodies,
                     dim,
                     inputs,
-                    model.m,
+                    &super::ConstraintRows::default(),
                     &path,
                     true,
                 )?;

@@ -11,16 +11,19 @@ mod event;
 mod expr;
 mod input;
 mod output;
+mod rows;
 mod signal;
 
 pub use event::{EventAction, EventSpec, PlaneSpec};
 pub use input::InputSpec;
 pub use output::{OutputSpec, Quantity};
+pub use rows::ConstraintRef;
 pub use signal::SignalSpec;
 
 pub(crate) use event::{SceneEvents, compile_events};
 pub(crate) use input::InputTerm;
 pub(crate) use output::{At, CompiledOutput, Scratch, compile_outputs};
+pub(crate) use rows::ConstraintRows;
 
 use crate::port::{Held, InputMap, Signal};
 use crate::real::Real;

@@ -1,6 +1,7 @@
 //! `[[outputs]]`: named quantities of a run, written as CSV columns and drawn.
 
 use super::SceneInputs;
+use super::rows::{ConstraintRef, ConstraintRows};
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::SceneModel;
@@ -27,8 +28,14 @@ pub enum Quantity {
     PortOutput,
     /// The power an input supplies, `y u`.
     Power,
-    /// A constraint multiplier (`constraint`: its row), the mean of the step's `λ_k`, `λ_{k+1}`.
+    /// A constraint multiplier (`constraint`: its name or declared row), the mean of the step's
+    /// `λ_k`, `λ_{k+1}`: `λ` of the constraint's internal form (`(|d|² − L²)/2` for a rod), in
+    /// newtons per unit of `|∇g|`.
     Multiplier,
+    /// The force a constraint row exerts, in newtons: `λ |∇g|` with a sign by kind — a rod's
+    /// tension (positive pulls its ends together), a sphere's pull toward its centre, a plane's
+    /// push along its normal, a pin's force component.
+    ConstraintForce,
     /// `H`.
     Energy,
     /// The kinetic energy.
@@ -57,9 +64,9 @@ pub struct OutputSpec {
     /// The input (input, port-output, power).
     #[serde(default)]
     pub input: Option<String>,
-    /// The constraint row (multiplier).
+    /// The constraint (multiplier): its `name`, or its row in the scene as declared.
     #[serde(default)]
-    pub constraint: Option<usize>,
+    pub constraint: Option<ConstraintRef>,
 }
 
 /// A compiled output: its name and what it reads.
@@ -79,6 +86,8 @@ pub(crate) enum Read {
     PortOutput(usize),
     Power(usize),
     Multiplier(usize),
+    /// A row and its term.
+    ConstraintForce(usize, usize),
     Energy,
     Kinetic,
     Supplied,
@@ -149,6 +158,12 @@ impl CompiledOutput {
             Read::Multiplier(row) => at
                 .multipliers
                 .map_or(f64::NAN, |(a, b)| 0.5 * (a[row] + b[row])),
+            Read::ConstraintForce(row, term) => {
+                let t = &model.constraints[term];
+                let scale = t.kind.force_per_multiplier(&at.x[..nq], model.dim);
+                at.multipliers
+                    .map_or(f64::NAN, |(a, b)| 0.5 * (a[row] + b[row]) * scale)
+            }
             Read::Energy => model.energy(scratch.state(at.x)),
             Read::Kinetic => model.kinetic_energy(at.x),
             Read::Supplied => at.energies.0,
@@ -184,7 +199,7 @@ pub(crate) fn compile_read(
     bodies: &Bodies,
     dim: usize,
     inputs: Option<&SceneInputs<f64>>,
-    m: usize,
+    rows: &ConstraintRows,
     path: &FieldPath,
     events: bool,
 ) -> Result<CompiledOutput> {
@@ -280,23 +295,29 @@ pub(crate) fn compile_read(
                 format!("power.{}", spec.input.as_deref().unwrap_or("")),
             )
         }
-        Quantity::Multiplier | Quantity::Supplied | Quantity::Dissipated if events => {
+        Quantity::Multiplier
+        | Quantity::ConstraintForce
+        | Quantity::Supplied
+        | Quantity::Dissipated
+            if events =>
+        {
             return Err(err(
                 SceneErrorKind::Unsupported,
                 path.key("quantity"),
-                "an event watches the state and time: positions, velocities, momenta, inputs, port outputs, powers and energies, not multipliers or the energy ledger",
+                "an event watches the state and time: positions, velocities, momenta, inputs, port outputs, powers and energies, not multipliers, constraint forces or the energy ledger",
             ));
         }
         Quantity::Multiplier => {
-            let row = spec.constraint.unwrap_or(0);
-            if row >= m {
-                return Err(err(
-                    SceneErrorKind::Reference,
-                    path.key("constraint"),
-                    format!("constraint row {row}, but the scene has {m} rows"),
-                ));
-            }
-            (Read::Multiplier(row), format!("lambda{row}"))
+            let (row, name) = rows.resolve(spec.constraint.as_ref(), spec.component, path)?;
+            (Read::Multiplier(row), name)
+        }
+        Quantity::ConstraintForce => {
+            let (row, name) = rows.resolve(spec.constraint.as_ref(), spec.component, path)?;
+            let term = rows.term_of(row);
+            (
+                Read::ConstraintForce(row, term),
+                name.replacen("lambda", "force", 1),
+            )
         }
         Quantity::Energy => (Read::Energy, "H".to_owned()),
         Quantity::Kinetic => (Read::Kinetic, "kinetic".to_owned()),
@@ -315,12 +336,12 @@ pub(crate) fn compile_outputs(
     bodies: &Bodies,
     dim: usize,
     inputs: Option<&SceneInputs<f64>>,
-    m: usize,
+    rows: &ConstraintRows,
 ) -> Result<Vec<CompiledOutput>> {
     let root = FieldPath::root().key("outputs");
     specs
         .iter()
         .enumerate()
-        .map(|(i, s)| compile_read(s, bodies, dim, inputs, m, &root.index(i), false))
+        .map(|(i, s)| compile_read(s, bodies, dim, inputs, rows, &root.index(i), false))
         .collect()
 }
