@@ -241,7 +241,7 @@ pub enum StepError {
     /// by the caller since the flow's last step): projecting it back would hide a jump. See
     /// [`ProjectionOptions::manifold_tol`](crate::flow::ProjectionOptions::manifold_tol).
     #[error(
-        "the step starts off the constraint manifold: |{what}| = {residual:e} > {tol:e} (the state was changed since the last step; set manifold_tol to None to project it back)"
+        "the step starts off the constraint manifold: |{what}| = {residual:e} > {tol:e}: the state was changed since the last step (a scene's set_state(x, reproject = true) projects it back; in code, ProjectionOptions::manifold_tol = None lets the step project it)"
     )]
     OffManifold {
         /// `"g"` or `"phi"`.

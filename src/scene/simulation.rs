@@ -151,12 +151,18 @@ pub trait Simulation {
     fn multiplier_condition(&mut self) -> Option<f64> {
         None
     }
+    /// Names what this simulation is — its scene's name and a fingerprint of the compiled
+    /// scene and scheme — so that a checkpoint of another one is refused at
+    /// [`restore`](Self::restore) (set by [`compile`](crate::scene::compile)).
+    fn set_identity(&mut self, _name: String, _fingerprint: u64) {}
 }
 
 /// A saved [`Simulation`] (opaque: restored into the simulation it came from, or one compiled
 /// from the same scene).
 pub struct SimulationCheckpoint {
     state: Box<dyn Any + Send>,
+    /// The scene's name and fingerprint it was saved from.
+    identity: Option<(String, u64)>,
     /// Events' values at the save, and how many had happened.
     events: Option<(Vec<f64>, usize)>,
 }
@@ -181,6 +187,8 @@ pub(crate) struct ModelRun<V: Vector, Sys> {
     gram: Option<MassGram>,
     /// Outputs, events and exact energy accounts (scenes).
     pub(crate) watch: Option<Watch<V>>,
+    /// The scene's name and fingerprint ([`Simulation::set_identity`]).
+    identity: Option<(String, u64)>,
 }
 
 impl<V, Sys> ModelRun<V, Sys>
@@ -205,6 +213,7 @@ where
             model,
             gram: None,
             watch: None,
+            identity: None,
         })
     }
 }
@@ -296,10 +305,21 @@ where
         });
         SimulationCheckpoint {
             state: Box::new(checkpoint),
+            identity: self.identity.clone(),
             events,
         }
     }
+    fn set_identity(&mut self, name: String, fingerprint: u64) {
+        self.identity = Some((name, fingerprint));
+    }
     fn restore(&mut self, checkpoint: &SimulationCheckpoint) -> Result<(), String> {
+        if let (Some((theirs, a)), Some((ours, b))) = (&checkpoint.identity, &self.identity)
+            && a != b
+        {
+            return Err(format!(
+                "the checkpoint was saved from scene '{theirs}' (fingerprint {a:016x}), not from this simulation of scene '{ours}' ({b:016x}): a checkpoint restores only into the scene and scheme it was saved from"
+            ));
+        }
         let saved = checkpoint
             .state
             .downcast_ref::<Checkpoint<V>>()

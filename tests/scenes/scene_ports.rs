@@ -155,6 +155,25 @@ fn held_inputs_checkpoints_and_advance_to_serve_an_embedder() {
     let mut other = parse(&text).compile().unwrap();
     other.simulation.restore(&checkpoint).unwrap();
     assert!(controller(other.simulation.as_mut(), 1.0) == first);
+    // Not into another scene of the same state size (a pendulum on a spring instead of a rod):
+    // refused at restore, naming both, instead of a failed step later.
+    let spring = text.replace(
+        "[[constraints]]\ntype = \"rod\"\nbodies = [\"bob\"]\npoint = [0.0, 0.0]\n",
+        "[[effects]]\ntype = \"spring\"\nbodies = [\"bob\"]\npoint = [0.0, 0.0]\nstiffness = 50.0\n",
+    );
+    assert_ne!(spring, text);
+    let mut foreign = parse(&spring).compile().unwrap();
+    assert_eq!(foreign.simulation.state().len(), sim.state().len());
+    let e = foreign.simulation.restore(&checkpoint).unwrap_err();
+    assert!(
+        e.contains("saved from scene") && e.contains("not from this"),
+        "{e}"
+    );
+    // Nor into the same scene under another scheme.
+    let mut pg = parse(&text.replace("[integrator]", "[integrator]\nscheme = \"petrov-galerkin\""))
+        .compile()
+        .unwrap();
+    assert!(pg.simulation.restore(&checkpoint).is_err());
     // The controller removes energy: the motor's supplied energy is negative.
     assert!(sim.supplied().unwrap() < 0.0);
     assert!(

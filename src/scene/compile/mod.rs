@@ -7,6 +7,7 @@ mod builtin;
 mod columns;
 mod constraints;
 mod effects;
+mod fingerprint;
 mod initial;
 mod raise;
 mod scheme;
@@ -126,14 +127,22 @@ fn initial_state_error(e: crate::error::IntegrateError) -> SceneError {
 
 /// Compiles a parsed scene (no source text: errors carry paths but no line numbers).
 pub fn compile(file: &SceneFile) -> Result<Compiled> {
-    compile_impl(file, false)
+    identified(compile_impl(file, false)?)
+}
+
+/// `compiled` with its simulation told what it is ([`Simulation::set_identity`]).
+fn identified(mut compiled: Compiled) -> Result<Compiled> {
+    let print = fingerprint::fingerprint(&compiled.assembly, compiled.simulation.as_ref());
+    let name = compiled.assembly.name.clone();
+    compiled.simulation.set_identity(name, print);
+    Ok(compiled)
 }
 
 /// As [`compile`], but a composition of order above 2 may run damping backwards: for reference
 /// runs of mildly damped scenes only, where an order-8 composition's accuracy matters more than
 /// the damping's sign in its backward sub-steps.
 pub fn compile_reference(file: &SceneFile) -> Result<Compiled> {
-    compile_impl(file, true)
+    identified(compile_impl(file, true)?)
 }
 
 /// The model of a scene of bodies and its initial state, without the scheme's flow: for what
