@@ -147,10 +147,10 @@ pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
         );
         return ExitCode::from(2);
     };
-    let text = match std::fs::read_to_string(&args.scene) {
+    let text = match lieflow::scene::read_scene_file(&args.scene) {
         Ok(t) => t,
         Err(e) => {
-            eprintln!("error: cannot read {}: {e}", args.scene.display());
+            eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     };

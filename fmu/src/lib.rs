@@ -422,6 +422,33 @@ pub unsafe extern "C" fn fmi3DoStep(
     set(early_return, false);
     set(terminate_simulation, false);
     let t = inst.sim.time();
+    // A step that is not finite or not positive is an importer's error (a NaN one stepped
+    // forever); one that takes more steps than the scene's whole run is refused as the scene
+    // file's `t_end` is (the importer splits it).
+    if !communication_step_size.is_finite() || communication_step_size <= 0.0 {
+        inst.log(
+            ERROR,
+            &format!(
+                "communication step size {communication_step_size}: a step is finite and positive"
+            ),
+        );
+        return ERROR;
+    }
+    let steps = communication_step_size / inst.sim.dt();
+    let budget = (inst.scene.file.integrator.t_end / inst.sim.dt())
+        .ceil()
+        .max(1.0);
+    if steps > budget {
+        inst.log(
+            ERROR,
+            &format!(
+                "communication step size {communication_step_size} takes {steps:.3e} steps of dt = {}, more than the scene's whole run (t_end = {}, {budget:.3e} steps): split it",
+                inst.sim.dt(),
+                inst.scene.file.integrator.t_end
+            ),
+        );
+        return ERROR;
+    }
     let slack = 8.0 * f64::EPSILON * (t.abs() + communication_step_size.abs());
     if (current_communication_point - t).abs() > slack.max(1e-12 * t.abs()) {
         inst.log(ERROR, &format!("the FMU is at t = {t}, not at the communication point {current_communication_point}"));

@@ -150,3 +150,23 @@ fn bad_random_values_are_refused_and_integer_fields_can_be_swept() {
         assert_eq!(row.steps, 10);
     }
 }
+
+/// A sweep file and its base scene are read as scene files are: a device or a directory is
+/// refused before anything is read (`/dev/zero` as the base scene read without bound).
+#[test]
+fn a_sweep_reads_only_regular_files() {
+    let dir = std::env::temp_dir().join(format!("lieflow-sweep-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("sweep.toml");
+    std::fs::write(
+        &file,
+        "version = 1\nscene = \"/dev/zero\"\nmode = \"grid\"\n[[parameters]]\npath = \"integrator.dt\"\nvalues = [0.1]\n",
+    )
+    .unwrap();
+    let e = Sweep::from_path(&file).unwrap_err();
+    assert!(e.to_string().contains("not a regular file"), "{e}");
+    assert_eq!(e.path.to_string(), "scene", "{e}");
+    let e = Sweep::from_path(&dir).unwrap_err();
+    assert!(e.to_string().contains("not a regular file"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -131,19 +131,43 @@ impl Simulation {
         if !t.is_finite() {
             return Err(PyValueError::new_err(format!("t must be finite, not {t}")));
         }
+        let now = self.sim.time();
+        // A time behind the current one is refused, as an FMU refuses it (to go back, restore
+        // a checkpoint); the rounding of the step times is not "behind".
+        if t < now - 8.0 * f64::EPSILON * (now.abs() + self.sim.dt()) {
+            return Err(PyValueError::new_err(format!(
+                "advance_to({t}) is behind the current time {now}: a run goes forward (restore a checkpoint to go back)"
+            )));
+        }
         self.sim.advance_to(t).map_err(|e| step_error(&e))
     }
 
     /// Sets the held input `name` to `value` from now on (zero-order hold).
-    fn set_input(&mut self, name: &str, value: f64) -> PyResult<()> {
+    fn set_input(&mut self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        // A bool is an int to Python, and so a float to a plain conversion: `True` is refused
+        // rather than read as 1.0.
+        if value.is_instance_of::<pyo3::types::PyBool>() {
+            return Err(PyValueError::new_err(format!(
+                "input '{name}' = {value}: a number, not a bool"
+            )));
+        }
+        let value: f64 = value.extract()?;
         self.sim
             .set_input(name, value)
             .map_err(PyValueError::new_err)
     }
 
-    /// The value of input `name` at the current time (`None` if there is no such input).
-    fn input(&self, name: &str) -> Option<f64> {
-        self.sim.input(name)
+    /// The value of input `name` at the current time; `ValueError` if there is no such input
+    /// (as `set_input`).
+    fn input(&self, name: &str) -> PyResult<f64> {
+        self.sim.input(name).ok_or_else(|| {
+            let names = self.sim.input_names();
+            PyValueError::new_err(if names.is_empty() {
+                format!("no input '{name}': the scene declares no inputs")
+            } else {
+                format!("no input '{name}' (inputs: {})", names.join(", "))
+            })
+        })
     }
 
     /// The declared outputs at the current state, by name.
@@ -180,12 +204,29 @@ impl Simulation {
     /// Replaces the state (an impulse, a reset); with `reproject`, projects it onto `g = 0`,
     /// `φ = 0` first. Raises `ValueError` for a state of the wrong length or not finite.
     #[pyo3(signature = (x, reproject = false))]
-    fn set_state(&mut self, x: PyReadonlyArray1<'_, f64>, reproject: bool) -> PyResult<()> {
+    fn set_state<'py>(
+        &mut self,
+        py: Python<'py>,
+        x: PyReadonlyArray1<'_, f64>,
+        reproject: bool,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
         let x = x.as_slice()?;
-        self.sim
+        let report = self
+            .sim
             .set_state(x, reproject)
-            .map(drop)
-            .map_err(PyValueError::new_err)
+            .map_err(PyValueError::new_err)?;
+        report
+            .map(|r| {
+                let out = PyDict::new(py);
+                out.set_item("moved", r.moved)?;
+                out.set_item("g_before", r.g_before)?;
+                out.set_item("g_after", r.g_after)?;
+                out.set_item("phi_before", r.phi_before)?;
+                out.set_item("phi_after", r.phi_after)?;
+                out.set_item("iterations", r.iterations)?;
+                Ok(out)
+            })
+            .transpose()
     }
 
     /// A checkpoint of everything the continuation depends on.

@@ -126,6 +126,30 @@ def test_fmu_states_restore_the_continuation_bit_for_bit(fmu, tmp_path):
     slave.freeInstance()
 
 
+def test_do_step_refuses_steps_that_are_not_finite_positive_or_beyond_the_run(fmu, tmp_path):
+    # A NaN step stepped forever (100% CPU); 0 and a negative step returned OK; a step of 1e9
+    # took 1e11 internal steps. Each is now fmi3Error, logged, and the FMU stays where it was.
+    from fmpy import extract, read_model_description
+    from fmpy.fmi3 import FMU3Slave
+
+    md = read_model_description(str(fmu))
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=extract(str(fmu), str(tmp_path / "unzipped")),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="hostile")
+    slave.instantiate()
+    slave.enterInitializationMode(startTime=0.0)
+    slave.exitInitializationMode()
+    for h in [float("nan"), float("inf"), 0.0, -0.1, 1e9]:
+        with pytest.raises(Exception):
+            slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=h)
+    # Still at t = 0, and a good step goes on.
+    time_vr = next(v.valueReference for v in md.modelVariables if v.name == "time")
+    assert slave.getFloat64([time_vr])[0] == 0.0
+    slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.05)
+    assert slave.getFloat64([time_vr])[0] == pytest.approx(0.05)
+    slave.terminate()
+    slave.freeInstance()
+
+
 def replay(sim, times):
     """The outputs of `sim` at `times`, its held force set from TABLE at each of them."""
     rows = []

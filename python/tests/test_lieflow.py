@@ -109,9 +109,13 @@ def test_inputs_outputs_multipliers_and_energies_are_read_by_name():
     assert sim.input_names == ["push"]
     assert sim.output_names == ["bob.x"]
     assert sim.multiplier_names == ["hinge"]
-    assert np.array_equal(sim.multipliers(), [0.0])  # no step yet
+    assert np.isnan(sim.multipliers()).all()  # no step has solved for them yet
     sim.set_input("push", 1.0)
     assert sim.input("push") == 1.0
+    with pytest.raises(ValueError, match="no input 'nosuch'"):
+        sim.input("nosuch")
+    with pytest.raises(ValueError, match="not a bool"):
+        sim.set_input("push", True)
     sim.advance_to(0.2)
     out = sim.outputs()
     assert out["bob.x"] == sim.state[0] > 0.0
@@ -156,6 +160,16 @@ def test_bad_arguments_raise_value_errors():
         sim.set_state(np.zeros(3))
     with pytest.raises(ValueError):
         sim.advance_to(math.nan)
+    sim.advance_to(0.1)
+    with pytest.raises(ValueError, match="behind the current time"):
+        sim.advance_to(0.05)
+    assert sim.t == pytest.approx(0.1)
+    # A re-projection reports how far it moved the state.
+    x = sim.state.copy()
+    x[0] += 1e-3
+    report = sim.set_state(x, reproject=True)
+    assert report["g_after"] < 1e-14 and 0.0 < report["moved"] < 1e-2
+    assert sim.set_state(sim.state.copy()) is None
     with pytest.raises(ValueError):
         sim.run(every=0)
 

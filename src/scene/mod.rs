@@ -138,6 +138,47 @@ pub struct Scene {
     overrides: Vec<(String, f64)>,
 }
 
+/// The text of a scene (or sweep) file: a regular file (not a device, FIFO or directory, which
+/// could block or never end) of at most [`MAX_SCENE_BYTES`].
+///
+/// # Errors
+/// [`SceneErrorKind::Io`] when the file cannot be read, is not a regular file or is larger
+/// than the limit.
+pub fn read_scene_file(path: &Path) -> Result<String, SceneError> {
+    use std::io::Read as _;
+    let name = path.display().to_string();
+    let io = |what: String| {
+        SceneError::new(
+            SceneErrorKind::Io,
+            FieldPath::root(),
+            format!("cannot read {name}: {what}"),
+        )
+    };
+    let meta = std::fs::metadata(path).map_err(|e| io(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(io(
+            "not a regular file (a scene is read from a file, not from a device, a FIFO or a directory)".to_owned(),
+        ));
+    }
+    let too_large = |len: u64| {
+        io(format!(
+            "{len} bytes, more than the {MAX_SCENE_BYTES} a scene file may have"
+        ))
+    };
+    if meta.len() > MAX_SCENE_BYTES {
+        return Err(too_large(meta.len()));
+    }
+    // The limit again while reading: the file may have grown since.
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_string(&mut text))
+        .map_err(|e| io(e.to_string()))?;
+    if text.len() as u64 > MAX_SCENE_BYTES {
+        return Err(too_large(text.len() as u64));
+    }
+    Ok(text)
+}
+
 impl Scene {
     /// Parses a scene from TOML `text`; `file` names it in error messages.
     pub fn from_toml(text: &str, file: &str) -> Result<Self, SceneError> {
@@ -157,38 +198,8 @@ impl Scene {
     /// [`SceneErrorKind::Io`] when the file cannot be read, is not a regular file or is larger
     /// than the limit; the parse errors of [`Scene::from_toml`].
     pub fn from_path(path: &Path) -> Result<Self, SceneError> {
-        use std::io::Read as _;
-        let name = path.display().to_string();
-        let io = |what: String| {
-            SceneError::new(
-                SceneErrorKind::Io,
-                FieldPath::root(),
-                format!("cannot read {name}: {what}"),
-            )
-        };
-        let meta = std::fs::metadata(path).map_err(|e| io(e.to_string()))?;
-        if !meta.is_file() {
-            return Err(io(
-                "not a regular file (a scene is read from a file, not from a device, a FIFO or a directory)".to_owned(),
-            ));
-        }
-        let too_large = |len: u64| {
-            io(format!(
-                "{len} bytes, more than the {MAX_SCENE_BYTES} a scene file may have"
-            ))
-        };
-        if meta.len() > MAX_SCENE_BYTES {
-            return Err(too_large(meta.len()));
-        }
-        // The limit again while reading: the file may have grown since.
-        let mut text = String::new();
-        std::fs::File::open(path)
-            .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_string(&mut text))
-            .map_err(|e| io(e.to_string()))?;
-        if text.len() as u64 > MAX_SCENE_BYTES {
-            return Err(too_large(text.len() as u64));
-        }
-        Self::from_toml(&text, &name)
+        let text = read_scene_file(path)?;
+        Self::from_toml(&text, &path.display().to_string())
     }
 
     /// The embedded default scene ([`DEFAULT_SCENE`]).

@@ -287,6 +287,11 @@ where
         Some(inputs.value(inputs.index(name)?, self.stepper.time()))
     }
     fn advance_to(&mut self, t: f64) -> Result<usize, StepError> {
+        if !t.is_finite() {
+            return Err(StepError::BadStepSize {
+                h: t - self.stepper.time(),
+            });
+        }
         let start = self.stepper.steps_taken();
         while self.stopped().is_none() {
             match self.stepper.next_step_to(t, start) {
@@ -464,6 +469,10 @@ where
     }
     fn multipliers(&self) -> Option<Vec<f64>> {
         let (a, b) = self.stepper.flow().multipliers()?;
+        if self.stepper.steps_taken() == 0 {
+            // No step has solved for them yet.
+            return Some(vec![f64::NAN; a.len()]);
+        }
         Some(a.iter().zip(b).map(|(a, b)| 0.5 * (a + b)).collect())
     }
     fn multiplier_condition(&mut self) -> Option<f64> {

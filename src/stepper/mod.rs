@@ -241,6 +241,11 @@ where
     /// and when the grid reached `t_end` up to the rounding of the time itself, the time is
     /// reported as `t_end` exactly from then on.
     pub(crate) fn next_step_to(&mut self, t_end: V::Real, start: usize) -> Option<Option<V::Real>> {
+        if !t_end.is_finite() {
+            // No step reaches it (a NaN target compares false with everything: stepping on
+            // would never end).
+            return None;
+        }
         let h = self.h;
         let slack = V::Real::lit(8.0) * V::Real::epsilon() * (t_end.abs() + h.abs());
         let remaining = t_end - self.time();

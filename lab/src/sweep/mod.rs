@@ -81,22 +81,16 @@ impl Sweep {
     /// Reads a sweep file and its base scene.
     pub fn from_path(path: &Path) -> Result<Self, SceneError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            SceneError::new(
-                SceneErrorKind::Io,
-                FieldPath::root(),
-                format!("cannot read {name}: {e}"),
-            )
-        })?;
+        let text = lieflow::scene::read_scene_file(path)?;
         let file: SweepFile =
             toml::from_str(&text).map_err(|e| SceneError::from_toml_error(&e, &name, &text))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let scene_path = dir.join(&file.scene);
-        let scene_text = std::fs::read_to_string(&scene_path).map_err(|e| {
+        let scene_text = lieflow::scene::read_scene_file(&scene_path).map_err(|e| {
             SceneError::new(
                 SceneErrorKind::Io,
                 FieldPath::root().key("scene"),
-                format!("cannot read the base scene {}: {e}", scene_path.display()),
+                format!("the base scene: {}", e.message),
             )
         })?;
         Self::new(file, &scene_text, &scene_path.display().to_string())
