@@ -338,6 +338,9 @@ pub(crate) fn print_summary(s: &RunSummary) {
             opt(s.max_energy_balance_error)
         ),
     }
+    if let Some(w) = &s.energy_balance_warning {
+        println!("  warning: {w}");
+    }
     if !s.events.is_empty() {
         let shown: Vec<String> = s
             .events

@@ -358,6 +358,8 @@ where
             None
         };
         self.stepper.state_mut().copy_from(&next);
+        // A state changed from outside a step: the flow keeps nothing of the old one.
+        self.stepper.flow_mut().prepare(&next);
         Ok(report)
     }
     /// Booked by the flow, or carried over from before a parameter change.

@@ -508,3 +508,47 @@ fn scene_files_are_regular_and_bounded() {
     assert!(Scene::from_path(&ok).is_ok());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Two bodies at one point under a pair law, or a spring with a rest length between them, have
+/// no force direction: refused at the effect, naming the bodies (it failed the first step as a
+/// Newton failure with "try a smaller step").
+#[test]
+fn coincident_bodies_under_a_pair_law_or_a_spring_are_named() {
+    let two = |effect: &str| {
+        format!(
+            r#"
+version = 1
+dim = 2
+[[bodies]]
+name = "a"
+mass = 1.0
+position = [0.5, 0.5]
+[[bodies]]
+name = "b"
+mass = 1.0
+position = [0.5, 0.5]
+[[bodies]]
+name = "c"
+mass = 1.0
+position = [2.0, 0.0]
+{effect}
+[integrator]
+dt = 0.01
+t_end = 0.1
+"#
+        )
+    };
+    for effect in [
+        "[[effects]]\ntype = \"pair\"\nlaw = \"inverse-power\"\nstrength = 1.0",
+        "[[effects]]\ntype = \"spring\"\nbodies = [\"a\", \"b\"]\nstiffness = 10.0\nrest_length = 1.0",
+    ] {
+        let e = parse(&two(effect)).compile().unwrap_err();
+        assert_eq!(e.kind, SceneErrorKind::Value, "{e}");
+        assert_eq!(e.path.to_string(), "effects[0]", "{e}");
+        assert!(
+            e.message.contains("'a', 'b'") && e.message.contains("coincide"),
+            "{e}"
+        );
+        assert!(!e.message.contains("'c'"), "{e}");
+    }
+}

@@ -507,6 +507,11 @@ where
     fn is_symmetric(&self) -> bool {
         self.inner.is_symmetric()
     }
+    /// The inner flow's workspace (and what it keeps of a state) for states like `x`.
+    fn prepare(&mut self, x: &V) {
+        self.inner.prepare(x);
+    }
+
     fn stats(&self) -> FlowStats {
         self.stats + self.inner.stats()
     }

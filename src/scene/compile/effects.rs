@@ -21,6 +21,48 @@ pub(super) struct Effects {
 }
 
 /// Checks every declared effect (switched on or not) and assembles the ones switched on.
+/// A potential whose force is not finite at the initial positions (two bodies at one point
+/// under a pair law or a spring of non-zero rest length) is refused here, naming the bodies,
+/// rather than failing the first step as a Newton failure.
+fn finite_at_start(
+    potential: &crate::scene::effects::Potential,
+    bodies: &Bodies,
+    path: &FieldPath,
+    label: &str,
+) -> Result<()> {
+    let d = bodies.dim;
+    let q: Vec<f64> = bodies.list.iter().flat_map(|b| b.q[..d].to_vec()).collect();
+    let mut grad = vec![0.0; q.len()];
+    potential.gradient_add(&q, d, 1.0, &mut grad);
+    let bad: Vec<usize> = (0..bodies.list.len())
+        .filter(|&b| grad[b * d..b * d + d].iter().any(|g| !g.is_finite()))
+        .collect();
+    if bad.is_empty() {
+        return Ok(());
+    }
+    let names: Vec<String> = bad
+        .iter()
+        .take(4)
+        .map(|&b| format!("'{}'", bodies.list[b].name))
+        .collect();
+    let at = |b: usize| &bodies.list[b].q[..d];
+    let coincide = bad.len() >= 2 && at(bad[0]) == at(bad[1]);
+    Err(super::err(
+        crate::scene::error::SceneErrorKind::Value,
+        path.clone(),
+        format!(
+            "{label}: its force is not finite at the initial positions of {}{}{}: a pair law or a spring with a rest length has no direction at zero distance; move them apart",
+            names.join(", "),
+            if bad.len() > 4 { " and others" } else { "" },
+            if coincide {
+                format!(" (which coincide at {:?})", at(bad[0]))
+            } else {
+                String::new()
+            }
+        ),
+    ))
+}
+
 pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effects> {
     let n = bodies.list.len();
     let mut fx = Effects {
@@ -54,6 +96,7 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
             continue;
         }
         if let Some(potential) = potential {
+            finite_at_start(&potential, bodies, &path, &label)?;
             fx.potentials.push(PotentialTerm {
                 label,
                 kind,

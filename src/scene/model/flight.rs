@@ -3,10 +3,12 @@
 //! magnetic field and damped in closed form.
 
 use super::SceneModel;
+use super::consistent::ConsistentAccount;
 use crate::error::StepError;
 use crate::flow::{EXACT, Flow, Ledger};
 use crate::real::Real;
 use crate::vector::Vector;
+use std::any::Any;
 use std::sync::Arc;
 
 /// The free flight of one body under `M`: what its kinetic flow has to do.
@@ -26,6 +28,8 @@ pub(super) enum Flight<T> {
 /// length and kept ([`FlightCache`]), since a scheme calls its flight with few lengths.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct FlightCoefficients<T> {
+    /// `t`.
+    pub(super) length: T,
     /// `e^{−γt}`.
     decay: T,
     /// `φ = ∫₀ᵗ e^{−γs} ds = (1 − e^{−γt})/γ`.
@@ -52,6 +56,7 @@ impl<T: Real> Flight<T> {
     pub(super) fn coefficients(&self, t: T) -> FlightCoefficients<T> {
         let zero = T::lit(0.0);
         let mut c = FlightCoefficients {
+            length: t,
             decay: T::one(),
             phi: t,
             axis: [zero; 3],
@@ -105,6 +110,24 @@ impl<T: Real> Flight<T> {
             }
         }
         c
+    }
+
+    /// The energy the damping of this flight removes from a body (`w = 1/m`) that starts with
+    /// momentum `p` under the constant force `f` (`d` components each): what
+    /// [`apply`](Self::apply) returns, for any `p` and `f` (the consistent account evaluates it
+    /// on their constraint-consistent parts, `consistent.rs`).
+    pub(super) fn removed(&self, c: &FlightCoefficients<T>, w: T, p: &[T], f: &[T]) -> T {
+        let zero = T::lit(0.0);
+        let (p, f) = (load3(p), load3(f));
+        match *self {
+            Flight::Drift | Flight::Fall { .. } => zero,
+            Flight::Exact { gamma, .. } if gamma != zero => T::lit(0.5) * w * c.lost * dot3(p, p),
+            Flight::Exact { .. } => zero,
+            Flight::DampedFall { gamma, .. } => {
+                (gamma * w * (c.i1 * dot3(p, p) + c.phi * c.phi * dot3(p, f) + c.i3 * dot3(f, f)))
+                    .max(zero)
+            }
+        }
     }
 
     /// The flight without its force: the linear part of the (affine) flow, its tangent map.
@@ -360,15 +383,36 @@ impl<T: Real> SceneModel<T> {
 pub struct FreeFlight<T: Real> {
     model: Arc<SceneModel<T>>,
     cache: FlightCache<T>,
+    /// The damping's account on the consistent motion, when damped bodies are constrained
+    /// (`consistent.rs`), with the state before the flight.
+    account: Option<(ConsistentAccount, Vec<f64>)>,
 }
 
 impl<T: Real> FreeFlight<T> {
     /// The free flight of `model`'s bodies.
     pub fn new(model: Arc<SceneModel<T>>) -> Self {
+        // In `f64` (the runs whose ledger is read); a reference run in another scalar keeps the
+        // flight's own account.
+        let damped = model.m > 0 && model.damping.is_some();
+        let account = (damped && (&*model as &dyn Any).is::<SceneModel<f64>>())
+            .then(|| (ConsistentAccount::default(), Vec::new()));
         Self {
             model,
             cache: FlightCache::default(),
+            account,
         }
+    }
+
+    /// The consistent account of the flight just taken from `before` (`None`: keep the
+    /// flight's own).
+    #[cold]
+    fn consistent_removed(&mut self) -> Option<f64> {
+        let (account, before) = self.account.as_mut()?;
+        let model = (&*self.model as &dyn Any).downcast_ref::<SceneModel<f64>>()?;
+        let cache = (&self.cache as &dyn Any).downcast_ref::<FlightCache<f64>>()?;
+        let nq = model.dim * model.masses.len();
+        let (q, p) = before.split_at(nq);
+        account.removed(model, &model.flights, &cache.coefficients, q, p)
     }
 }
 
@@ -380,11 +424,31 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
     }
     #[inline(always)]
     fn step_at(&mut self, ledger: &mut Ledger<T>, h: T, x: &mut V) -> Result<(), StepError> {
+        // The consistent account of a Newton iteration at the positions and sub-step of the
+        // last evaluation is that evaluation's (see `consistent.rs`): looked up before the
+        // flight moves `x`, computed after it otherwise.
+        let kept = match self.account.as_mut() {
+            Some((account, before)) => {
+                let nq = self.model.dim * self.model.masses.len();
+                let kept = account.kept_for(h.to_f64_lossy(), &x.as_slice()[..nq]);
+                if kept.is_none() {
+                    before.clear();
+                    before.extend(x.as_slice().iter().map(|v| v.to_f64_lossy()));
+                }
+                Some(kept)
+            }
+            None => None,
+        };
         let removed = self
             .model
             .free_flight_cached(h, x.as_mut_slice(), &mut self.cache);
         if self.model.is_dissipative() {
-            ledger.dissipated = ledger.dissipated + removed;
+            let booked = match kept {
+                None => removed,
+                Some(Some(booked)) => T::lit(booked),
+                Some(None) => self.consistent_removed().map_or(removed, T::lit),
+            };
+            ledger.dissipated = ledger.dissipated + booked;
         }
         Ok(())
     }
@@ -399,6 +463,21 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
     }
     fn dissipates(&self) -> bool {
         self.model.is_dissipative()
+    }
+    fn prepare(&mut self, _x: &V) {
+        if let Some((account, _)) = self.account.as_mut() {
+            account.forget();
+        }
+    }
+    fn save_memory(&mut self, _out: &mut Vec<T>) {
+        if let Some((account, _)) = self.account.as_mut() {
+            account.forget();
+        }
+    }
+    fn restore_memory(&mut self, _from: &mut &[T]) {
+        if let Some((account, _)) = self.account.as_mut() {
+            account.forget();
+        }
     }
     /// The flight is affine in `x` (linear per body, with a constant force).
     fn lead_is_affine(&self) -> bool {

@@ -11,7 +11,7 @@ mod summary;
 
 pub(crate) use crate::scene::simulation::ModelRun;
 pub use crate::scene::simulation::{EffectReport, Simulation, SimulationCheckpoint};
-pub use summary::{RunFailure, RunPlan, RunSummary, Sample};
+pub use summary::{BUDGET_WARNING_FRACTION, RunFailure, RunPlan, RunSummary, Sample};
 pub(crate) use summary::{step_error_advice, step_error_kind};
 
 use crate::scene::observe::{EnergyBudget, Residuals, RunObserver, StepClock};
@@ -234,6 +234,16 @@ pub fn run_until(
         max_energy_balance_error: e
             .filter(|e| e.dissipated.is_some() || e.supplied.is_some())
             .map(|e| e.max_balance_error),
+        energy_balance_warning: e
+            .filter(|e| e.dissipated.is_some() || e.supplied.is_some())
+            .and_then(|e| {
+                summary::budget_warning(
+                    e.max_balance_error,
+                    e.dissipated.unwrap_or(0.0),
+                    e.supplied.unwrap_or(0.0),
+                    e.initial.abs().max(e.last.abs()),
+                )
+            }),
         effects,
         residual_evaluations: stats.residual_evaluations,
         newton_iterations: stats.newton_iterations,

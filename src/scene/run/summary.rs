@@ -115,6 +115,10 @@ pub struct RunSummary {
     /// `max |H − H₀ + dissipated − supplied|` over the run: the energy budget's error (with
     /// damping or inputs).
     pub max_energy_balance_error: Option<f64>,
+    /// Set when the energy budget's error exceeds [`BUDGET_WARNING_FRACTION`] of the energy
+    /// exchanged (`dissipated + |supplied|`): the account is then dominated by the scheme's
+    /// energy error at this step size (stiff damping, `c dt/m ≫ 1`), and says why and what to do.
+    pub energy_balance_warning: Option<String>,
     /// Per-term evaluation counts.
     pub effects: Vec<EffectReport>,
     /// Residual evaluations of the multiplier solves.
@@ -128,6 +132,33 @@ pub struct RunSummary {
     /// The run was interrupted (Ctrl-C) before its last step: the summary covers the steps
     /// taken.
     pub interrupted: bool,
+}
+
+/// The fraction of the energy exchanged (`dissipated + |supplied|`) above which the budget's
+/// error is flagged in the summary ([`RunSummary::energy_balance_warning`]).
+pub const BUDGET_WARNING_FRACTION: f64 = 0.01;
+
+/// The warning of a budget error `error` against the energy exchanged, when above
+/// [`BUDGET_WARNING_FRACTION`] of it and above the rounding of the energies (`scale`: the
+/// largest `|H|` of the run), so that a run that exchanges nothing is not flagged for its
+/// round-off.
+pub(crate) fn budget_warning(
+    error: f64,
+    dissipated: f64,
+    supplied: f64,
+    scale: f64,
+) -> Option<String> {
+    let exchanged = dissipated.abs() + supplied.abs();
+    if exchanged == 0.0 && scale == 0.0 {
+        // Nothing exchanged and no energy to measure it against (a body at rest at H = 0).
+        return None;
+    }
+    let rounding = 1e3 * f64::EPSILON * scale.max(exchanged);
+    (error > BUDGET_WARNING_FRACTION * exchanged && error > rounding).then(|| {
+        format!(
+            "the energy budget's error {error:.3e} exceeds 1% of the energy exchanged ({exchanged:.3e}): a smaller dt shrinks it as dt², scheme = \"petrov-galerkin\" closes it"
+        )
+    })
 }
 
 /// What to try after a failed step, by the error's cause.
