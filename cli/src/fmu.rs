@@ -5,7 +5,7 @@
 
 use crate::zip::write_zip;
 use crate::{bad_scene, load};
-use lieflow_fmu::{Variables, variables};
+use lieflow_fmu::{Variables, default_outputs, variables};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -113,8 +113,46 @@ fn token(text: &str) -> String {
     )
 }
 
+/// The table files `scene`'s inputs read, as `(resources/<file>, contents)`: each a relative
+/// path inside the scene's directory (an FMU carries its files with it).
+fn referenced_files(scene: &lieflow::scene::Scene) -> Result<Vec<(String, Vec<u8>)>, String> {
+    use lieflow::scene::ports::SignalSpec;
+    let mut out: Vec<(String, Vec<u8>)> = Vec::new();
+    for (i, input) in scene.file.inputs.iter().enumerate() {
+        let SignalSpec::Table {
+            file: Some(file), ..
+        } = input.signal()
+        else {
+            continue;
+        };
+        let path = std::path::Path::new(file.as_str());
+        let inside = path.is_relative()
+            && path
+                .components()
+                .all(|c| matches!(c, std::path::Component::Normal(_)));
+        if !inside {
+            return Err(format!(
+                "inputs[{i}].signal.file = '{file}': an FMU packs the files its scene reads, so a table file is a relative path inside the scene's directory"
+            ));
+        }
+        let at = format!("resources/{}", path.display());
+        if out.iter().any(|(a, _)| *a == at) {
+            continue;
+        }
+        let on_disk = scene
+            .file
+            .base_dir
+            .as_deref()
+            .map_or(path.to_path_buf(), |d| d.join(path));
+        let bytes = lieflow::scene::read_scene_file(&on_disk)
+            .map_err(|e| format!("inputs[{i}].signal.file: {e}"))?;
+        out.push((at, bytes.into_bytes()));
+    }
+    Ok(out)
+}
+
 pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
-    let scene = match load(Some(&args.scene)) {
+    let mut scene = match load(Some(&args.scene)) {
         Ok(s) => s,
         Err(e) => return bad_scene(&e),
     };
@@ -122,6 +160,13 @@ pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
         Ok(c) => c,
         Err(e) => return bad_scene(&e),
     };
+    // The same outputs the FMU will compile at instantiation.
+    if default_outputs(&mut scene, compiled.simulation.as_ref()) {
+        compiled = match scene.compile() {
+            Ok(c) => c,
+            Err(e) => return bad_scene(&e),
+        };
+    }
     if args.output.extension().is_none_or(|e| e != "fmu") {
         eprintln!(
             "error: -o {}: an FMU's file name ends in .fmu",
@@ -169,11 +214,23 @@ pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
         }
     };
     let binary_path = format!("binaries/{tuple}/lieflow_fmu{ext}");
-    let entries: [(&str, &[u8]); 3] = [
+    // The files the scene refers to (a table signal's `file`), packed beside it under
+    // `resources/` at their relative paths: the FMU reads its scene from there.
+    let tables = match referenced_files(&scene) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut entries: Vec<(&str, &[u8])> = vec![
         ("modelDescription.xml", xml.as_bytes()),
         (&binary_path, &binary),
         ("resources/scene.toml", text.as_bytes()),
     ];
+    for (at, bytes) in &tables {
+        entries.push((at, bytes));
+    }
     let written = std::fs::File::create(&args.output).and_then(|f| {
         let mut w = std::io::BufWriter::new(f);
         write_zip(&mut w, &entries)?;

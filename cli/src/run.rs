@@ -69,6 +69,13 @@ pub(crate) struct RunArgs {
     /// Override the scene's final time.
     #[arg(long, value_name = "T", allow_negative_numbers = true)]
     t_end: Option<f64>,
+    /// Override the scene's scheme (`integrator.scheme`: auto, strang, suzuki4, …,
+    /// extrapolation, midpoint, discrete-gradient, petrov-galerkin).
+    #[arg(long, value_name = "NAME")]
+    scheme: Option<String>,
+    /// Override the scene's order (`integrator.order`).
+    #[arg(long, value_name = "K")]
+    order: Option<u32>,
     /// Write the trajectory (t, x, and the diagnostics) as CSV.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
@@ -108,6 +115,23 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         if scene.file.flags.set_named(name, false).is_err() {
             scene.file.off.push(name.clone());
         }
+    }
+    if let Some(name) = &args.scheme {
+        let Some(method) = lieflow::scene::schema::Method::from_name(name) else {
+            eprintln!(
+                "error: --scheme {name}: not a scheme (one of {})",
+                lieflow::scene::schema::Method::names()
+            );
+            return ExitCode::from(2);
+        };
+        scene.file.integrator.scheme = method;
+        if args.order.is_none() {
+            // The new scheme's own default order, not the file's (which named another's).
+            scene.file.integrator.order = None;
+        }
+    }
+    if let Some(order) = args.order {
+        scene.file.integrator.order = Some(order);
     }
     if let Some(dt) = args.dt {
         scene.file.integrator.dt = dt;

@@ -438,3 +438,32 @@ fn the_stress_list_speaks_of_cases_not_of_the_project_s_history() {
         assert!(!text.to_lowercase().contains(word), "`{word}` in {text}");
     }
 }
+
+#[test]
+fn scheme_and_order_are_overridden_like_the_step() {
+    let o = lieflow(&[
+        "run",
+        &repo("scenes/forced_pendulum.toml"),
+        "--scheme",
+        "petrov-galerkin",
+        "--order",
+        "6",
+        "--t-end",
+        "0.1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.lines()
+            .next()
+            .is_some_and(|l| l.contains("Petrov–Galerkin") && l.contains("order 6")),
+        "{text}"
+    );
+    let o = lieflow(&["run", "--scheme", "rk4"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--scheme rk4: not a scheme"),
+        "{}",
+        stderr(&o)
+    );
+}

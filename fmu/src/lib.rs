@@ -22,7 +22,7 @@ mod variables;
 use lieflow::scene::{Scene, Simulation, SimulationCheckpoint};
 use std::ffi::{CStr, CString, c_char, c_void};
 use std::path::PathBuf;
-pub use variables::{Variables, variables};
+pub use variables::{Variables, default_outputs, variables};
 
 /// `fmi3Status`.
 pub type Status = i32;
@@ -92,8 +92,11 @@ pub extern "C" fn fmi3SetDebugLogging(
 /// Reads and compiles `resources/scene.toml` under `resource_path`.
 fn compile(resource_path: &str) -> Result<(Scene, Box<dyn Simulation>), String> {
     let path = PathBuf::from(resource_path).join("scene.toml");
-    let scene = Scene::from_path(&path).map_err(|e| e.to_string())?;
-    let sim = scene.compile().map_err(|e| e.to_string())?.simulation;
+    let mut scene = Scene::from_path(&path).map_err(|e| e.to_string())?;
+    let mut sim = scene.compile().map_err(|e| e.to_string())?.simulation;
+    if default_outputs(&mut scene, sim.as_ref()) {
+        sim = scene.compile().map_err(|e| e.to_string())?.simulation;
+    }
     Ok((scene, sim))
 }
 
@@ -105,6 +108,9 @@ impl Instance {
             scene = scene.with_value(path, v).map_err(|e| e.to_string())?;
         }
         let mut sim = scene.compile().map_err(|e| e.to_string())?.simulation;
+        if default_outputs(&mut scene, sim.as_ref()) {
+            sim = scene.compile().map_err(|e| e.to_string())?.simulation;
+        }
         for name in &self.vars.inputs {
             if let Some(v) = self.sim.input(name) {
                 sim.set_input(name, v)?;

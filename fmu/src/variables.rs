@@ -1,7 +1,45 @@
 //! The FMU's variables and their value references, derived from a compiled scene the same way
 //! in the library (at instantiation) and in `lieflow fmu` (for `modelDescription.xml`).
 
+use lieflow::scene::ports::{OutputSpec, Quantity};
 use lieflow::scene::{Scene, SceneError, Simulation};
+
+/// A scene of bodies that declares no `[[outputs]]` gets, in an FMU, the positions and
+/// velocities of its bodies as outputs (`<body>.x`, `<body>.vx`, …): an FMU whose only output
+/// were the time would show an importer nothing. Returns whether it added any (then the scene
+/// is compiled again with them). `sim` is the scene compiled as it is.
+pub fn default_outputs(scene: &mut Scene, sim: &dyn Simulation) -> bool {
+    if !scene.file.outputs.is_empty() || scene.file.builtin.is_some() {
+        return false;
+    }
+    // `q.<body>.<axis>`, in body order: the bodies (generated ones too) and their axes.
+    let mut positions = Vec::new();
+    for name in sim.state_names() {
+        let Some(rest) = name.strip_prefix("q.") else {
+            continue;
+        };
+        let Some((body, axis)) = rest.rsplit_once('.') else {
+            continue;
+        };
+        let Some(k) = ["x", "y", "z"].iter().position(|a| *a == axis) else {
+            continue;
+        };
+        positions.push((body.to_owned(), k));
+    }
+    for quantity in [Quantity::Position, Quantity::Velocity] {
+        for (body, k) in &positions {
+            scene.file.outputs.push(OutputSpec {
+                name: None,
+                quantity,
+                body: Some(body.clone()),
+                component: Some(*k),
+                input: None,
+                constraint: None,
+            });
+        }
+    }
+    !positions.is_empty()
+}
 
 /// Value reference 0 is the time; the parameters follow from 1, then the inputs, then the
 /// outputs.

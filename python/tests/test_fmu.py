@@ -82,6 +82,53 @@ def test_the_fmu_of_a_scene_without_held_inputs_runs_like_the_command(tmp_path):
     assert validate_fmu(str(path)) == []
 
 
+def test_an_fmu_carries_its_table_files_and_shows_positions_and_velocities(tmp_path):
+    # A scene whose input reads `file = "push.csv"` and that declares no outputs: the FMU packs
+    # the table beside its scene (FMPy failed at instantiation), and exposes every position and
+    # velocity (it showed only the time).
+    if not BIN.exists():
+        pytest.skip("the command is not built")
+    scenes = tmp_path / "scenes"
+    scenes.mkdir()
+    (scenes / "push.csv").write_text("t,u\n0,0\n0.5,0\n0.6,1\n2,1\n")
+    (scenes / "slider.toml").write_text("""version = 1
+name = "slider"
+dim = 2
+[[bodies]]
+name = "cart"
+mass = 2.0
+position = [0.0, 0.0]
+[[effects]]
+type = "damping"
+coefficient = 0.5
+[[inputs]]
+type = "force"
+name = "push"
+bodies = ["cart"]
+direction = [1.0, 0.0]
+signal = { type = "table", file = "push.csv" }
+[integrator]
+dt = 0.01
+t_end = 2.0
+""")
+    path = tmp_path / "slider.fmu"
+    # From another working directory: the table is found beside its scene.
+    out = subprocess.run([str(BIN), "fmu", str(scenes / "slider.toml"), "-o", str(path)],
+                         capture_output=True, text=True, cwd=str(tmp_path))
+    assert out.returncode == 0, out.stderr
+    assert validate_fmu(str(path)) == []
+    md = fmpy.read_model_description(str(path))
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    assert outputs == ["cart.x", "cart.y", "cart.vx", "cart.vy"]
+    result = fmpy.simulate_fmu(str(path), output=["cart.x", "cart.vx"], stop_time=2.0,
+                               step_size=0.01, output_interval=0.01)
+    # At rest until t = 0.5, then pushed (ramped to 1 N by t = 0.6) against c = 0.5: from
+    # t = 0.6 on, v → 2 with rate 1/4 (within the ramp's 0.05 N s of it at the end).
+    v = result["cart.vx"]
+    assert v[result["time"] <= 0.5].max() == 0.0
+    assert v[-1] == pytest.approx(2.0 * (1.0 - np.exp(-1.45 / 4.0)), rel=1e-2)
+
+
 def test_without_input_the_fmu_ends_where_lieflow_run_ends(fmu):
     import json
 

@@ -200,7 +200,9 @@ impl Scene {
     /// than the limit; the parse errors of [`Scene::from_toml`].
     pub fn from_path(path: &Path) -> Result<Self, SceneError> {
         let text = read_scene_file(path)?;
-        Self::from_toml(&text, &path.display().to_string())
+        let mut scene = Self::from_toml(&text, &path.display().to_string())?;
+        scene.file.base_dir = path.parent().map(Path::to_path_buf);
+        Ok(scene)
     }
 
     /// The embedded default scene ([`DEFAULT_SCENE`]).

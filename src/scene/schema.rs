@@ -70,6 +70,13 @@ pub struct SceneFile {
     /// file.
     #[serde(skip)]
     pub off: Vec<String>,
+    /// The directory of the scene file, when it was read from one ([`Scene::from_path`]): the
+    /// files it names (a table signal's `file`) are found relative to it first. Not read from
+    /// the file.
+    ///
+    /// [`Scene::from_path`]: crate::scene::Scene::from_path
+    #[serde(skip)]
+    pub base_dir: Option<std::path::PathBuf>,
 }
 
 /// A ready model of the library, run through the same command and summary as a scene.

@@ -143,7 +143,7 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
         fx.magnetic,
         profile,
     );
-    model.inputs = compile_inputs(&file.inputs, &bodies, dim)?;
+    model.inputs = compile_inputs(&file.inputs, &bodies, dim, file.base_dir.as_deref())?;
     model.zero_damping = fx.zero_damping && fx.dashpots.is_none();
     model.dashpots = fx.dashpots;
     let splitting = !matches!(

@@ -73,7 +73,8 @@ impl InputSpec {
             },
         }
     }
-    pub(crate) fn signal(&self) -> &SignalSpec {
+    /// The input's signal as the file gives it.
+    pub fn signal(&self) -> &SignalSpec {
         match self {
             Self::Force { signal, .. } | Self::Torque { signal, .. } => signal,
         }

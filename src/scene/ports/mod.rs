@@ -213,6 +213,7 @@ pub(crate) fn compile_inputs(
     specs: &[InputSpec],
     bodies: &Bodies,
     dim: usize,
+    base_dir: Option<&std::path::Path>,
 ) -> Result<Option<SceneInputs<f64>>> {
     if specs.is_empty() {
         return Ok(None);
@@ -233,7 +234,7 @@ pub(crate) fn compile_inputs(
         }
         names.push(name.to_owned());
         terms.push(InputTerm::compile(spec, bodies, dim, &path)?);
-        signals.push(spec.signal().compile(&path.key("signal"))?);
+        signals.push(spec.signal().compile(&path.key("signal"), base_dir)?);
     }
     Ok(Some(SceneInputs {
         map: SceneInputMap {

@@ -57,7 +57,8 @@ pub enum SignalSpec {
         offset: f64,
     },
     /// Piecewise-linear through `points = [[t, u], …]` (increasing `t`), or through the rows
-    /// `t,u` of a CSV `file` (relative to the working directory; `#` lines and a header row
+    /// `t,u` of a CSV `file` (relative to the scene file's directory, or else to the working
+    /// directory; `#` lines and a header row
     /// that does not parse as numbers are skipped). Held constant outside.
     Table {
         /// Inline points.
@@ -84,7 +85,11 @@ pub enum SignalSpec {
 
 impl SignalSpec {
     /// The signal, its values checked, located at `path`.
-    pub(crate) fn compile(&self, path: &FieldPath) -> Result<Signal<f64>> {
+    pub(crate) fn compile(
+        &self,
+        path: &FieldPath,
+        base_dir: Option<&std::path::Path>,
+    ) -> Result<Signal<f64>> {
         Ok(match self {
             Self::Constant { value } => Signal::Constant(finite(*value, &path.key("value"))?),
             Self::Step { at, before, after } => Signal::Step {
@@ -145,7 +150,7 @@ impl SignalSpec {
             Self::Table { points, file } => {
                 let points: Vec<(f64, f64)> = match (points, file) {
                     (Some(p), None) => p.iter().map(|&[t, u]| (t, u)).collect(),
-                    (None, Some(f)) => read_table(f, &path.key("file"))?,
+                    (None, Some(f)) => read_table(&table_path(f, base_dir), &path.key("file"))?,
                     _ => {
                         return Err(err(
                             SceneErrorKind::Value,
@@ -173,6 +178,17 @@ impl SignalSpec {
             }
             Self::Held { value } => Signal::Held(Held::new(finite(*value, &path.key("value"))?)),
         })
+    }
+}
+
+/// Where a table `file` is: beside the scene file when it is there (and the path is relative),
+/// otherwise as written (relative to the working directory).
+pub(crate) fn table_path(file: &str, base_dir: Option<&std::path::Path>) -> String {
+    match base_dir {
+        Some(dir) if std::path::Path::new(file).is_relative() && dir.join(file).is_file() => {
+            dir.join(file).display().to_string()
+        }
+        _ => file.to_owned(),
     }
 }
 
