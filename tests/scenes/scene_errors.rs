@@ -552,3 +552,52 @@ t_end = 0.1
         assert!(!e.message.contains("'c'"), "{e}");
     }
 }
+
+/// An initial state off its rod by 1e-10 (above round-off, below the `√ε` refusal): accepted
+/// with a note, or — with `project_initial = true` — projected and reported (it was accepted
+/// with the note even then, while the note recommended the setting).
+#[test]
+fn project_initial_projects_small_violations_too() {
+    let text = |project: bool| {
+        format!(
+            r#"
+version = 1
+dim = 2
+[[bodies]]
+name = "bob"
+mass = 1.0
+position = [0.6, -0.8000000001]
+[[constraints]]
+type = "rod"
+bodies = ["bob"]
+point = [0.0, 0.0]
+length = 1.0
+[integrator]
+dt = 0.01
+t_end = 0.1
+project_initial = {project}
+"#
+        )
+    };
+    let c = parse(&text(false)).compile().unwrap();
+    assert!(c.assembly.initial_projection.is_none());
+    assert!(
+        c.assembly
+            .notes
+            .iter()
+            .any(|n| n.contains("off the constraints")),
+        "{:?}",
+        c.assembly.notes
+    );
+    let c = parse(&text(true)).compile().unwrap();
+    let (dq, _) = c.assembly.initial_projection.expect("projected");
+    assert!(dq > 5e-11 && dq < 2e-10, "{dq:e}");
+    assert!(
+        !c.assembly
+            .notes
+            .iter()
+            .any(|n| n.contains("off the constraints")),
+        "{:?}",
+        c.assembly.notes
+    );
+}

@@ -652,3 +652,19 @@ t_end = 0.1
     .unwrap_err();
     assert!(e.to_string().contains("not multipliers"), "{e}");
 }
+
+#[test]
+fn an_input_too_large_for_a_finite_energy_is_named() {
+    // A held torque of 1e308: finite, but its impulse over a step (1e305) squares beyond the
+    // largest f64. The step fails as a Newton or NonFinite failure of the state; the summary
+    // names the input instead of advising a smaller step.
+    let mut c = parse(&driven(1e-3, 0.1, 0.1, r#"{ type = "held", value = 0.0 }"#))
+        .compile()
+        .unwrap();
+    c.simulation.set_input("motor", 1e308).unwrap();
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+    let e = s.error.expect("the run fails");
+    assert_eq!(e.kind, "NonFiniteInput", "{e:?}");
+    assert!(e.message.contains("input 'motor' = 1e308"), "{e:?}");
+    assert!(e.advice.unwrap().contains("does not help"));
+}

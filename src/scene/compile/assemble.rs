@@ -213,29 +213,30 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
             })?);
         }
         let off = off_constraints(&model, &x0);
-        if let Some((value, row, level)) = off {
-            if file.integrator.project_initial {
-                initial_projection =
-                    Some(project_initial(&model, &mut x0, false).map_err(|e| {
-                        err(
-                            SceneErrorKind::OffConstraints,
-                            root.key("integrator").key("project_initial"),
-                            e,
-                        )
-                    })?);
-            } else {
-                let (path, label) = constraint_term(&model, row)
-                    .map_or((root.clone(), String::new()), |c| {
-                        (c.path.clone(), c.label.clone())
-                    });
-                return Err(err(
+        // Asked for, the projection takes any violation above round-off (the small ones the
+        // run would otherwise accept with a note, too).
+        let asked = file.integrator.project_initial
+            && (off.is_some() || constraint_offset(&model, &x0, ROUND_OFF_RATIO).is_some());
+        if asked {
+            initial_projection = Some(project_initial(&model, &mut x0, false).map_err(|e| {
+                err(
                     SceneErrorKind::OffConstraints,
-                    path,
-                    format!(
-                        "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `integrator.project_initial = true` to project them (mass-weighted, reported), or `integrator.consistent_velocities = true` for the velocities alone"
-                    ),
-                ));
-            }
+                    root.key("integrator").key("project_initial"),
+                    e,
+                )
+            })?);
+        } else if let Some((value, row, level)) = off {
+            let (path, label) = constraint_term(&model, row)
+                .map_or((root.clone(), String::new()), |c| {
+                    (c.path.clone(), c.label.clone())
+                });
+            return Err(err(
+                SceneErrorKind::OffConstraints,
+                path,
+                format!(
+                    "the initial state is off the constraints: {level} residual {value:.3e} at {label}; fix the positions/velocities, or set `integrator.project_initial = true` to project them (mass-weighted, reported), or `integrator.consistent_velocities = true` for the velocities alone"
+                ),
+            ));
         }
         if initial_projection.is_none()
             && let Some((ratio, value, row, level)) =

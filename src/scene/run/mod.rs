@@ -77,6 +77,21 @@ pub fn advance_until(
 }
 
 fn failure(step: usize, sim: &dyn Simulation, e: &crate::error::StepError) -> RunFailure {
+    use crate::error::StepError;
+    if matches!(e, StepError::Newton { .. } | StepError::NonFinite { .. })
+        && let Some(cause) = overflowing_input(sim)
+    {
+        // The cause is an input, not the step size: say so instead of "try a smaller step".
+        return RunFailure {
+            step,
+            t: sim.time(),
+            kind: "NonFiniteInput".to_owned(),
+            message: format!("{cause} ({e})"),
+            advice: Some(
+                "a smaller step does not help: bound the input (a force whose impulse over a step squares beyond the largest f64 leaves no finite kinetic energy)".to_owned(),
+            ),
+        };
+    }
     RunFailure {
         step,
         t: sim.time(),
@@ -95,6 +110,21 @@ fn failure(step: usize, sim: &dyn Simulation, e: &crate::error::StepError) -> Ru
         },
         advice: step_error_advice(e, sim.dt()),
     }
+}
+
+/// An input whose impulse over a step, `|u(t)| dt`, squares beyond the largest `f64` (a held
+/// value of 1e308): the state it drives cannot hold a finite energy, whatever the step.
+fn overflowing_input(sim: &dyn Simulation) -> Option<String> {
+    let (t, dt) = (sim.time(), sim.dt());
+    sim.input_names().into_iter().find_map(|name| {
+        let u = sim.input(&name)?;
+        ((u * dt).abs() > f64::MAX.sqrt()).then(|| {
+            format!(
+                "input '{name}' = {u:e} at t = {t}: its impulse over a step, {:.1e}, overflows the energy",
+                (u * dt).abs()
+            )
+        })
+    })
 }
 
 /// Takes the steps of `plan`: its full steps of `dt`, then, when `dt` does not divide `t_end`,
