@@ -15,7 +15,6 @@
 //! times force. The order `2k` is kept for smooth `u` (the rule has `s ≥ k` points).
 
 use super::Tables;
-use super::problem::Scratch;
 use crate::error::SetupError;
 use crate::port::{InputMap, Signal};
 use crate::system::{HolonomicConstraint, Model};
@@ -149,9 +148,15 @@ impl<V: Vector> Forcing<V> {
     /// `S_n = Σ_i β_i accz_iᵀ accu_i / h` from the last residual's parts (evaluated at the
     /// solution: the dense solve's last residual is its solution's): `h Σ_r b_r z(e_r)ᵀ
     /// B(x_r) u(t_r)`, since `z(e_r) = Σ_i ℓ_i(e_r) z(c_i)` and `accu_i` is the test sum.
-    pub(super) fn supplied(&self, tables: &Tables<V::Real>, w: &Scratch<V>, h: V::Real) -> V::Real {
+    pub(super) fn supplied(
+        &self,
+        tables: &Tables<V::Real>,
+        accz: &[V],
+        accu: &[V],
+        h: V::Real,
+    ) -> V::Real {
         let mut s = V::Real::zero();
-        for ((z, f), &beta) in w.accz.iter().zip(&w.accu).zip(&tables.beta) {
+        for ((z, f), &beta) in accz.iter().zip(accu).zip(&tables.beta) {
             s = s + beta * ops::dot(z.as_slice(), f.as_slice());
         }
         s / h

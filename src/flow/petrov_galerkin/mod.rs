@@ -506,7 +506,7 @@ where
                     h,
                     &mut self.t2,
                 ),
-                None => forcing.supplied(&self.tables, &self.w, h),
+                None => forcing.supplied(&self.tables, &self.w.accz, &self.w.accu, h),
             },
         };
         let mut projection = V::Real::zero();

@@ -15,6 +15,7 @@ use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{
     ConstraintKind, DashpotFlow, FreeFlight, Kick, SceneKick, SceneModel, SceneSplitting,
+    consistent_account,
 };
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
@@ -420,7 +421,11 @@ pub fn splitting_flow<V: Vector + 'static>(
 ) -> std::result::Result<Splitting<V>, SetupError> {
     let kick = scene_kick(model)?;
     // The exact free flight (booking the energy a damping removes, exactly, per sub-step).
-    let drift = FreeFlight::new(model.clone());
+    let drift = match consistent_account(model) {
+        // Damped bodies on constraints: the damping booked on the motion they allow.
+        Some(account) => FreeFlight::new(model.clone()).with_account(account),
+        None => FreeFlight::new(model.clone()),
+    };
     assemble(model, x0, raise, backward, eps, kick, drift)
 }
 

@@ -26,12 +26,40 @@
 //! iterations that follow; a changed state (`prepare`, a checkpoint) forgets them.
 
 use super::SceneModel;
-use super::flight::{Flight, FlightCoefficients};
+use super::flight::DampingAccount;
+use crate::real::Real;
 use crate::scene::gram::MassGram;
+use std::any::Any;
+use std::sync::Arc;
+
+/// The consistent account of `model`'s flight, when its damped bodies are constrained and it
+/// runs in `f64` (a reference run in another scalar keeps the flight's own account).
+pub(crate) fn consistent_account<T: Real>(
+    model: &Arc<SceneModel<T>>,
+) -> Option<Box<dyn DampingAccount>> {
+    if model.m == 0 || model.damping.is_none() {
+        return None;
+    }
+    let model = (model as &dyn Any).downcast_ref::<Arc<SceneModel<f64>>>()?;
+    Some(Box::new(ConsistentAccount {
+        model: model.clone(),
+        gram: None,
+        q: Vec::new(),
+        factored: false,
+        failed: false,
+        kept: None,
+        booked: 0.0,
+        mu: Vec::new(),
+        nu: Vec::new(),
+        s: Vec::new(),
+        p: Vec::new(),
+        f: Vec::new(),
+    }))
+}
 
 /// Workspace of the consistent account: the Gram matrix factored at the last positions.
-#[derive(Default)]
-pub(crate) struct ConsistentAccount {
+struct ConsistentAccount {
+    model: Arc<SceneModel<f64>>,
     gram: Option<MassGram>,
     /// The positions the Gram matrix is factored at (`factored`), and scratch.
     q: Vec<f64>,
@@ -58,21 +86,10 @@ impl std::fmt::Debug for ConsistentAccount {
 }
 
 impl ConsistentAccount {
-    /// The energy the damping of the flight with coefficients `c` removes from the consistent
-    /// parts of the momenta `p` and the flights' forces at positions `q`; `None` when `G W⁻¹ Gᵀ`
-    /// cannot be factored there (then the flight's own account stands).
-    pub(crate) fn removed(
-        &mut self,
-        model: &SceneModel<f64>,
-        flights: &[Flight<f64>],
-        c: &[FlightCoefficients<f64>],
-        q: &[f64],
-        p: &[f64],
-    ) -> Option<f64> {
-        if self.failed {
-            return None;
-        }
-        self.kept = None;
+    /// `p`, `f` made consistent at `q` (`p ← p − Gᵀ S⁻¹ G W⁻¹ p`); `None` when `S` cannot be
+    /// factored there.
+    fn make_consistent(&mut self, q: &[f64]) -> Option<()> {
+        let model = &*self.model;
         let (d, m) = (model.dim, model.m);
         if !self.factored || self.q.as_slice() != q {
             if self.gram.is_none() {
@@ -86,8 +103,6 @@ impl ConsistentAccount {
                 self.mu = vec![0.0; m];
                 self.nu = vec![0.0; m];
                 self.s = vec![0.0; m];
-                self.p = vec![0.0; q.len()];
-                self.f = vec![0.0; q.len()];
             }
             let gram = self.gram.as_mut()?;
             // A diagonal `S` (no two constraints share a body: a pendulum, particles each on
@@ -99,15 +114,6 @@ impl ConsistentAccount {
                 return None;
             }
         }
-        // The flights' constant forces, then both made consistent.
-        for (b, flight) in flights.iter().enumerate() {
-            let force = match flight {
-                Flight::Fall { force } | Flight::DampedFall { force, .. } => *force,
-                _ => [0.0; 3],
-            };
-            self.f[b * d..b * d + d].copy_from_slice(&force[..d]);
-        }
-        self.p.copy_from_slice(p);
         let gram = self.gram.as_mut()?;
         if gram.is_diagonal() {
             // μ_r = (G_r W⁻¹ v)/S_rr, S_rr = Σ_b |g_rb|²/m_b, for both vectors in one pass,
@@ -136,7 +142,7 @@ impl ConsistentAccount {
             }
             model.gradient_transpose_add(q, mu, -1.0, &mut self.p);
             model.gradient_transpose_add(q, nu, -1.0, &mut self.f);
-            return Some(self.keep(model, flights, c));
+            return Some(());
         }
         for v in [&mut self.p, &mut self.f] {
             self.mu.iter_mut().for_each(|x| *x = 0.0);
@@ -144,49 +150,44 @@ impl ConsistentAccount {
             gram.solve(&mut self.mu).ok()?;
             model.gradient_transpose_add(q, &self.mu, -1.0, v);
         }
-        Some(self.keep(model, flights, c))
+        Some(())
+    }
+}
+
+impl DampingAccount for ConsistentAccount {
+    fn kept_for(&self, t: f64, q: &[f64]) -> Option<f64> {
+        (self.kept == Some(t) && self.q.as_slice() == q).then_some(self.booked)
     }
 
-    /// Books the consistent parts just computed and keeps the result for their `(q, t)`.
-    fn keep(
+    fn removed(
         &mut self,
-        model: &SceneModel<f64>,
-        flights: &[Flight<f64>],
-        c: &[FlightCoefficients<f64>],
-    ) -> f64 {
-        self.booked = self.book(model, flights, c);
-        self.kept = c.first().map(|c| c.length);
-        self.booked
-    }
-
-    /// The booked dissipation kept for a flight of `t` from positions `q`, if it is that of
-    /// the last evaluation's `(q, t)`.
-    #[inline]
-    pub(crate) fn kept_for<T: crate::real::Real>(&self, t: f64, q: &[T]) -> Option<f64> {
-        (self.kept == Some(t)
-            && self.q.len() == q.len()
-            && self.q.iter().zip(q).all(|(&a, b)| a == b.to_f64_lossy()))
-        .then_some(self.booked)
-    }
-
-    /// Forgets the kept consistent parts (the state was changed from outside a step).
-    pub(crate) fn forget(&mut self) {
-        self.kept = None;
-    }
-
-    /// The flights' dissipation of the kept consistent parts.
-    fn book(
-        &self,
-        model: &SceneModel<f64>,
-        flights: &[Flight<f64>],
-        c: &[FlightCoefficients<f64>],
-    ) -> f64 {
-        let d = model.dim;
-        let mut removed = 0.0;
-        for (b, (flight, c)) in flights.iter().zip(c).enumerate() {
-            let (pb, fb) = (&self.p[b * d..b * d + d], &self.f[b * d..b * d + d]);
-            removed += flight.removed(c, model.inv_masses[b], pb, fb);
+        t: f64,
+        q: &[f64],
+        p: &[f64],
+        force: &dyn Fn(usize) -> [f64; 3],
+        book: &dyn Fn(usize, &[f64], &[f64]) -> f64,
+    ) -> Option<f64> {
+        if self.failed {
+            return None;
         }
-        removed.max(0.0)
+        self.kept = None;
+        let d = self.model.dim;
+        let bodies = self.model.masses.len();
+        self.p.clear();
+        self.p.extend_from_slice(p);
+        self.f.clear();
+        self.f
+            .extend((0..bodies).flat_map(|b| force(b).into_iter().take(d)));
+        self.make_consistent(q)?;
+        let booked = (0..bodies).fold(0.0, |acc, b| {
+            acc + book(b, &self.p[b * d..b * d + d], &self.f[b * d..b * d + d])
+        });
+        self.booked = booked.max(0.0);
+        self.kept = Some(t);
+        Some(self.booked)
+    }
+
+    fn forget(&mut self) {
+        self.kept = None;
     }
 }

@@ -3,12 +3,10 @@
 //! magnetic field and damped in closed form.
 
 use super::SceneModel;
-use super::consistent::ConsistentAccount;
 use crate::error::StepError;
 use crate::flow::{EXACT, Flow, Ledger};
 use crate::real::Real;
 use crate::vector::Vector;
-use std::any::Any;
 use std::sync::Arc;
 
 /// The free flight of one body under `M`: what its kinetic flow has to do.
@@ -28,8 +26,6 @@ pub(super) enum Flight<T> {
 /// length and kept ([`FlightCache`]), since a scheme calls its flight with few lengths.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct FlightCoefficients<T> {
-    /// `t`.
-    pub(super) length: T,
     /// `e^{−γt}`.
     decay: T,
     /// `φ = ∫₀ᵗ e^{−γs} ds = (1 − e^{−γt})/γ`.
@@ -56,7 +52,6 @@ impl<T: Real> Flight<T> {
     pub(super) fn coefficients(&self, t: T) -> FlightCoefficients<T> {
         let zero = T::lit(0.0);
         let mut c = FlightCoefficients {
-            length: t,
             decay: T::one(),
             phi: t,
             axis: [zero; 3],
@@ -384,35 +379,74 @@ pub struct FreeFlight<T: Real> {
     model: Arc<SceneModel<T>>,
     cache: FlightCache<T>,
     /// The damping's account on the consistent motion, when damped bodies are constrained
-    /// (`consistent.rs`), with the state before the flight.
-    account: Option<(ConsistentAccount, Vec<f64>)>,
+    /// (`consistent.rs`, set by [`with_account`](Self::with_account)), with the state before
+    /// the flight.
+    account: Option<(Box<dyn DampingAccount>, Vec<f64>)>,
+}
+
+/// How a flight's damping is booked when it is not the flight's own account: the
+/// constraint-consistent account of `consistent.rs`, given to the flight by the scheme that
+/// builds it (so that the flight does not depend on the constraints' linear algebra).
+pub(crate) trait DampingAccount: core::fmt::Debug {
+    /// The booked dissipation kept for a flight of `t` from positions `q` (a Newton iteration
+    /// at the positions and sub-step of the last evaluation), if any.
+    fn kept_for(&self, t: f64, q: &[f64]) -> Option<f64>;
+    /// The dissipation of the flight of `t` from `(q, p)`: `book(b, p_b, f_b)` is body `b`'s
+    /// closed form for a momentum and a force, `force(b)` the flight's constant force on it.
+    /// `None`: keep the flight's own account.
+    fn removed(
+        &mut self,
+        t: f64,
+        q: &[f64],
+        p: &[f64],
+        force: &dyn Fn(usize) -> [f64; 3],
+        book: &dyn Fn(usize, &[f64], &[f64]) -> f64,
+    ) -> Option<f64>;
+    /// Forgets what it keeps (the state was changed from outside a step).
+    fn forget(&mut self);
 }
 
 impl<T: Real> FreeFlight<T> {
     /// The free flight of `model`'s bodies.
     pub fn new(model: Arc<SceneModel<T>>) -> Self {
-        // In `f64` (the runs whose ledger is read); a reference run in another scalar keeps the
-        // flight's own account.
-        let damped = model.m > 0 && model.damping.is_some();
-        let account = (damped && (&*model as &dyn Any).is::<SceneModel<f64>>())
-            .then(|| (ConsistentAccount::default(), Vec::new()));
         Self {
             model,
             cache: FlightCache::default(),
-            account,
+            account: None,
         }
     }
 
-    /// The consistent account of the flight just taken from `before` (`None`: keep the
+    /// The same flight booking its damping through `account`.
+    pub(crate) fn with_account(mut self, account: Box<dyn DampingAccount>) -> Self {
+        self.account = Some((account, Vec::new()));
+        self
+    }
+
+    /// The account's booking of the flight just taken from `before` (`None`: keep the
     /// flight's own).
     #[cold]
-    fn consistent_removed(&mut self) -> Option<f64> {
+    fn account_removed(&mut self, t: T) -> Option<f64> {
         let (account, before) = self.account.as_mut()?;
-        let model = (&*self.model as &dyn Any).downcast_ref::<SceneModel<f64>>()?;
-        let cache = (&self.cache as &dyn Any).downcast_ref::<FlightCache<f64>>()?;
+        let model = &*self.model;
         let nq = model.dim * model.masses.len();
         let (q, p) = before.split_at(nq);
-        account.removed(model, &model.flights, &cache.coefficients, q, p)
+        let coefficients = &self.cache.coefficients;
+        let f64s = |v: [T; 3]| v.map(|x| x.to_f64_lossy());
+        let force = |b: usize| match model.flights[b] {
+            Flight::Fall { force } | Flight::DampedFall { force, .. } => f64s(force),
+            _ => [0.0; 3],
+        };
+        let book = |b: usize, pb: &[f64], fb: &[f64]| {
+            let cast = |v: &[f64]| -> [T; 3] {
+                core::array::from_fn(|k| v.get(k).map_or(T::lit(0.0), |&x| T::lit(x)))
+            };
+            let (pt, ft) = (cast(pb), cast(fb));
+            let d = pb.len();
+            model.flights[b]
+                .removed(&coefficients[b], model.inv_masses[b], &pt[..d], &ft[..d])
+                .to_f64_lossy()
+        };
+        account.removed(t.to_f64_lossy(), q, p, &force, &book)
     }
 }
 
@@ -430,12 +464,9 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
         let kept = match self.account.as_mut() {
             Some((account, before)) => {
                 let nq = self.model.dim * self.model.masses.len();
-                let kept = account.kept_for(h.to_f64_lossy(), &x.as_slice()[..nq]);
-                if kept.is_none() {
-                    before.clear();
-                    before.extend(x.as_slice().iter().map(|v| v.to_f64_lossy()));
-                }
-                Some(kept)
+                before.clear();
+                before.extend(x.as_slice().iter().map(|v| v.to_f64_lossy()));
+                Some(account.kept_for(h.to_f64_lossy(), &before[..nq]))
             }
             None => None,
         };
@@ -446,7 +477,7 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
             let booked = match kept {
                 None => removed,
                 Some(Some(booked)) => T::lit(booked),
-                Some(None) => self.consistent_removed().map_or(removed, T::lit),
+                Some(None) => self.account_removed(h).map_or(removed, T::lit),
             };
             ledger.dissipated = ledger.dissipated + booked;
         }
