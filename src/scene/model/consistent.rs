@@ -26,7 +26,7 @@
 //! iterations that follow; a changed state (`prepare`, a checkpoint) forgets them.
 
 use super::SceneModel;
-use super::flight::DampingAccount;
+use super::flight::{BodyBook, DampingAccount};
 use crate::real::Real;
 use crate::scene::gram::MassGram;
 use std::any::Any;
@@ -165,7 +165,7 @@ impl DampingAccount for ConsistentAccount {
         q: &[f64],
         p: &[f64],
         force: &dyn Fn(usize) -> [f64; 3],
-        book: &dyn Fn(usize, &[f64], &[f64]) -> f64,
+        book: &BodyBook<'_>,
     ) -> Option<f64> {
         if self.failed {
             return None;

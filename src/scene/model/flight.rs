@@ -384,6 +384,9 @@ pub struct FreeFlight<T: Real> {
     account: Option<(Box<dyn DampingAccount>, Vec<f64>)>,
 }
 
+/// Body `b`'s closed-form dissipation for a momentum and a force (`d` entries each).
+pub(crate) type BodyBook<'a> = dyn Fn(usize, &[f64], &[f64]) -> f64 + 'a;
+
 /// How a flight's damping is booked when it is not the flight's own account: the
 /// constraint-consistent account of `consistent.rs`, given to the flight by the scheme that
 /// builds it (so that the flight does not depend on the constraints' linear algebra).
@@ -400,7 +403,7 @@ pub(crate) trait DampingAccount: core::fmt::Debug {
         q: &[f64],
         p: &[f64],
         force: &dyn Fn(usize) -> [f64; 3],
-        book: &dyn Fn(usize, &[f64], &[f64]) -> f64,
+        book: &BodyBook<'_>,
     ) -> Option<f64>;
     /// Forgets what it keeps (the state was changed from outside a step).
     fn forget(&mut self);
