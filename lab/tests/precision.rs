@@ -205,6 +205,17 @@ fn the_double_double_reference_is_below_double_precision() {
     assert!(diff < 1e-13, "{diff:e}");
 }
 
+/// The errors of the rows whose method starts with `method`, each row `ok`.
+fn errors_of(rows: &[PrecisionRow], method: &str) -> Vec<f64> {
+    rows.iter()
+        .filter(|r| r.method.starts_with(method))
+        .map(|r| {
+            assert_eq!(r.status, "ok", "{r:?}");
+            r.error.expect("an ok row has an error")
+        })
+        .collect()
+}
+
 /// Radau5's error falls with its tolerance (vector tolerances, Hairer's Newton tolerance): a
 /// scalar tolerance used to be transformed once per component and left the error flat at
 /// 1e-5 … 1e-3 whatever was asked. Radau IIA is of order 5 (stage order 3), so six decades of
@@ -217,12 +228,8 @@ fn radau5_error_falls_with_its_tolerance() {
     p.tolerances = vec![1e-6, 1e-12];
     let r = reference(&scene, &p).unwrap();
     let rows = work_precision(&scene, &p, &r, &mut |_| {});
-    let radau: Vec<&PrecisionRow> = rows
-        .iter()
-        .filter(|r| r.method.starts_with("Radau5"))
-        .collect();
-    assert!(radau.iter().all(|r| r.status == "ok"), "{radau:?}");
-    let (loose, tight) = (radau[0].error.unwrap(), radau[1].error.unwrap());
+    let radau = errors_of(&rows, "Radau5");
+    let (loose, tight) = (radau[0], radau[1]);
     eprintln!("Radau5 on the paper's example: {loose:e} at 1e-6, {tight:e} at 1e-12");
     assert!(tight < 1e-3 * loose, "{loose:e} → {tight:e}");
 }
@@ -276,22 +283,14 @@ fn every_row_of_a_driven_scene_integrates_its_input() {
     }
     assert!(rows.iter().all(|r| r.status == "ok"), "{rows:?}");
     for prefix in ["DOP853", "Radau5"] {
-        let peer: Vec<f64> = rows
-            .iter()
-            .filter(|r| r.method.starts_with(prefix))
-            .map(|r| r.error.unwrap())
-            .collect();
+        let peer = errors_of(&rows, prefix);
         assert_eq!(peer.len(), 2, "{prefix}");
         assert!(
             peer[1] < 1e-6 && peer[1] < 1e-2 * peer[0],
             "{prefix}: {peer:?}"
         );
     }
-    let pg: Vec<f64> = rows
-        .iter()
-        .filter(|r| r.method.contains("Petrov"))
-        .map(|r| r.error.unwrap())
-        .collect();
+    let pg = errors_of(&rows, "lieflow Petrov");
     // Order 4: halving the step divides the error by about 16.
     assert_eq!(pg.len(), 2);
     assert!(pg[1] < 1e-6 && pg[0] / pg[1] > 10.0, "{pg:?}");
@@ -314,12 +313,8 @@ fn radau5_runs_beside_a_scene_of_any_size() {
     p.tolerances = vec![1e-5, 1e-13];
     let r = reference(&scene, &p).unwrap();
     let rows = work_precision(&scene, &p, &r, &mut |_| {});
-    let radau: Vec<&PrecisionRow> = rows
-        .iter()
-        .filter(|r| r.method.starts_with("Radau5"))
-        .collect();
-    assert!(radau.iter().all(|r| r.status == "ok"), "{radau:?}");
-    let (loose, tight) = (radau[0].error.unwrap(), radau[1].error.unwrap());
+    let radau = errors_of(&rows, "Radau5");
+    let (loose, tight) = (radau[0], radau[1]);
     eprintln!(
         "Radau5 on a driven double pendulum (n + m = 10): {loose:e} at 1e-5, {tight:e} at 1e-13"
     );
