@@ -15,6 +15,7 @@ mod contraction;
 mod exact;
 mod extrapolated;
 mod flow_enum;
+mod forcing;
 mod implicit;
 mod ledger;
 mod linear;
@@ -24,6 +25,7 @@ mod projection;
 mod reduced;
 mod schur;
 mod stage_blocks;
+mod step_end;
 
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};

@@ -21,9 +21,14 @@
 //! The energy identity holds as for the full-state discrete gradient:
 //! `H(x') − H(x) = ∇̄V·δq + p̄ᵀW⁻¹δp = −λ·(g(q') − g(q)) + δqᵀB δq / h = h v̄ᵀB v̄`,
 //! `v̄ = W⁻¹p̄ = δq/h`: zero for skew `B`, `≤ 0` when `B + Bᵀ ⪯ 0`.
+//!
+//! **Inputs** (`with_inputs`): the momentum rows gain the impulse `φ = h F(q̄) u(t_n + h/2)`,
+//! `δp = −h(∇̄V + ∇̄gᵀλ) + B δq + φ`, so `F₁` gains `−(h/2) W⁻¹ φ` and the identity gains
+//! `p̄ᵀW⁻¹φ = δqᵀφ / h`, the work `S_n` of the inputs along the step.
 
 use super::ConstrainedDiscreteGradient;
 use crate::error::StepError;
+use crate::flow::forcing::Forcing;
 use crate::flow::implicit::gonzalez_corrects;
 use crate::flow::reduced::Reduced;
 use crate::flow::schur::{ReducedBlocks, position_rows};
@@ -66,6 +71,8 @@ struct Problem<'a, V: Vector, Sys> {
     t2: &'a mut V,
     /// `(δq, δp)` of the last residual.
     delta: &'a mut [V::Real],
+    /// The inputs, their values at `t_n + h/2` scaled by `h` (`None` for a closed system).
+    forcing: Option<&'a mut Forcing<V>>,
 }
 
 impl<V, Sys> Problem<'_, V, Sys>
@@ -171,11 +178,17 @@ where
         let (r1, r2) = out.split_at_mut(nq);
         let y = &mut self.y.as_mut_slice()[nq..];
         let (ddq, ddp) = self.delta.split_at_mut(nq);
+        // φ = h F(q̄) u(t_n + h/2), at xbar = (q̄, p).
+        let impulse = match self.forcing.as_deref_mut() {
+            Some(forcing) => Some(&forcing.force_at(0, self.xbar).as_slice()[nq..]),
+            None => None,
+        };
         for i in 0..nq {
-            // (h²/2)(∇̄V + ∇̄gᵀλ) = (h²/2) ∇̄V + ∇̄gᵀν;  δp = B δq − (2/h) of it.
+            // (h²/2)(∇̄V + ∇̄gᵀλ) = (h²/2) ∇̄V + ∇̄gᵀν;  δp = B δq − (2/h) of it + φ.
             let f = hh * grad[i] + force[i];
-            let dp = bdq[i] - two_over_h * f;
-            r1[i] = dq[i] - self.w[i] * (half * bdq[i] - f + h * p[i]);
+            let phi = impulse.map_or(V::Real::zero(), |phi| phi[i]);
+            let dp = bdq[i] - two_over_h * f + phi;
+            r1[i] = dq[i] - self.w[i] * (half * (bdq[i] + phi) - f + h * p[i]);
             ddq[i] = dq[i];
             ddp[i] = dp;
             y[i] = p[i] + dp;
@@ -354,6 +367,7 @@ where
             t1: &mut self.tmp,
             t2: &mut self.t2,
             delta,
+            forcing: self.forcing.as_mut(),
         };
         let report = solver
             .solve(&mut problem, z)
@@ -378,5 +392,34 @@ where
             .structure()
             .apply(&self.start, &self.s1, &mut self.f);
         ops::dot(&self.z.as_slice()[..nq], &self.f.as_slice()[nq..]) / h
+    }
+
+    /// `S_n = δqᵀφ / h` of the last step on the mechanical path (`φ = h F(q̄) u(t_n + h/2)`,
+    /// formed again at its `q̄`): the work of the inputs; zero without.
+    pub(super) fn input_work(&mut self, h: V::Real) -> V::Real {
+        let Some(forcing) = self.forcing.as_mut() else {
+            return V::Real::zero();
+        };
+        let n = self.start.len();
+        let nq = n / 2;
+        let dq = &self.z.as_slice()[..nq];
+        let (x, xm) = (self.start.as_slice(), self.xm.as_mut_slice());
+        for i in 0..nq {
+            xm[i] = x[i] + V::Real::lit(0.5) * dq[i];
+        }
+        xm[nq..].copy_from_slice(&x[nq..]);
+        let phi = &forcing.force_at(0, &self.xm).as_slice()[nq..];
+        ops::dot(dq, phi) / h
+    }
+
+    /// The last step's energy account on the mechanical path: `(removed, supplied)`, the
+    /// damping's `−h v̄ᵀB v̄` plus the kinetic energy the hidden-constraint projection removed,
+    /// and the work of the inputs.
+    pub(super) fn account(&mut self, h: V::Real) -> (V::Real, V::Real) {
+        let mut removed = self.removed_by_projection();
+        if self.system.structure().is_dissipative() {
+            removed = removed - self.supplied_reduced(h);
+        }
+        (removed, self.input_work(h))
     }
 }

@@ -3,11 +3,13 @@
 mod mechanical;
 mod step_problem;
 
+use super::forcing::Forcing;
 use super::projection::HiddenSolver;
-use super::{Flow, FlowStats, ProjectionOptions};
+use super::{Flow, FlowStats, Ledger, ProjectionOptions, step_end};
 use crate::error::{NewtonError, SetupError, StepError};
 use crate::flow::reduced::Reduced;
-use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver, SMALL_MAX, SolveReport};
+use crate::nonlinear::{Newton, NonlinearProblem, NonlinearSolver, SolveReport};
+use crate::real::Real;
 use crate::system::MechanicalForm;
 use crate::system::Model;
 use crate::system::{Case, Hamiltonian, HolonomicConstraint, StructureMatrix, check_initial_state};
@@ -28,6 +30,10 @@ pub struct EnergyBalance<T> {
     /// identity is `after_step − before = supplied` (to round-off): `≤ 0` when `M + Mᵀ ⪯ 0`,
     /// `0` when `M` is skew. The constraint force does no work.
     pub supplied: T,
+    /// `S_n = δqᵀ F(q̄) u(t_n + h/2)`, the work of the inputs
+    /// ([`with_inputs`](ConstrainedDiscreteGradient::with_inputs); zero without): the identity
+    /// is `after_step − before = supplied + inputs`.
+    pub inputs: T,
 }
 
 /// The discrete-gradient method for the constrained system `x' = M(x)(∇H + Gᵀλ)`, `g(x) = 0`
@@ -83,6 +89,10 @@ pub struct ConstrainedDiscreteGradient<
     /// The momenta eliminated (a model of mechanical form): Newton on `(δq, ν)`.
     mechanical: Option<Reduced<V::Real, W::Solver>>,
     hidden: Option<HiddenSolver<V>>,
+    /// The inputs `B(q) u(t)`, when the system is open ([`with_inputs`](Self::with_inputs)).
+    forcing: Option<Forcing<V>>,
+    /// The state the flow was built for (inputs are checked there).
+    initial: V,
     /// Unknowns `(δ, ℓ = hλ)`.
     z: W,
     /// The multiplier `λ` of the last step (warm start).
@@ -179,6 +189,8 @@ where
             newton,
             mechanical,
             hidden,
+            forcing: None,
+            initial: x0.clone(),
             z: W::zeros(n + m),
             lambda: vec![V::Real::zero(); m],
             nu: vec![V::Real::zero(); m],
@@ -214,6 +226,45 @@ where
         self
     }
 
+    /// The same scheme for the open system `x' = M (∇H + Gᵀλ) + B(x) u(t)`: `map` is `B`,
+    /// `signals` the inputs `u`. The step takes the input at the step's midpoint,
+    ///
+    /// ```text
+    /// x_{k+1} = x_k + h M(x̄)(∇̄H + ∇̄gᵀλ) + h B(x̄) u(t_n + h/2),
+    /// ```
+    ///
+    /// reads the time from the [`Ledger`] and advances it, and books the supplied work
+    /// `S_n = h F̄ᵀ B(x̄) u(t_n + h/2)` (`F̄ = ∇̄H + ∇̄gᵀλ`), for which the discrete-gradient
+    /// identity becomes `H(x_{n+1}) − H(x_n) = h F̄ᵀM F̄ + S_n` exactly (`∇̄g·Δ = 0` still; the
+    /// hidden-constraint projection then removes kinetic energy, booked as dissipated). Order 2
+    /// for `u` with a bounded derivative. On a model of mechanical form `B` acts on the momenta
+    /// (its rows `F`), `δp` gains `h F u` and `S_n = δqᵀ F u`, with `B` taken at `(q̄, p_n)`:
+    /// forces of the positions and time (a force that depends on the momenta is taken at the
+    /// step's start, first order in them). The kept Newton matrices leave out `D(B u)` (Newton
+    /// tests the residual, which has it).
+    ///
+    /// # Errors
+    /// [`SetupError::Scheme`] when an input moves a position of the mechanical form or what
+    /// the constraints read (`G(x0) B(x0) ≠ 0`);
+    /// [`SetupError::Dimension`] when the signals and the map's inputs differ in number.
+    pub fn with_inputs(
+        mut self,
+        map: impl crate::port::InputMap<V> + 'static,
+        signals: Vec<crate::port::Signal<V::Real>>,
+    ) -> Result<Self, SetupError> {
+        let nq = self.mechanical.as_ref().map(|reduced| reduced.nq);
+        let forcing = Forcing::try_new(
+            "constrained discrete gradient",
+            Box::new(map),
+            signals,
+            &self.system,
+            &self.initial,
+            nq,
+        )?;
+        self.forcing = Some(forcing);
+        Ok(self)
+    }
+
     /// The system.
     pub fn system(&self) -> &Sys {
         &self.system
@@ -240,24 +291,26 @@ where
         );
         if self.mechanical.is_some() {
             let supplied = self.supplied_reduced(h);
+            let inputs = self.input_work(h);
             return Some(EnergyBalance {
                 before,
                 after_step,
                 after,
                 supplied,
+                inputs,
             });
         }
         let zs = self.z.as_slice().to_vec();
         let mut out = vec![V::Real::zero(); zs.len()];
         let mut problem = problem!(self, h);
         problem.residual(&zs, &mut out).ok()?;
-        // grad = h F̄, f = h M(x̄) F̄.
-        let supplied = ops::dot(problem.grad.as_slice(), problem.f.as_slice()) / h;
+        let (supplied, inputs) = self.full_account(h);
         Some(EnergyBalance {
             before,
             after_step,
             after,
             supplied,
+            inputs,
         })
     }
 }
@@ -283,6 +336,7 @@ macro_rules! problem {
             s2: &mut $s.s2,
             em: &mut $s.em,
             system: &$s.system,
+            forcing: $s.forcing.as_mut(),
         }
     };
 }
@@ -294,10 +348,6 @@ where
     Sys: Model<V>,
     W: Vector<Real = V::Real>,
 {
-    fn m(&self) -> usize {
-        self.g0.len()
-    }
-
     /// The step on the general path: Newton on `(δ, ℓ = hλ)` from the predictor
     /// `δ = M(x)(h ∇H(x) + G(x)ᵀ ℓ)`, `ℓ = h λ_prev`.
     fn solve_full(&mut self, h: V::Real) -> Result<SolveReport<V::Real>, StepError> {
@@ -332,24 +382,33 @@ where
                 newton_error("constrained discrete gradient", e)
             })
     }
+}
 
-    /// The hidden-constraint projection from `after_step` into `xe` (`nu` holds `ν`). `K = m`
-    /// on the small path, `K = 0` on the general one.
-    #[inline(always)]
-    fn project_hidden<const K: usize>(
-        &mut self,
-    ) -> Result<SolveReport<V::Real>, NewtonError<StepError>> {
-        let Some(hidden) = self.hidden.as_mut() else {
-            unreachable!("project_hidden without a hidden projection");
-        };
-        hidden.project::<K, _>(
-            &self.system,
-            &self.after_step,
-            &mut self.xe,
-            &mut self.tmp,
-            &mut self.t2,
-            &mut self.nu,
-        )
+impl<V, Sys, W> ConstrainedDiscreteGradient<V, Sys, W>
+where
+    V: Vector,
+    Sys: Model<V>,
+    W: Vector<Real = V::Real>,
+{
+    /// `(h F̄ᵀM F̄, S_n)` on the full path from the last residual (`grad = h F̄`,
+    /// `f = h M(x̄) F̄`, the inputs' `h B(x̄) u` in the forcing), which must have been evaluated
+    /// at the step's solution: Newton's last evaluation is.
+    fn full_account(&self, h: V::Real) -> (V::Real, V::Real) {
+        let damping = ops::dot(self.grad.as_slice(), self.f.as_slice()) / h;
+        let supplied = self.forcing.as_ref().map_or(V::Real::zero(), |forcing| {
+            ops::dot(self.grad.as_slice(), forcing.last_force().as_slice()) / h
+        });
+        (damping, supplied)
+    }
+
+    /// `H(x') − H(x_{k+1})`, the energy the hidden-constraint projection removed (zero
+    /// without one).
+    fn removed_by_projection(&self) -> V::Real {
+        if self.hidden.is_none() {
+            return V::Real::zero();
+        }
+        let mechanical = self.mechanical.as_ref().map(|r| (r.nq, &r.w[..]));
+        step_end::removed_energy(&self.system, mechanical, &self.after_step, &self.last)
     }
 }
 
@@ -404,6 +463,19 @@ where
         }
     }
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.step_at(&mut Ledger::default(), h, x)
+    }
+    /// The step from `ledger.t`. It books the energy it removed (the damping's `−h F̄ᵀM F̄`,
+    /// `−h v̄ᵀB v̄` on the mechanical path, and the kinetic energy the hidden-constraint
+    /// projection removed) in `ledger.dissipated` and, with inputs, their work `S_n` in
+    /// `ledger.supplied`, advancing `ledger.t` by `h`: `H_{n+1} − H_n = −D_n + S_n` to
+    /// round-off.
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
         let n = self.start.len();
         if x.len() != n {
             return Err(StepError::StateLength {
@@ -414,6 +486,16 @@ where
         }
         if !super::check_step(h, x)? {
             return Ok(());
+        }
+        let t0 = ledger.t;
+        if let Some(forcing) = self.forcing.as_mut()
+            && let Err((input, t, value)) = forcing.begin(t0, h, &[V::Real::lit(0.5)], h)
+        {
+            return Err(StepError::NonFiniteInput {
+                input,
+                t: t.to_f64_lossy(),
+                value: value.to_f64_lossy(),
+            });
         }
         // The stored step is overwritten below; report no balance unless this step succeeds.
         self.have_step = false;
@@ -440,6 +522,9 @@ where
         };
         let report = solved?;
         self.stats.record(&report);
+        // The full path's account from its last residual, evaluated at the solution (before
+        // the projection reuses the scratch).
+        let full = self.mechanical.is_none().then(|| self.full_account(h));
         let delta = &self.z.as_slice()[..n];
         if let Some(component) = ops::first_non_finite(self.z.as_slice()) {
             self.forget_step_jacobian();
@@ -462,13 +547,18 @@ where
         self.last.copy_from(&self.after_step);
         if self.hidden.is_some() {
             ops::fill_zero(&mut self.nu);
-            let solved = match self.m() {
-                1 => self.project_hidden::<1>(),
-                2 => self.project_hidden::<2>(),
-                3 => self.project_hidden::<3>(),
-                4 => self.project_hidden::<SMALL_MAX>(),
-                _ => self.project_hidden::<0>(),
+            let Some(hidden) = self.hidden.as_mut() else {
+                unreachable!("the hidden projection checked above");
             };
+            let solved = step_end::project(
+                hidden,
+                &self.system,
+                &self.after_step,
+                &mut self.xe,
+                &mut self.tmp,
+                &mut self.t2,
+                &mut self.nu,
+            );
             let report = match solved {
                 Ok(r) => r,
                 Err(e) => {
@@ -492,6 +582,15 @@ where
         self.last_h = h;
         self.have_step = true;
         x.copy_from(&self.last);
+        let (removed, supplied) = match full {
+            Some((damping, supplied)) => (self.removed_by_projection() - damping, supplied),
+            None => self.account(h),
+        };
+        ledger.dissipated = ledger.dissipated + removed;
+        if self.forcing.is_some() {
+            ledger.supplied = ledger.supplied + supplied;
+            ledger.t = t0 + h;
+        }
         Ok(())
     }
     fn order(&self) -> u32 {

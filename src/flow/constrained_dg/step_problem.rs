@@ -1,8 +1,10 @@
 //! The constrained discrete gradient's nonlinear problem: the increment `δ` and the scaled
-//! multipliers `ℓ` of one step, `F(δ, ℓ) = (δ − h M(x̄)(∇̄H + ∇̄gᵀℓ/h), g(x + δ))`, with its
-//! closed-form Jacobian columns and noise floor.
+//! multipliers `ℓ` of one step, `F(δ, ℓ) = (δ − h M(x̄)(∇̄H + ∇̄gᵀℓ/h) − h B(x̄) u, g(x + δ))`
+//! (the inputs' term at `t_n + h/2` when the system is open), with its closed-form Jacobian
+//! columns (`D(B u)` left out) and noise floor.
 
 use crate::error::StepError;
+use crate::flow::forcing::Forcing;
 use crate::flow::implicit::{GonzalezRule, GradientRule, gonzalez_corrects, noise_image};
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
@@ -11,7 +13,7 @@ use crate::system::{Hamiltonian, HolonomicConstraint, StructureMatrix};
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
 
-/// `F(δ, ℓ) = (δ − h M(x̄)(∇̄H + ∇̄gᵀℓ/h),  g(x + δ))`.
+/// `F(δ, ℓ) = (δ − h M(x̄)(∇̄H + ∇̄gᵀℓ/h) − h B(x̄) u(t_n + h/2),  g(x + δ))`.
 pub(super) struct Problem<'a, V: Vector, Sys> {
     pub(super) h: V::Real,
     pub(super) noise: V::Real,
@@ -29,6 +31,8 @@ pub(super) struct Problem<'a, V: Vector, Sys> {
     pub(super) s2: &'a mut V,
     pub(super) em: &'a mut [V::Real],
     pub(super) system: &'a Sys,
+    /// The inputs, their values at `t_n + h/2` scaled by `h` (`None` for a closed system).
+    pub(super) forcing: Option<&'a mut Forcing<V>>,
 }
 
 impl<V, Sys> Problem<'_, V, Sys>
@@ -126,6 +130,12 @@ where
         let (od, og) = out.split_at_mut(n);
         for ((o, &d), &fi) in od.iter_mut().zip(delta).zip(self.f.as_slice()) {
             *o = d - fi;
+        }
+        if let Some(forcing) = self.forcing.as_deref_mut() {
+            let force = forcing.force_at(0, self.xm);
+            for (o, &b) in od.iter_mut().zip(force.as_slice()) {
+                *o = *o - b;
+            }
         }
         og.copy_from_slice(self.g1);
         Ok(())

@@ -16,7 +16,7 @@ pub struct DiscreteDissipation<T> {
     /// The kinetic energy the hidden-constraint projection removed, `≥ 0`.
     pub projection: T,
     /// `S_n = h Σ_r b_r z(e_r)ᵀ B(x_r) u(t_r)`: the work of the inputs, by the quadrature
-    /// (`forcing.rs`); zero without inputs.
+    /// (`supplied.rs`); zero without inputs.
     pub supplied: T,
 }
 

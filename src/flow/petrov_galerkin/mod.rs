@@ -4,8 +4,6 @@
 mod basis;
 mod blocks;
 mod dissipation;
-mod end;
-mod forcing;
 mod problem;
 mod quadrature;
 #[cfg(all(test, feature = "scene"))]
@@ -13,14 +11,16 @@ mod quadrature;
 mod quadrature_tests;
 mod reduced;
 mod rounding;
+mod supplied;
 mod tables;
 #[cfg(all(test, feature = "scene"))]
 mod test_scenes;
 
 use super::projection::HiddenSolver;
 use super::reduced::Reduced;
-use super::{Flow, FlowStats, Ledger, ProjectionOptions};
+use super::{Flow, FlowStats, Ledger, ProjectionOptions, step_end};
 use crate::error::{SetupError, StepError};
+use crate::flow::forcing::Forcing;
 use crate::nonlinear::{Newton, NonlinearSolver};
 use crate::real::Real;
 use crate::system::{
@@ -30,7 +30,6 @@ use crate::system::{
 use crate::vector::{Vector, ops};
 use blocks::ConstraintBlocks;
 pub use dissipation::DiscreteDissipation;
-use forcing::Forcing;
 use num_traits::Zero;
 use problem::{Problem, Scratch};
 use quadrature::constraint_is_quadratic;
@@ -263,7 +262,7 @@ where
     /// The same scheme for the open system `x' = M (∇H + Gᵀλ) + B(x) u(t)`: `map` is `B`,
     /// `signals` the inputs `u` (one per input). The step integrates `B u` against the test
     /// functions by its quadrature, reads the time from the [`Ledger`] (and advances it), and
-    /// books the supplied work `S_n` (see `forcing.rs`) in the ledger and in
+    /// books the supplied work `S_n` (see `supplied.rs`) in the ledger and in
     /// [`last_dissipation`](Self::last_dissipation): `H_{n+1} − H_n = −D_n + S_n`.
     ///
     /// # Errors
@@ -276,7 +275,14 @@ where
         signals: Vec<crate::port::Signal<V::Real>>,
     ) -> Result<Self, SetupError> {
         let nq = self.mechanical.as_ref().map(|reduced| reduced.nq);
-        let forcing = Forcing::try_new(Box::new(map), signals, &self.system, &self.end, nq)?;
+        let forcing = Forcing::try_new(
+            "Petrov–Galerkin scheme",
+            Box::new(map),
+            signals,
+            &self.system,
+            &self.end,
+            nq,
+        )?;
         self.w.forced(self.tables.k);
         self.forcing = Some(forcing);
         Ok(self)
@@ -393,7 +399,7 @@ where
         self.guess(h, x);
         let t0 = ledger.t;
         if let Some(forcing) = self.forcing.as_mut()
-            && let Err((input, t, value)) = forcing.begin(t0, h, &self.tables.nodes)
+            && let Err((input, t, value)) = forcing.begin(t0, h, &self.tables.nodes, h)
         {
             return Err(StepError::NonFiniteInput {
                 input,
@@ -516,7 +522,7 @@ where
             let Some(hidden) = self.hidden.as_mut() else {
                 unreachable!()
             };
-            let solved = end::project(
+            let solved = step_end::project(
                 hidden,
                 &self.system,
                 &self.xe,
@@ -533,7 +539,7 @@ where
                 }
                 return Err(StepError::from_newton("hidden-constraint projection", e));
             }
-            projection = end::removed_energy(
+            projection = step_end::removed_energy(
                 &self.system,
                 self.mechanical.as_ref().map(|r| (r.nq, &r.w[..])),
                 &self.xe,

@@ -2,8 +2,8 @@
 //! scaled multipliers `L_j = h λ(c_j)` at the `k` Gauss points.
 
 use super::Tables;
-use super::forcing::Forcing;
 use crate::error::StepError;
+use crate::flow::forcing::Forcing;
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model, StructureMatrix};
@@ -62,7 +62,7 @@ impl<V: Vector> Scratch<V> {
 /// (c)  (1/β_i) Σ_r b_r ℓ_i(e_r) G(x_r) (Σ_j ℓ_j(e_r) Y_j) + g(x_n) = 0
 /// ```
 ///
-/// with `x_r = x_n + Σ_j A_rj Y_j` and `accu_i` the inputs' part (`forcing.rs`; none without).
+/// with `x_r = x_n + Σ_j A_rj Y_j` and `accu_i` the inputs' part (`flow/forcing.rs`; none without).
 /// The `z`-equation (b) is eliminated: `h z(c_i)` is the `∇H` part of `acc_i` (the L²-projection of `h ∇H(x(t))` onto `P_{k−1}`, whose mass matrix
 /// is `diag(β)` in the Lagrange basis at the Gauss points). The `g(x_n)` in (c) — zero on the
 /// manifold — makes `Σ_i β_i (c)_i = g(x_{n+1}) = 0` instead of `g(x_{n+1}) = g(x_n)`, so the

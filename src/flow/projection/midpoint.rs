@@ -10,7 +10,8 @@ mod mechanical;
 use super::small::{SecondHalf, fixed, fixed_mut, second_half_is_affine, solve_second_half};
 use super::warm::WarmStart;
 use crate::error::{SetupError, StepError};
-use crate::flow::{Flow, FlowStats, Multipliers};
+use crate::flow::forcing::Forcing;
+use crate::flow::{Flow, FlowStats, Ledger, Multipliers};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NewtonOptions, SMALL_MAX, SmallNewton, SolveReport};
 use crate::real::Real;
@@ -109,6 +110,10 @@ pub struct ProjectedMidpoint<V: Vector, Sys, K, L = <V as Vector>::Solver> {
     warm: WarmStart<V>,
     entry: EntryCheck<V>,
     stats: FlowStats,
+    /// The inputs `B(x) u(t)`, when the system is open ([`with_inputs`](Self::with_inputs)).
+    forcing: Option<Forcing<V>>,
+    /// The state the flow was built for (inputs are checked there).
+    initial: V,
 }
 
 /// Workspace (allocated at construction).
@@ -241,7 +246,75 @@ where
             entry: EntryCheck::new(options.manifold_tol, x0),
             system,
             stats: FlowStats::default(),
+            forcing: None,
+            initial: x0.clone(),
         })
+    }
+
+    /// The same scheme for the open system `x' = M (∇H + Gᵀλ) + B(x) u(t)`: `map` is `B`,
+    /// `signals` the inputs `u`. The inner midpoint rule takes the input at the step's
+    /// midpoint, `δ = h M(x̄)∇K(x̄) + h B(x̄) u(t_n + h/2)` (symmetric in `(t, x)`, so the
+    /// compositions keep their orders), reads the time from the [`Ledger`] and advances it,
+    /// and books the supplied work `S_n = h ∇H(x̄)ᵀ B(x̄) u(t_n + h/2)` (the midpoint rule of
+    /// `∫ yᵀu dt`; the rule conserves no energy exactly, so the balance holds to its order).
+    /// On a model of mechanical form `B` acts on the momenta and is taken at `(q̄, p̂)`: forces
+    /// of the positions and time. The kept Newton matrices leave out `D(B u)` (Newton tests
+    /// the residual, which has it).
+    ///
+    /// # Errors
+    /// [`SetupError::Dimension`] when the signals and the map's inputs differ in number;
+    /// [`SetupError::Scheme`] when an input moves a position of the mechanical form or what
+    /// the constraints read, or on the general path of a model without a mechanical form (more
+    /// than [`SMALL_MAX`] constraints), which has no input term.
+    pub fn with_inputs(
+        mut self,
+        map: impl crate::port::InputMap<V> + 'static,
+        signals: Vec<crate::port::Signal<V::Real>>,
+    ) -> Result<Self, SetupError> {
+        let nq = match self.general.as_ref() {
+            None => None,
+            Some(general) => match general.mechanical.as_ref() {
+                Some(reduced) => Some(reduced.nq),
+                None => {
+                    return Err(SetupError::Scheme {
+                        what: format!(
+                            "the projected midpoint rule takes inputs with at most {SMALL_MAX} constraints or on a model of mechanical form: its general path has no input term"
+                        ),
+                    });
+                }
+            },
+        };
+        let forcing = Forcing::try_new(
+            "projected midpoint rule",
+            Box::new(map),
+            signals,
+            &self.system,
+            &self.initial,
+            nq,
+        )?;
+        self.forcing = Some(forcing);
+        Ok(self)
+    }
+
+    /// `S_n = ∇H(x̄)ᵀ (h B(x̄) u)` of the step just taken, `x̄ = (x̂ + y)/2` (`w.xbar`, `w.grad`
+    /// and `w.t1` are scratch here).
+    fn input_work(&mut self) -> V::Real {
+        let Some(forcing) = self.forcing.as_mut() else {
+            return V::Real::zero();
+        };
+        let w = &mut self.w;
+        for ((b, &a), &y) in w
+            .xbar
+            .as_mut_slice()
+            .iter_mut()
+            .zip(w.xhat.as_slice())
+            .zip(w.y.as_slice())
+        {
+            *b = V::Real::lit(0.5) * (a + y);
+        }
+        self.system.hamiltonian().gradient(&w.xbar, &mut w.grad);
+        let force = forcing.force_at(0, &w.xbar);
+        ops::dot(w.grad.as_slice(), force.as_slice())
     }
 
     /// The system whose constraints are enforced.
@@ -352,6 +425,16 @@ where
         z[..saved.len()].copy_from_slice(saved);
     }
     fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.step_at(&mut Ledger::default(), h, x)
+    }
+    /// The step from `ledger.t`; with inputs it adds their work to `ledger.supplied` and
+    /// advances `ledger.t` by `h`.
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
         if x.len() != self.w.x_next.len() {
             return Err(StepError::StateLength {
                 flow: "ProjectedMidpoint",
@@ -366,6 +449,15 @@ where
         }
         if !nonzero {
             return Ok(());
+        }
+        if let Some(forcing) = self.forcing.as_mut()
+            && let Err((input, t, value)) = forcing.begin(ledger.t, h, &[V::Real::lit(0.5)], h)
+        {
+            return Err(StepError::NonFiniteInput {
+                input,
+                t: t.to_f64_lossy(),
+                value: value.to_f64_lossy(),
+            });
         }
         if !from_last {
             let w = &mut self.w;
@@ -392,6 +484,11 @@ where
         if let Err(e) = result {
             self.stats = stats;
             return Err(e);
+        }
+        if self.forcing.is_some() {
+            // The step carries the time of its inputs.
+            ledger.supplied = ledger.supplied + self.input_work();
+            ledger.t = ledger.t + h;
         }
         take(x, &mut self.w.x_next);
         self.entry.record(x);

@@ -150,16 +150,6 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
         file.integrator.scheme,
         Method::DiscreteGradient | Method::Midpoint | Method::Modified
     );
-    if model.inputs.is_some() && !splitting {
-        return Err(err(
-            SceneErrorKind::Unsupported,
-            root.key("integrator").key("scheme"),
-            format!(
-                "scheme '{}' takes no inputs (its step has no input term); the splittings (\"auto\", the compositions, \"extrapolation\") and the implicit \"petrov-galerkin\" take them",
-                file.integrator.scheme
-            ),
-        ));
-    }
     let dropped_constraints = match file.integrator.redundant {
         Redundant::Refuse => Vec::new(),
         Redundant::DropDependent => {

@@ -308,7 +308,10 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             bodies: &bodies,
             dim,
         },
-        books_dissipation: dissipative && splitting,
+        // The splittings and Petrov–Galerkin book the damping exactly, the discrete gradient
+        // its `−h v̄ᵀB v̄` (the midpoint rule does not: its power is integrated).
+        books_dissipation: dissipative
+            && (splitting || file.integrator.scheme == super::schema::Method::DiscreteGradient),
     };
     // A splitting of one to three bodies steps a stack state (compile/storage.rs).
     let simulation = storage::simulation(flow, parts, split.then_some((raise, backward)))?;

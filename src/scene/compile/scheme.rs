@@ -230,6 +230,12 @@ pub(super) fn scheme_flow(
         let system = System::new(model.clone(), model.clone(), model.clone());
         if m == 0 && !matches!(MechanicalForm::of(&system, model, x0), Ok(Some(_))) {
             scheme_name = "discrete gradient (Gonzalez)";
+            if model.inputs.is_some() {
+                return Err(setup(SetupError::Scheme {
+                    what: "the discrete gradient takes inputs on a model of mechanical form only"
+                        .to_owned(),
+                }));
+            }
             Box::new(
                 DiscreteGradient::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
                     model.clone(),
@@ -251,10 +257,16 @@ pub(super) fn scheme_flow(
                 case = Some("degenerate".to_owned());
             }
             let options = projection_options(model, x0.as_slice(), f64::EPSILON);
-            Box::new(
+            let mut scheme =
                 ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system, x0, options)
-                    .map_err(setup)?,
-            )
+                    .map_err(setup)?;
+            if let Some(inputs) = model.inputs.as_ref() {
+                // The inputs' impulse at the step's midpoint, their work booked as supplied.
+                scheme = scheme
+                    .with_inputs(inputs.map.clone(), inputs.signals.clone())
+                    .map_err(setup)?;
+            }
+            Box::new(scheme)
         }
     } else if file.integrator.scheme == Method::Midpoint {
         // The implicit midpoint rule for all of H under M, projected when there are
@@ -278,7 +290,15 @@ pub(super) fn scheme_flow(
             let options = projection_options(model, x0.as_slice(), f64::EPSILON);
             match ProjectedMidpoint::<Col<f64>, _, _>::try_new(system(), model.clone(), x0, options)
             {
-                Ok(reduced) => raised::<_, _, SceneSystem<f64>>(reduced, raise, backward, None),
+                Ok(reduced) => {
+                    let reduced = with_midpoint_inputs(reduced, model).map_err(setup)?;
+                    raised::<_, _, SceneSystem<f64>>(reduced, raise, backward, None)
+                }
+                Err(SetupError::Dimension { .. }) if model.inputs.is_some() => {
+                    return Err(setup(SetupError::Scheme {
+                        what: "the implicit midpoint rule takes inputs on a model of mechanical form only".to_owned(),
+                    }));
+                }
                 Err(SetupError::Dimension { .. }) => {
                     raised::<_, _, SceneSystem<f64>>(midpoint()?, raise, backward, None)
                 }
@@ -307,6 +327,7 @@ pub(super) fn scheme_flow(
                         ),
                         e => setup(e),
                     })?;
+            let joint = with_midpoint_inputs(joint, model).map_err(setup)?;
             raised(joint, raise, backward, Some((system(), x0, options))).map_err(setup)?
         }
     } else if file.integrator.scheme == Method::Modified {
@@ -576,5 +597,21 @@ pub(super) fn with_table<V: Vector + 'static, F: Flow<V> + 'static>(
     match table {
         None => Box::new(flow),
         Some(t) => Box::new(flow.composed(t)),
+    }
+}
+
+/// The projected midpoint rule with the scene's inputs, when it declares any: their forces at
+/// the step's midpoint in its residual, their work booked as supplied.
+fn with_midpoint_inputs<K, L>(
+    flow: ProjectedMidpoint<Col<f64>, SceneSystem<f64>, K, L>,
+    model: &SceneModel,
+) -> std::result::Result<ProjectedMidpoint<Col<f64>, SceneSystem<f64>, K, L>, SetupError>
+where
+    K: crate::system::Hamiltonian<Col<f64>>,
+    L: crate::linalg::LinearSolver<f64>,
+{
+    match model.inputs.as_ref() {
+        Some(inputs) => flow.with_inputs(inputs.map.clone(), inputs.signals.clone()),
+        None => Ok(flow),
     }
 }

@@ -164,6 +164,13 @@ where
             {
                 *r = d - h * f;
             }
+            // With inputs, F₁ = δ − h M∇K(x̄) − h B(x̄) u(t_n + h/2).
+            if let Some(forcing) = self.forcing.as_mut() {
+                let force = forcing.force_at(0, &w.xbar);
+                for (r, &b) in w.r1.as_mut_slice().iter_mut().zip(force.as_slice()) {
+                    *r = *r - b;
+                }
+            }
             ops::add_scaled(
                 w.y.as_mut_slice(),
                 w.xhat.as_slice(),

@@ -4,6 +4,7 @@
 
 use super::{ProjectedMidpoint, STAGE_JOINT, increment_tolerance, stiff_floor};
 use crate::error::StepError;
+use crate::flow::forcing::Forcing;
 use crate::flow::schur::{ReducedBlocks, position_rows};
 use crate::linalg::LinearSolver;
 use crate::nonlinear::NonlinearProblem;
@@ -20,6 +21,9 @@ use num_traits::{One, Zero};
 /// ```text
 /// F₁ = δq − (h/2) W⁻¹ B δq + (h²/2) W⁻¹ ∇V(q̄) − h W⁻¹ p̂
 /// ```
+///
+/// With inputs, `δp` gains the impulse `φ = h F(q̄, p̂) u(t_n + h/2)` (`F` the momentum rows
+/// of `B`) and `F₁` gains `−(h/2) W⁻¹ φ`.
 struct Problem<'a, V: Vector, Sys, K> {
     h: V::Real,
     nq: usize,
@@ -45,6 +49,8 @@ struct Problem<'a, V: Vector, Sys, K> {
     t2: &'a mut V,
     /// `g(y)` of the last evaluation.
     g: &'a mut [V::Real],
+    /// The inputs, their values at `t_n + h/2` scaled by `h` (`None` for a closed system).
+    forcing: Option<&'a mut Forcing<V>>,
 }
 
 impl<V, Sys, K> Problem<'_, V, Sys, K>
@@ -110,9 +116,14 @@ where
         let phat = &self.xhat.as_slice()[nq..];
         let (r1, r2) = out.split_at_mut(nq);
         let y = self.y.as_mut_slice();
+        let impulse = match self.forcing.as_deref_mut() {
+            Some(forcing) => Some(&forcing.force_at(0, self.xbar).as_slice()[nq..]),
+            None => None,
+        };
         for i in 0..nq {
-            // δp = −h ∇V(q̄) + B δq;  p̄ = p̂ + δp/2.
-            let dp = bdq[i] - h * grad[i];
+            // δp = −h ∇V(q̄) + B δq + φ;  p̄ = p̂ + δp/2.
+            let phi = impulse.map_or(V::Real::zero(), |phi| phi[i]);
+            let dp = bdq[i] - h * grad[i] + phi;
             let pbar = phat[i] + V::Real::lit(0.5) * dp;
             r1[i] = z[i] - h * (self.w[i] * pbar);
             y[nq + i] = phat[i] + dp;
@@ -239,6 +250,7 @@ where
             t1: &mut w.t1,
             t2: &mut w.t2,
             g: &mut general.g_y,
+            forcing: self.forcing.as_mut(),
         };
         // The explicit Euler predictor δq = h W⁻¹ p̂ at x̂ of the predicted λ_k.
         let z = &mut reduced.z;

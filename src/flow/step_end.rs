@@ -1,5 +1,6 @@
-//! The end of a Petrov–Galerkin step: the hidden-constraint projection `x = x_e + M Gᵀν`,
-//! `φ(x) = 0`, and the kinetic energy it removes (counted in `D_n`).
+//! The end of an implicit step (Petrov–Galerkin, the constrained discrete gradient): the
+//! hidden-constraint projection `x = x_e + M Gᵀν`, `φ(x) = 0`, and the kinetic energy it
+//! removes (counted in the step's dissipated energy `D_n`).
 
 use crate::error::{NewtonError, StepError};
 use crate::flow::projection::HiddenSolver;
@@ -11,7 +12,7 @@ use num_traits::Zero;
 
 /// `x ← x_e + M Gᵀν` with `φ(x) = 0`, by the solver sized for the `ν.len()` multipliers (on
 /// the stack up to [`SMALL_MAX`]).
-pub(super) fn project<V: Vector, Sys: Model<V>>(
+pub(crate) fn project<V: Vector, Sys: Model<V>>(
     hidden: &mut HiddenSolver<V>,
     system: &Sys,
     xe: &V,
@@ -32,7 +33,7 @@ pub(super) fn project<V: Vector, Sys: Model<V>>(
 /// `H(x_e) − H(x)`, the energy the projection removed (`≥ 0` in the kinetic metric). For a
 /// mechanical form (`(n_q, diag W⁻¹)`) only the momenta moved (`M Gᵀν` has no position rows):
 /// the kinetic energy `Σ ½ w_d (p_d − p'_d)(p_d + p'_d)`, without a second potential.
-pub(super) fn removed_energy<V: Vector, Sys: Model<V>>(
+pub(crate) fn removed_energy<V: Vector, Sys: Model<V>>(
     system: &Sys,
     mechanical: Option<(usize, &[V::Real])>,
     xe: &V,
