@@ -17,6 +17,7 @@ mod scene;
 mod scene_errors;
 mod scene_flight;
 mod scene_hidden;
+mod scene_implicit_inputs;
 mod scene_modelling;
 mod scene_ports;
 mod scene_taut_chain;

@@ -8,6 +8,7 @@ mod columns;
 mod constraints;
 mod effects;
 mod fingerprint;
+mod implicit;
 mod initial;
 mod raise;
 mod scheme;

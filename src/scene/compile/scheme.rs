@@ -5,8 +5,7 @@ use super::raise::{Raise, raised};
 use super::{MAX_STEPS, Result, constraints::setup_error, err, validate::positive};
 use crate::error::SetupError;
 use crate::flow::{
-    CompositionTable, ConstrainedDiscreteGradient, Coupling, DiscreteGradient, Flow, FlowExt,
-    ImplicitMidpoint, PetrovGalerkin, Projected, ProjectedMidpoint, ProjectionOptions, Scheme,
+    CompositionTable, Coupling, Flow, FlowExt, Projected, ProjectionOptions, Scheme,
 };
 use crate::linalg::LinearSolver;
 use crate::nonlinear::NewtonOptions;
@@ -19,7 +18,7 @@ use crate::scene::model::{
 };
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
-use crate::system::{Case, Hamiltonian, MechanicalForm, System};
+use crate::system::{Case, System};
 use crate::vector::Vector;
 use faer::Col;
 use std::sync::Arc;
@@ -178,9 +177,9 @@ pub(super) struct SchemeFlow {
     pub(super) detail: Option<String>,
 }
 
-/// Builds the flow of `file`'s scheme for `model` from `x0`: the discrete gradient, the
-/// implicit midpoint rule (projected, or as one Newton system with `λ_k`), or the splitting of
-/// the exact sub-flows ([`splitting_flow`]); raised by `raise`.
+/// Builds the flow of `file`'s scheme for `model` from `x0`: an implicit scheme
+/// (`implicit.rs`: Petrov–Galerkin, the discrete gradient, the implicit midpoint rule) or the
+/// splitting of the exact sub-flows ([`splitting_flow`]); raised by `raise`.
 pub(super) fn scheme_flow(
     file: &SceneFile,
     model: &Arc<SceneModel>,
@@ -188,191 +187,52 @@ pub(super) fn scheme_flow(
     raise: Raise,
     backward: bool,
 ) -> Result<SchemeFlow> {
-    let root = FieldPath::root();
-    let m = model.m;
-    let mut case = None;
-    let mut projection = None;
-    let mut solver = None;
-    let scheme_name;
-    let discrete_gradient = file.integrator.scheme == Method::DiscreteGradient;
-    let mut split = false;
-    let mut detail = None;
-    let flow: Box<dyn Flow<Col<f64>>> = if file.integrator.scheme == Method::PetrovGalerkin {
-        let order = file.integrator.order.unwrap_or(4);
-        let system = System::new(model.clone(), model.clone(), model.clone());
-        let options = projection_options(model, x0.as_slice(), f64::EPSILON);
-        scheme_name = "energy-consistent Petrov–Galerkin with hidden-constraint projection";
-        if m > 0 {
-            case = Some("degenerate".to_owned());
+    match file.integrator.scheme {
+        Method::PetrovGalerkin => return super::implicit::petrov_galerkin(file, model, x0),
+        Method::DiscreteGradient => return super::implicit::discrete_gradient(model, x0),
+        Method::Midpoint => return super::implicit::midpoint(model, x0, raise, backward),
+        Method::Modified => {
+            return Err(err(
+                SceneErrorKind::Unsupported,
+                FieldPath::root().key("integrator").key("scheme"),
+                "the §2 scheme (`modified`) is offered for the built-in paper model only",
+            ));
         }
-        let mut scheme = PetrovGalerkin::<Col<f64>, _>::try_new(system, x0, order, options)
-            .map_err(|e| setup_error(model, e))?;
-        if let Some(inputs) = model.inputs.as_ref() {
-            // The inputs' forces in its residual, their work booked as supplied.
-            scheme = scheme
-                .with_inputs(inputs.map.clone(), inputs.signals.clone())
-                .map_err(|e| setup_error(model, e))?;
-        }
-        let points = scheme.quadrature_points();
-        detail = Some(if Hamiltonian::<Col<f64>>::is_quadratic(model) {
-            format!(
-                "{points} Gauss points a residual: H and any constraints are quadratic, so these integrate every term exactly"
-            )
+        _ => {}
+    }
+    let (flow, name, desc) = splitting_flow(model, x0, raise, backward, f64::EPSILON)
+        .map_err(|e| setup_error(model, e))?;
+    let (mut case, mut projection, mut solver) = (None, None, None);
+    if let Some((scheme, small, kind)) = desc {
+        case = Some(
+            match scheme {
+                Scheme::Symmetric => "non-degenerate",
+                _ => "degenerate",
+            }
+            .to_owned(),
+        );
+        projection = Some(
+            match scheme {
+                Scheme::Decoupled => "decoupled",
+                Scheme::Coupled => "coupled",
+                Scheme::Symmetric => "symmetric",
+            }
+            .to_owned(),
+        );
+        solver = Some(if small {
+            "small (stack, closed-form Jacobians)".to_owned()
         } else {
-            format!(
-                "{points} Gauss points a residual (k + 2): the potential is not a polynomial, so its energy balance holds to a quadrature error O(h^{})",
-                2 * points + 1
-            )
+            kind
         });
-        Box::new(scheme)
-    } else if discrete_gradient {
-        let setup = |e: SetupError| setup_error(model, e);
-        let system = System::new(model.clone(), model.clone(), model.clone());
-        if m == 0 && !matches!(MechanicalForm::of(&system, model, x0), Ok(Some(_))) {
-            scheme_name = "discrete gradient (Gonzalez)";
-            if model.inputs.is_some() {
-                return Err(setup(SetupError::Scheme {
-                    what: "the discrete gradient takes inputs on a model of mechanical form only"
-                        .to_owned(),
-                }));
-            }
-            Box::new(
-                DiscreteGradient::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
-                    model.clone(),
-                    model.clone(),
-                    x0,
-                    NewtonOptions::default(),
-                )
-                .map_err(setup)?,
-            )
-        } else {
-            // On a model of mechanical form (every scene), with or without constraints, the
-            // momenta eliminated and the positions (and multipliers) solved with the model's
-            // sparsity; without constraints it is Gonzalez's step block by block.
-            if m == 0 {
-                scheme_name = "discrete gradient (Gonzalez)";
-            } else {
-                scheme_name =
-                    "constrained discrete gradient (Gonzalez) with hidden-constraint projection";
-                case = Some("degenerate".to_owned());
-            }
-            let options = projection_options(model, x0.as_slice(), f64::EPSILON);
-            let mut scheme =
-                ConstrainedDiscreteGradient::<Col<f64>, _>::try_new(system, x0, options)
-                    .map_err(setup)?;
-            if let Some(inputs) = model.inputs.as_ref() {
-                // The inputs' impulse at the step's midpoint, their work booked as supplied.
-                scheme = scheme
-                    .with_inputs(inputs.map.clone(), inputs.signals.clone())
-                    .map_err(setup)?;
-            }
-            Box::new(scheme)
-        }
-    } else if file.integrator.scheme == Method::Midpoint {
-        // The implicit midpoint rule for all of H under M, projected when there are
-        // constraints: the §3 scheme with a general inner flow.
-        let setup = |e: SetupError| setup_error(model, e);
-        let midpoint = || {
-            ImplicitMidpoint::<Col<f64>, Arc<SceneModel>, Arc<SceneModel>>::try_new(
-                model.clone(),
-                model.clone(),
-                x0,
-                NewtonOptions::default(),
-            )
-            .map_err(setup)
-        };
-        let system = || System::new(model.clone(), model.clone(), model.clone());
-        if m == 0 {
-            scheme_name = "implicit midpoint rule";
-            // A model of mechanical form (every scene) takes the momenta eliminated and the
-            // positions solved with its sparsity (`ProjectedMidpoint` without constraints is
-            // the midpoint rule itself); dense Newton on all `n` unknowns otherwise.
-            let options = projection_options(model, x0.as_slice(), f64::EPSILON);
-            match ProjectedMidpoint::<Col<f64>, _, _>::try_new(system(), model.clone(), x0, options)
-            {
-                Ok(reduced) => {
-                    let reduced = with_midpoint_inputs(reduced, model).map_err(setup)?;
-                    raised::<_, _, SceneSystem<f64>>(reduced, raise, backward, None)
-                }
-                Err(SetupError::Dimension { .. }) if model.inputs.is_some() => {
-                    return Err(setup(SetupError::Scheme {
-                        what: "the implicit midpoint rule takes inputs on a model of mechanical form only".to_owned(),
-                    }));
-                }
-                Err(SetupError::Dimension { .. }) => {
-                    raised::<_, _, SceneSystem<f64>>(midpoint()?, raise, backward, None)
-                }
-                Err(e) => return Err(setup(e)),
-            }
-            .map_err(setup)?
-        } else {
-            scheme_name = "projection around the implicit midpoint rule";
-            let options = projection_options(model, x0.as_slice(), f64::EPSILON);
-            case = Some("degenerate".to_owned());
-            // The midpoint increment and λ_k as one Newton system (the decoupled case, which a
-            // scene's position constraints are): a scene's model has a mechanical form, so the
-            // joint system is solved on the positions and multipliers with its sparsity at any
-            // size. The projection around a separate midpoint solve (`Projected` around
-            // `ImplicitMidpoint`) is the library's path for models without that form; a scene
-            // never needs it, and it is not compiled for scenes.
-            let joint =
-                ProjectedMidpoint::<Col<f64>, _, _>::try_new(system(), model.clone(), x0, options)
-                    .map_err(|e| match e {
-                        SetupError::Dimension { what } => err(
-                            SceneErrorKind::Unsupported,
-                            root.key("integrator").key("scheme"),
-                            format!(
-                                "the projected midpoint rule does not apply to this scene: {what}"
-                            ),
-                        ),
-                        e => setup(e),
-                    })?;
-            let joint = with_midpoint_inputs(joint, model).map_err(setup)?;
-            raised(joint, raise, backward, Some((system(), x0, options))).map_err(setup)?
-        }
-    } else if file.integrator.scheme == Method::Modified {
-        return Err(err(
-            SceneErrorKind::Unsupported,
-            root.key("integrator").key("scheme"),
-            "the §2 scheme (`modified`) is offered for the built-in paper model only",
-        ));
-    } else {
-        let (flow, name, desc) = splitting_flow(model, x0, raise, backward, f64::EPSILON)
-            .map_err(|e| setup_error(model, e))?;
-        scheme_name = name;
-        split = true;
-        if let Some((scheme, small, kind)) = desc {
-            case = Some(
-                match scheme {
-                    Scheme::Symmetric => "non-degenerate",
-                    _ => "degenerate",
-                }
-                .to_owned(),
-            );
-            projection = Some(
-                match scheme {
-                    Scheme::Decoupled => "decoupled",
-                    Scheme::Coupled => "coupled",
-                    Scheme::Symmetric => "symmetric",
-                }
-                .to_owned(),
-            );
-            solver = Some(if small {
-                "small (stack, closed-form Jacobians)".to_owned()
-            } else {
-                kind
-            });
-        }
-        flow
-    };
+    }
     Ok(SchemeFlow {
         flow,
-        name: scheme_name,
+        name,
         case,
         projection,
         solver,
-        split,
-        detail,
+        split: true,
+        detail: None,
     })
 }
 
@@ -597,21 +457,5 @@ pub(super) fn with_table<V: Vector + 'static, F: Flow<V> + 'static>(
     match table {
         None => Box::new(flow),
         Some(t) => Box::new(flow.composed(t)),
-    }
-}
-
-/// The projected midpoint rule with the scene's inputs, when it declares any: their forces at
-/// the step's midpoint in its residual, their work booked as supplied.
-fn with_midpoint_inputs<K, L>(
-    flow: ProjectedMidpoint<Col<f64>, SceneSystem<f64>, K, L>,
-    model: &SceneModel,
-) -> std::result::Result<ProjectedMidpoint<Col<f64>, SceneSystem<f64>, K, L>, SetupError>
-where
-    K: crate::system::Hamiltonian<Col<f64>>,
-    L: crate::linalg::LinearSolver<f64>,
-{
-    match model.inputs.as_ref() {
-        Some(inputs) => flow.with_inputs(inputs.map.clone(), inputs.signals.clone()),
-        None => Ok(flow),
     }
 }
