@@ -12,7 +12,7 @@ use crate::flow::{
 use crate::nonlinear::NewtonOptions;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::SceneModel;
-use crate::scene::schema::SceneFile;
+use crate::scene::schema::{Method, SceneFile};
 use crate::system::{Hamiltonian, MechanicalForm, System};
 use crate::vector::Vector;
 use faer::Col;
@@ -37,12 +37,24 @@ fn scheme(
     }
 }
 
-/// The energy-consistent Petrov–Galerkin scheme at the file's order (4 by default).
-pub(super) fn petrov_galerkin(
+/// The flow of `file`'s scheme when it is an implicit one (`None` for the splittings).
+pub(super) fn implicit_flow(
     file: &SceneFile,
     model: &Arc<SceneModel>,
     x0: &Col<f64>,
-) -> Result<SchemeFlow> {
+    raise: Raise,
+    backward: bool,
+) -> Option<Result<SchemeFlow>> {
+    match file.integrator.scheme {
+        Method::PetrovGalerkin => Some(petrov_galerkin(file, model, x0)),
+        Method::DiscreteGradient => Some(discrete_gradient(model, x0)),
+        Method::Midpoint => Some(midpoint(model, x0, raise, backward)),
+        _ => None,
+    }
+}
+
+/// The energy-consistent Petrov–Galerkin scheme at the file's order (4 by default).
+fn petrov_galerkin(file: &SceneFile, model: &Arc<SceneModel>, x0: &Col<f64>) -> Result<SchemeFlow> {
     let order = file.integrator.order.unwrap_or(4);
     let system = System::new(model.clone(), model.clone(), model.clone());
     let options = projection_options(model, x0.as_slice(), f64::EPSILON);
@@ -74,7 +86,7 @@ pub(super) fn petrov_galerkin(
 }
 
 /// Gonzalez's discrete gradient, constrained when the scene is.
-pub(super) fn discrete_gradient(model: &Arc<SceneModel>, x0: &Col<f64>) -> Result<SchemeFlow> {
+fn discrete_gradient(model: &Arc<SceneModel>, x0: &Col<f64>) -> Result<SchemeFlow> {
     let setup = |e: SetupError| setup_error(model, e);
     let m = model.m;
     let system = System::new(model.clone(), model.clone(), model.clone());
@@ -121,7 +133,7 @@ pub(super) fn discrete_gradient(model: &Arc<SceneModel>, x0: &Col<f64>) -> Resul
 
 /// The implicit midpoint rule for all of `H` under `M`, projected when there are constraints:
 /// the §3 scheme with a general inner flow, raised by `raise`.
-pub(super) fn midpoint(
+fn midpoint(
     model: &Arc<SceneModel>,
     x0: &Col<f64>,
     raise: Raise,

@@ -230,7 +230,10 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         solver,
         split,
         detail,
-    } = scheme_flow(file, &model, &x0, raise, backward)?;
+    } = match implicit::implicit_flow(file, &model, &x0, raise, backward) {
+        Some(implicit) => implicit?,
+        None => scheme_flow(file, &model, &x0, raise, backward)?,
+    };
     let scheme = raise.describe(scheme_name);
     let mut reason = raise
         .reason(file.integrator.scheme, dissipative, order)

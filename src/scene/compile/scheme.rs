@@ -177,9 +177,9 @@ pub(super) struct SchemeFlow {
     pub(super) detail: Option<String>,
 }
 
-/// Builds the flow of `file`'s scheme for `model` from `x0`: an implicit scheme
-/// (`implicit.rs`: Petrov–Galerkin, the discrete gradient, the implicit midpoint rule) or the
-/// splitting of the exact sub-flows ([`splitting_flow`]); raised by `raise`.
+/// Builds the flow of `file`'s splitting scheme for `model` from `x0`: the splitting of the
+/// exact sub-flows ([`splitting_flow`]), raised by `raise` (the implicit schemes are built in
+/// `implicit.rs`).
 pub(super) fn scheme_flow(
     file: &SceneFile,
     model: &Arc<SceneModel>,
@@ -187,18 +187,12 @@ pub(super) fn scheme_flow(
     raise: Raise,
     backward: bool,
 ) -> Result<SchemeFlow> {
-    match file.integrator.scheme {
-        Method::PetrovGalerkin => return super::implicit::petrov_galerkin(file, model, x0),
-        Method::DiscreteGradient => return super::implicit::discrete_gradient(model, x0),
-        Method::Midpoint => return super::implicit::midpoint(model, x0, raise, backward),
-        Method::Modified => {
-            return Err(err(
-                SceneErrorKind::Unsupported,
-                FieldPath::root().key("integrator").key("scheme"),
-                "the §2 scheme (`modified`) is offered for the built-in paper model only",
-            ));
-        }
-        _ => {}
+    if file.integrator.scheme == Method::Modified {
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            FieldPath::root().key("integrator").key("scheme"),
+            "the §2 scheme (`modified`) is offered for the built-in paper model only",
+        ));
     }
     let (flow, name, desc) = splitting_flow(model, x0, raise, backward, f64::EPSILON)
         .map_err(|e| setup_error(model, e))?;
