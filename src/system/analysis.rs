@@ -178,6 +178,71 @@ where
 /// matrices: the options must name it.
 pub const MAX_BRACKET_CONSTRAINTS: usize = 1024;
 
+/// Adds (as zeros) to the pattern of `G Gᵀ` the pairs of constraints whose gradients touch
+/// positions whose momenta the structure's `B` block couples ([`StructureMatrix::momentum_block`]'s
+/// off-diagonal entries), closed transitively: a flow of those couplings over a step (the exact
+/// damping of a chain of dashpots, applied pair after pair) reaches every variable of a
+/// connected group. `by_col`: the entries of `G` as `(column, row, value)`, sorted by column.
+///
+/// [`StructureMatrix::momentum_block`]: crate::system::StructureMatrix::momentum_block
+fn couple_through_momenta<V, Sys>(
+    system: &Sys,
+    n: usize,
+    by_col: &[(usize, usize, V::Real)],
+    gram: &mut Vec<(usize, usize, V::Real)>,
+) where
+    V: Vector,
+    Sys: Model<V>,
+{
+    use crate::system::StructureMatrix as _;
+    let mut block = Triplets::default();
+    if !system.structure().momentum_block(n, &mut block) {
+        return;
+    }
+    let nq = n / 2;
+    // Union–find over the positions by the off-diagonal couplings.
+    let mut parent: Vec<usize> = (0..nq).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut coupled = false;
+    for &(i, j, _) in &block.entries {
+        if i != j && i < nq && j < nq {
+            let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+            if a != b {
+                parent[a] = b;
+                coupled = true;
+            }
+        }
+    }
+    if !coupled {
+        return;
+    }
+    // The constraints touching each group of more than one position.
+    let mut groups: Vec<(usize, usize)> = by_col
+        .iter()
+        .filter(|&&(c, _, _)| c < nq)
+        .map(|&(c, r, _)| (root(&mut parent, c), r))
+        .collect();
+    groups.sort_unstable();
+    groups.dedup();
+    let mut start = 0;
+    while start < groups.len() {
+        let g = groups[start].0;
+        let end = start + groups[start..].iter().take_while(|e| e.0 == g).count();
+        for &(_, i) in &groups[start..end] {
+            for &(_, j) in &groups[start..end] {
+                gram.push((i, j, V::Real::zero()));
+            }
+        }
+        start = end;
+    }
+}
+
 /// When the constraint provides its sparse Jacobian ([`HolonomicConstraint::jacobian_entries`]):
 /// checks at `x0` that the constraint gradients are independent (`G Gᵀ` non-singular, factored
 /// by the backend `choice` picks) and returns the pattern of `G Gᵀ` — the pairs of constraints
@@ -222,6 +287,10 @@ where
         }
         start = end;
     }
+    // The inner flow of a mechanical form couples the momenta its `B` block couples (dashpots:
+    // their exact flows in sequence couple every body of a chain of them): constraints on
+    // positions whose momenta are so coupled couple in the multiplier systems too.
+    couple_through_momenta(system, n, &by_col, &mut gram);
     gram.sort_unstable_by_key(|&(i, j, _)| (j, i));
     let pattern: Vec<(usize, usize)> = gram.iter().map(|&(i, j, _)| (i, j)).collect();
     // Every constraint needs a diagonal entry: a constraint with a zero gradient row is

@@ -14,7 +14,7 @@ use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{
     ConstraintKind, DashpotFlow, FreeFlight, Kick, SceneKick, SceneModel, SceneSplitting,
-    consistent_account,
+    consistent_account, consistent_momentum,
 };
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
@@ -328,6 +328,11 @@ fn scene_kick<V: Vector + 'static>(
     // kick as `D(τ/2) ∘ K(τ) ∘ D(τ/2)` (the dashpots alone without a kick), a symmetric
     // composition of exact flows.
     let damped: Option<Box<dyn Flow<V>>> = DashpotFlow::new(model.clone()).map(|dashpots| {
+        // On constrained bodies the dashpots book their dissipation on the consistent motion.
+        let dashpots = match consistent_momentum(model) {
+            Some(account) => dashpots.with_account(account),
+            None => dashpots,
+        };
         if model.has_kick() {
             Box::new(dashpots.strang(Kick::new(model.clone()))) as Box<dyn Flow<V>>
         } else {

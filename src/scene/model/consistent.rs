@@ -11,13 +11,19 @@
 //! acting on the constraint-consistent momentum.
 //!
 //! With `S = G W⁻¹ Gᵀ` at the flight's positions `q`, the consistent part of a momentum `p` (or a
-//! force `F`) is `p − Gᵀ S⁻¹ G W⁻¹ p` (kinetic-metric orthogonal: what is left moves along the
-//! constraints). The flight's closed-form dissipation per body — `γ w (I₁ |p|² + φ² p·F + I₃ |F|²)`
-//! under a force, `½ w (1 − e^{−2γt}) |p|²` without — is evaluated with both replaced by their
-//! consistent parts. A body at rest books `0`; a block sliding on a floor books exactly the
-//! kinetic energy its damper takes; bodies coupled by constraints with different damping rates
-//! book the consistent parts' own flights (the rate differences turn them across the
-//! constraints inside the step by `O(h)`, the projection's business).
+//! force `F`) is `p_c = p − Gᵀ S⁻¹ G W⁻¹ p` (kinetic-metric orthogonal: what is left moves along
+//! the constraints), the inconsistent part `p_i = p − p_c` the projection's impulse. The flight's
+//! closed-form dissipation per body — `Q(p, F) = γ w (I₁ |p|² + φ² p·F + I₃ |F|²)` under a
+//! force, `½ w (1 − e^{−2γt}) |p|²` without, a quadratic form — splits as `Q(p_c) + 2B(p_c, p_i)
+//! + Q(p_i)`; the account books `Q(p, F) − Q(p_i, F_i)`, clamped at zero. A body at rest books
+//! `0` (its momentum and force are all impulse and normal force); a block sliding on a floor
+//! books exactly the kinetic energy its damper takes (its `p_c` and `F_i` are orthogonal); in
+//! motion the account is the flight's own to the scheme's order. `Q(p_c)` alone, tried first,
+//! is first order when bodies of different damping rates share a constraint (the constraint
+//! changes the consistent motion's decay; the cross term carries the step's symmetric
+//! cancellation): on a double pendulum of masses 1 and 3 under `c = 0.5` its budget error fell
+//! 0.175, 0.057, 0.021 for `h` = 0.01, 0.005, 0.0025, against 0.120, 0.030, 0.0074 now.
+//! The dashpots take the same account (`dashpot.rs`, [`ConsistentMomentum`]).
 //!
 //! **Cost.** A projection evaluates its inner flow once per Newton iteration, from the same
 //! positions `q` and sub-step `t` with momenta that differ by the multiplier's impulse `Gᵀδλ`
@@ -26,6 +32,7 @@
 //! iterations that follow; a changed state (`prepare`, a checkpoint) forgets them.
 
 use super::SceneModel;
+use super::dashpot::ConsistentMomentum;
 use super::flight::{BodyBook, DampingAccount};
 use crate::real::Real;
 use crate::scene::gram::MassGram;
@@ -41,20 +48,19 @@ pub(crate) fn consistent_account<T: Real>(
         return None;
     }
     let model = (model as &dyn Any).downcast_ref::<Arc<SceneModel<f64>>>()?;
-    Some(Box::new(ConsistentAccount {
-        model: model.clone(),
-        gram: None,
-        q: Vec::new(),
-        factored: false,
-        failed: false,
-        kept: None,
-        booked: 0.0,
-        mu: Vec::new(),
-        nu: Vec::new(),
-        s: Vec::new(),
-        p: Vec::new(),
-        f: Vec::new(),
-    }))
+    Some(Box::new(ConsistentAccount::new(model.clone())))
+}
+
+/// The consistent momentum for `model`'s dashpots, when they join constrained bodies and it
+/// runs in `f64` (see [`ConsistentMomentum`]).
+pub(crate) fn consistent_momentum<T: Real>(
+    model: &Arc<SceneModel<T>>,
+) -> Option<Box<dyn ConsistentMomentum>> {
+    if model.m == 0 || model.dashpots.is_none() {
+        return None;
+    }
+    let model = (model as &dyn Any).downcast_ref::<Arc<SceneModel<f64>>>()?;
+    Some(Box::new(ConsistentAccount::new(model.clone())))
 }
 
 /// Workspace of the consistent account: the Gram matrix factored at the last positions.
@@ -75,6 +81,8 @@ struct ConsistentAccount {
     s: Vec<f64>,
     p: Vec<f64>,
     f: Vec<f64>,
+    /// The flight's forces as given (`f` holds their consistent parts).
+    f_given: Vec<f64>,
 }
 
 impl std::fmt::Debug for ConsistentAccount {
@@ -86,9 +94,27 @@ impl std::fmt::Debug for ConsistentAccount {
 }
 
 impl ConsistentAccount {
+    fn new(model: Arc<SceneModel<f64>>) -> Self {
+        Self {
+            model,
+            gram: None,
+            q: Vec::new(),
+            factored: false,
+            failed: false,
+            kept: None,
+            booked: 0.0,
+            mu: Vec::new(),
+            nu: Vec::new(),
+            s: Vec::new(),
+            p: Vec::new(),
+            f: Vec::new(),
+            f_given: Vec::new(),
+        }
+    }
+
     /// `p`, `f` made consistent at `q` (`p ← p − Gᵀ S⁻¹ G W⁻¹ p`); `None` when `S` cannot be
     /// factored there.
-    fn make_consistent(&mut self, q: &[f64]) -> Option<()> {
+    fn make_consistent(&mut self, q: &[f64], with_force: bool) -> Option<()> {
         let model = &*self.model;
         let (d, m) = (model.dim, model.m);
         if !self.factored || self.q.as_slice() != q {
@@ -144,7 +170,12 @@ impl ConsistentAccount {
             model.gradient_transpose_add(q, nu, -1.0, &mut self.f);
             return Some(());
         }
-        for v in [&mut self.p, &mut self.f] {
+        let vectors = if with_force {
+            [Some(&mut self.p), Some(&mut self.f)]
+        } else {
+            [Some(&mut self.p), None]
+        };
+        for v in vectors.into_iter().flatten() {
             self.mu.iter_mut().for_each(|x| *x = 0.0);
             model.for_each_row_dot(q, v, Some(&model.inv_masses), |r, g| self.mu[r] += g);
             gram.solve(&mut self.mu).ok()?;
@@ -178,10 +209,22 @@ impl DampingAccount for ConsistentAccount {
         self.f.clear();
         self.f
             .extend((0..bodies).flat_map(|b| force(b).into_iter().take(d)));
-        self.make_consistent(q)?;
-        let booked = (0..bodies).fold(0.0, |acc, b| {
-            acc + book(b, &self.p[b * d..b * d + d], &self.f[b * d..b * d + d])
-        });
+        self.f_given.clear();
+        self.f_given.extend_from_slice(&self.f);
+        self.make_consistent(q, true)?;
+        // The flight's own closed form less that of the inconsistent parts `p − p_c`,
+        // `F − F_c` (see the module docs): zero at rest, the flight's own account to the
+        // scheme's order in motion, never negative.
+        let mut booked = 0.0;
+        let (mut pi, mut fi) = ([0.0; 3], [0.0; 3]);
+        for b in 0..bodies {
+            let (pb, fb) = (&p[b * d..b * d + d], &self.f_given[b * d..b * d + d]);
+            for k in 0..d {
+                pi[k] = pb[k] - self.p[b * d + k];
+                fi[k] = fb[k] - self.f[b * d + k];
+            }
+            booked += book(b, pb, fb) - book(b, &pi[..d], &fi[..d]);
+        }
         self.booked = booked.max(0.0);
         self.kept = Some(t);
         Some(self.booked)
@@ -189,5 +232,23 @@ impl DampingAccount for ConsistentAccount {
 
     fn forget(&mut self) {
         self.kept = None;
+    }
+}
+
+impl ConsistentMomentum for ConsistentAccount {
+    fn consistent(&mut self, q: &[f64], p: &[f64], out: &mut Vec<f64>) -> bool {
+        if self.failed {
+            return false;
+        }
+        self.p.clear();
+        self.p.extend_from_slice(p);
+        self.f.clear();
+        self.f.resize(p.len(), 0.0);
+        if self.make_consistent(q, false).is_none() {
+            return false;
+        }
+        out.clear();
+        out.extend_from_slice(&self.p);
+        true
     }
 }

@@ -31,7 +31,7 @@ mod terms;
 
 pub use crate::scene::effects::EffectKind;
 use crate::scene::effects::PotentialTerm;
-pub(crate) use consistent::consistent_account;
+pub(crate) use consistent::{consistent_account, consistent_momentum};
 pub use dashpot::DashpotFlow;
 pub(crate) use dashpot::Dashpots;
 use flight::Flight;
