@@ -62,6 +62,7 @@ pub mod nonlinear;
 pub mod observe;
 pub mod port;
 mod real;
+pub mod rigid;
 #[cfg(feature = "scene")]
 pub mod scene;
 pub mod stepper;

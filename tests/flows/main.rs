@@ -32,5 +32,6 @@ mod petrov_galerkin;
 mod petrov_galerkin_inputs;
 mod ports;
 mod projected_midpoint;
+mod rigid;
 mod small_path;
 mod stepper;

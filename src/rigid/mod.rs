@@ -1,0 +1,25 @@
+//! Rigid bodies and joints: a body as its centre of mass and the three columns of its rotation
+//! matrix (directors), with a constant diagonal mass matrix `diag(m, E₁, E₂, E₃)` and
+//! `QᵀQ = I` as six quadratic rows; joints as rows of degree ≤ 2 (`../shared/docs/METHOD.md`
+//! §8, docs/method.md §14). The existing projection is then RATTLE on the rotations, exact to
+//! round-off on every row, with no new flow: [`Multibody`] is a [`System`](crate::System) of
+//! mechanical form with an exact drift and a gravity kick.
+//!
+//! Files: `rows.rs` the rows of degree ≤ 2 ([`QuadraticRows`]), `inertia.rs` principal moments,
+//! axes and shapes ([`Inertia`]), `pose.rs` orientations ([`Rotation`]), `body.rs` a rigid
+//! body's description ([`RigidBody`]), `joints/` one file per joint kind ([`JointKind`]),
+//! `model.rs` the assembled model ([`Multibody`]).
+
+mod body;
+mod inertia;
+pub mod joints;
+mod model;
+mod pose;
+mod rows;
+
+pub use body::RigidBody;
+pub use inertia::Inertia;
+pub use joints::{Ball, BodyRef, Hinge, JointKind, Slider, Universal};
+pub use model::{Frames, Multibody, MultibodyEnergy};
+pub use pose::{Rotation, cross, dot};
+pub use rows::{QuadraticRows, RowBuilder};

@@ -1,0 +1,534 @@
+//! [`Multibody`]: point masses and rigid bodies (centre of mass and directors) joined by
+//! joints, under uniform gravity — a [`System`] of mechanical form with a constant diagonal
+//! mass matrix, run by the library's flows (RATTLE: the projection around kick ∘ drift ∘ kick).
+
+use super::joints::{Affine, BodyRef, JointKind};
+use super::pose::{Rotation, cross, dot};
+use super::rows::{QuadraticRows, RowBuilder};
+use super::{Inertia, RigidBody};
+use crate::error::SetupError;
+use crate::flow::{Coupling, FnFlow, ProjectionOptions, from_fn};
+use crate::nonlinear::NewtonOptions;
+use crate::real::Real;
+use crate::system::{Canonical, Case, Hamiltonian, System};
+use crate::vector::Vector;
+
+/// A body of the model: its first slot, and for a rigid body its principal axes in its frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Entry {
+    Point { slot: usize },
+    Rigid { slot: usize, axes: Rotation },
+}
+
+/// Point masses and rigid bodies joined by joints, under uniform gravity; see the module
+/// documentation and `../shared/docs/METHOD.md` §8.
+///
+/// **State.** Slots of three positions each: a point mass is one slot; a rigid body is four,
+/// its centre of mass `c` and its directors `d₁, d₂, d₃` (the columns of its rotation along its
+/// principal axes), with the masses `m, E₁, E₂, E₃` ([`Inertia::director_masses`]). The state
+/// is `(q, p)`, `p_s = m_s q̇_s`, so
+///
+/// ```text
+/// H = Σ_s |p_s|²/(2 m_s) − Σ_bodies m g·c,
+/// ```
+///
+/// constant diagonal mass, gravity on the centres alone. Each rigid body adds the six rows of
+/// `QᵀQ = I` (`(|dᵢ|² − 1)/2`, `dᵢ·dⱼ`), each joint its rows ([`JointKind`]); all have degree
+/// ≤ 2 ([`QuadraticRows`]). The free flight `q_s += h p_s/m_s` is exact, gravity a kick, and
+/// the projected kick–drift–kick step is RATTLE on the rotation matrices — for a free body the
+/// discrete Moser–Veselov map, which keeps energy and angular momentum without drift
+/// (McLachlan & Scovel 1995; Leimkuhler & Reich 2004, ch. 8).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Multibody {
+    gravity: [f64; 3],
+    masses: Vec<f64>,
+    /// Whether a slot carries a body's translation (gravity acts on it).
+    translational: Vec<bool>,
+    entries: Vec<Entry>,
+    /// Initial positions and momenta, slot by slot.
+    q0: Vec<f64>,
+    p0: Vec<f64>,
+    rows: Vec<RowBuilder<f64>>,
+    /// `(joint kind, first row)` of each joint.
+    joints: Vec<(&'static str, usize)>,
+}
+
+/// A joint's view of the model: where body points and axes are, as [`Affine`] functions of the
+/// positions, and the initial positions.
+#[derive(Debug)]
+pub struct Frames<'a> {
+    model: &'a Multibody,
+}
+
+/// How far from its row an initial pose may be (the rows' scale is 1: unit directors, metres).
+const INITIAL_ROW_TOL: f64 = 1e-9;
+
+impl Frames<'_> {
+    /// The model's initial positions.
+    pub fn initial_positions(&self) -> &[f64] {
+        &self.model.q0
+    }
+
+    fn entry(&self, body: usize) -> Result<Entry, SetupError> {
+        self.model
+            .entries
+            .get(body)
+            .copied()
+            .ok_or_else(|| SetupError::Dimension {
+                what: format!(
+                    "a joint names body {body} of a model of {} bodies",
+                    self.model.entries.len()
+                ),
+            })
+    }
+
+    /// The point `X` of `body`'s frame (about its centre of mass); a world point for the world.
+    pub fn point(&self, body: BodyRef, x: [f64; 3]) -> Result<Affine, SetupError> {
+        let BodyRef::Body(b) = body else {
+            return Ok(Affine::constant(x));
+        };
+        Ok(match self.entry(b)? {
+            Entry::Point { slot } => Affine {
+                terms: vec![(slot, 1.0)],
+                constant: x,
+            },
+            Entry::Rigid { slot, axes } => {
+                // Principal coordinates X_p = Pᵀ X; r = c + Σ X_p,i dᵢ.
+                let xp = axes.transpose().apply(x);
+                let mut terms = vec![(slot, 1.0)];
+                terms.extend((0..3).map(|i| (slot + 1 + i, xp[i])));
+                Affine {
+                    terms,
+                    constant: [0.0; 3],
+                }
+            }
+        })
+    }
+
+    /// The direction `a` of `body`'s frame; a world direction for the world.
+    ///
+    /// # Errors
+    /// [`SetupError::Dimension`] for a point mass (it has no orientation) or an unknown body.
+    pub fn axis(&self, body: BodyRef, a: [f64; 3]) -> Result<Affine, SetupError> {
+        let BodyRef::Body(b) = body else {
+            return Ok(Affine::constant(a));
+        };
+        match self.entry(b)? {
+            Entry::Point { .. } => Err(point_has_no_axes(b)),
+            Entry::Rigid { slot, axes } => {
+                let ap = axes.transpose().apply(a);
+                Ok(Affine {
+                    terms: (0..3).map(|i| (slot + 1 + i, ap[i])).collect(),
+                    constant: [0.0; 3],
+                })
+            }
+        }
+    }
+
+    /// The three directors of `body` (the world's axes for the world).
+    ///
+    /// # Errors
+    /// As [`axis`](Self::axis).
+    pub fn directors(&self, body: BodyRef) -> Result<[Affine; 3], SetupError> {
+        let BodyRef::Body(b) = body else {
+            return Ok(core::array::from_fn(|i| {
+                let mut e = [0.0; 3];
+                e[i] = 1.0;
+                Affine::constant(e)
+            }));
+        };
+        match self.entry(b)? {
+            Entry::Point { .. } => Err(point_has_no_axes(b)),
+            Entry::Rigid { slot, .. } => Ok(core::array::from_fn(|i| Affine {
+                terms: vec![(slot + 1 + i, 1.0)],
+                constant: [0.0; 3],
+            })),
+        }
+    }
+
+    /// The world vector `w` (at the initial poses) carried along with `body`:
+    /// `Q Q₀ᵀ w`, as a combination of its directors (constant for the world).
+    ///
+    /// # Errors
+    /// As [`axis`](Self::axis).
+    pub fn follow(&self, body: BodyRef, w: [f64; 3]) -> Result<Affine, SetupError> {
+        let d = self.directors(body)?;
+        if body == BodyRef::World {
+            return Ok(Affine::constant(w));
+        }
+        let q0 = self.initial_positions();
+        let mut terms = Vec::new();
+        for di in &d {
+            // Q₀ᵀ w: the components of w along the initial directors.
+            let c = dot(di.at(q0), w);
+            terms.extend(di.terms.iter().map(|&(s, a)| (s, a * c)));
+        }
+        Ok(Affine {
+            terms,
+            constant: [0.0; 3],
+        })
+    }
+}
+
+fn point_has_no_axes(b: usize) -> SetupError {
+    SetupError::Dimension {
+        what: format!("body {b} is a point mass: a joint that holds an axis needs a rigid body"),
+    }
+}
+
+impl Multibody {
+    /// An empty model under the uniform field `gravity` (an acceleration, m/s²).
+    pub fn new(gravity: [f64; 3]) -> Self {
+        Self {
+            gravity,
+            masses: Vec::new(),
+            translational: Vec::new(),
+            entries: Vec::new(),
+            q0: Vec::new(),
+            p0: Vec::new(),
+            rows: Vec::new(),
+            joints: Vec::new(),
+        }
+    }
+
+    fn push_slot(&mut self, mass: f64, translational: bool, q: [f64; 3], v: [f64; 3]) {
+        self.masses.push(mass);
+        self.translational.push(translational);
+        self.q0.extend_from_slice(&q);
+        self.p0.extend(v.map(|x| mass * x));
+    }
+
+    /// Adds a point mass; returns its index.
+    ///
+    /// # Errors
+    /// [`SetupError::InvalidParameter`] for a mass that is not positive and finite or a
+    /// non-finite position or velocity.
+    pub fn add_point(
+        &mut self,
+        mass: f64,
+        position: [f64; 3],
+        velocity: [f64; 3],
+    ) -> Result<usize, SetupError> {
+        check_mass(mass)?;
+        check_finite("position", &position)?;
+        check_finite("velocity", &velocity)?;
+        let slot = self.masses.len();
+        self.push_slot(mass, true, position, velocity);
+        self.entries.push(Entry::Point { slot });
+        Ok(self.entries.len() - 1)
+    }
+
+    /// Adds a rigid body (four slots and the six rows of `QᵀQ = I`); returns its index.
+    ///
+    /// # Errors
+    /// [`SetupError::InvalidParameter`] for a mass that is not positive and finite or a
+    /// non-finite pose or velocity.
+    pub fn add_rigid(&mut self, body: RigidBody) -> Result<usize, SetupError> {
+        check_mass(body.mass)?;
+        check_finite("position", &body.position)?;
+        check_finite("velocity", &body.velocity)?;
+        check_finite("angular velocity", &body.angular_velocity)?;
+        let slot = self.masses.len();
+        let axes = Rotation(body.inertia.axes());
+        // The principal axes in the world: Q = R P.
+        let q = body.orientation.then(&axes);
+        self.push_slot(body.mass, true, body.position, body.velocity);
+        let e = body.inertia.director_masses();
+        for (i, &ei) in e.iter().enumerate() {
+            let d = q.column(i);
+            self.push_slot(ei, false, d, cross(body.angular_velocity, d));
+        }
+        // QᵀQ = I: (|dᵢ|² − 1)/2 and dᵢ·dⱼ.
+        for i in 0..3 {
+            let mut row = RowBuilder::new();
+            for k in 0..3 {
+                row.product(3 * (slot + 1 + i) + k, 3 * (slot + 1 + i) + k, 0.5);
+            }
+            row.constant(-0.5);
+            self.rows.push(row);
+        }
+        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+            let mut row = RowBuilder::new();
+            for k in 0..3 {
+                row.product(3 * (slot + 1 + i) + k, 3 * (slot + 1 + j) + k, 1.0);
+            }
+            self.rows.push(row);
+        }
+        self.entries.push(Entry::Rigid { slot, axes });
+        Ok(self.entries.len() - 1)
+    }
+
+    /// Adds a joint; returns its index.
+    ///
+    /// # Errors
+    /// The joint's own ([`JointKind::rows`]), and [`SetupError::InvalidParameter`] when the
+    /// initial poses do not satisfy its rows (anchors apart, axes not aligned), naming the joint
+    /// and the row.
+    pub fn add_joint(&mut self, joint: &dyn JointKind) -> Result<usize, SetupError> {
+        let rows = joint.rows(&Frames { model: self })?;
+        let scratch = QuadraticRows::<f64>::new(self.q0.len());
+        for (r, row) in rows.iter().enumerate() {
+            let mut one = scratch.clone();
+            one.push(row);
+            let g = one.row_residual(&self.q0, 0);
+            if g.is_nan() || g.abs() > INITIAL_ROW_TOL {
+                return Err(SetupError::InvalidParameter {
+                    name: format!("{} joint {} (row {r})", joint.name(), self.joints.len()),
+                    value: g,
+                    requirement: "satisfied by the initial poses (anchors coincident, axes aligned as the joint holds them)",
+                });
+            }
+        }
+        self.joints.push((joint.name(), self.rows.len()));
+        self.rows.extend(rows);
+        Ok(self.joints.len() - 1)
+    }
+
+    /// The number of slots (three positions each).
+    pub fn slots(&self) -> usize {
+        self.masses.len()
+    }
+
+    /// The number of constraint rows.
+    pub fn constraints(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// The model as a [`System`] in the scalar `T`.
+    pub fn system<T: Real>(&self) -> System<Canonical, MultibodyEnergy<T>, QuadraticRows<T>> {
+        let mut rows = QuadraticRows::new(self.q0.len());
+        for row in &self.rows {
+            rows.push(&row.cast());
+        }
+        System::new(Canonical, self.energy(), rows)
+    }
+
+    /// The Hamiltonian in the scalar `T`.
+    pub fn energy<T: Real>(&self) -> MultibodyEnergy<T> {
+        MultibodyEnergy {
+            inv_masses: self.masses.iter().map(|&m| T::lit(1.0 / m)).collect(),
+            weights: self
+                .masses
+                .iter()
+                .zip(&self.translational)
+                .map(|(&m, &t)| {
+                    let w = if t { m } else { 0.0 };
+                    self.gravity.map(|g| T::lit(-w * g))
+                })
+                .collect(),
+        }
+    }
+
+    /// The initial state `(q, p)`.
+    pub fn initial_state<V: Vector>(&self) -> V {
+        let n = self.q0.len();
+        let mut x = V::zeros(2 * n);
+        let s = x.as_mut_slice();
+        for (o, &v) in s.iter_mut().zip(self.q0.iter().chain(&self.p0)) {
+            *o = <V::Real as Real>::lit(v);
+        }
+        x
+    }
+
+    /// The exact flow of gravity: `p_c += h m g` on every centre of mass and point mass.
+    pub fn kick<V: Vector>(&self) -> FnFlow<impl FnMut(V::Real, &mut V) + Clone + use<V>> {
+        let n = self.q0.len();
+        let force: Vec<V::Real> = self
+            .energy::<V::Real>()
+            .weights
+            .iter()
+            .flat_map(|w| w.map(|v| -v))
+            .collect();
+        from_fn(move |h: V::Real, x: &mut V| {
+            let p = &mut x.as_mut_slice()[n..];
+            for (pi, &f) in p.iter_mut().zip(&force) {
+                *pi = *pi + h * f;
+            }
+        })
+        .kick()
+    }
+
+    /// The exact flow of the kinetic energy: `q_s += h p_s/m_s`.
+    pub fn drift<V: Vector>(&self) -> FnFlow<impl FnMut(V::Real, &mut V) + Clone + use<V>> {
+        let n = self.q0.len();
+        let inv: Vec<V::Real> = self
+            .masses
+            .iter()
+            .map(|&m| <V::Real as Real>::lit(1.0 / m))
+            .collect();
+        from_fn(move |h: V::Real, x: &mut V| {
+            let (q, p) = x.as_mut_slice().split_at_mut(n);
+            for ((qs, ps), &w) in q.chunks_exact_mut(3).zip(p.chunks_exact(3)).zip(&inv) {
+                let s = h * w;
+                for k in 0..3 {
+                    qs[k] = qs[k] + s * ps[k];
+                }
+            }
+        })
+    }
+
+    /// The projection options for RATTLE on this model: the degenerate case and decoupled
+    /// multiplier systems (position rows, forces on the momenta), named so that the dense
+    /// bracket analysis is skipped, and the rows' residual tolerance `16 ε` (unit directors;
+    /// positions of order one).
+    pub fn projection_options<T: Real>(&self) -> ProjectionOptions<T> {
+        let scale = self.q0.iter().fold(1.0f64, |a, &b| a.max(b.abs()));
+        ProjectionOptions::default()
+            .with_case(Case::Degenerate)
+            .with_coupling(Coupling::Decoupled)
+            .with_newton(NewtonOptions::default().with_ftol(T::lit(16.0 * f64::EPSILON * scale)))
+    }
+
+    /// Body `body`'s rotation (its frame's axes in the world) at state `x`.
+    ///
+    /// # Panics
+    /// For an index that is not a rigid body of the model.
+    pub fn orientation(&self, x: &[f64], body: usize) -> Rotation {
+        let Entry::Rigid { slot, axes } = self.entries[body] else {
+            panic!("body {body} is not a rigid body");
+        };
+        let q = Rotation(core::array::from_fn(|r| {
+            core::array::from_fn(|c| x[3 * (slot + 1 + c) + r])
+        }));
+        // Q = R P, so R = Q Pᵀ.
+        q.then(&axes.transpose())
+    }
+
+    /// Body `body`'s angular velocity in the world, `ω = ½ Σ dᵢ × ḋᵢ`, at state `x`.
+    ///
+    /// # Panics
+    /// For an index that is not a rigid body of the model.
+    pub fn angular_velocity(&self, x: &[f64], body: usize) -> [f64; 3] {
+        let Entry::Rigid { slot, .. } = self.entries[body] else {
+            panic!("body {body} is not a rigid body");
+        };
+        let n = self.q0.len();
+        let mut w = [0.0; 3];
+        for i in 0..3 {
+            let s = slot + 1 + i;
+            let d: [f64; 3] = core::array::from_fn(|k| x[3 * s + k]);
+            let v: [f64; 3] = core::array::from_fn(|k| x[n + 3 * s + k] / self.masses[s]);
+            let c = cross(d, v);
+            for k in 0..3 {
+                w[k] += 0.5 * c[k];
+            }
+        }
+        w
+    }
+
+    /// The total angular momentum about the world's origin at state `x`: `Σ c × p_c` over
+    /// the centres and point masses plus `Σ dᵢ × p_dᵢ` (`E_i dᵢ × ḋᵢ`) over the directors.
+    pub fn angular_momentum(&self, x: &[f64]) -> [f64; 3] {
+        let n = self.q0.len();
+        let mut l = [0.0; 3];
+        for s in 0..self.slots() {
+            let q: [f64; 3] = core::array::from_fn(|k| x[3 * s + k]);
+            let p: [f64; 3] = core::array::from_fn(|k| x[n + 3 * s + k]);
+            let c = cross(q, p);
+            for k in 0..3 {
+                l[k] += c[k];
+            }
+        }
+        l
+    }
+
+    /// `max |QᵀQ − I|` over the rigid bodies at state `x`.
+    pub fn orthonormality_error(&self, x: &[f64]) -> f64 {
+        let mut worst = 0.0f64;
+        for e in &self.entries {
+            if let Entry::Rigid { slot, .. } = *e {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        let di: [f64; 3] = core::array::from_fn(|k| x[3 * (slot + 1 + i) + k]);
+                        let dj: [f64; 3] = core::array::from_fn(|k| x[3 * (slot + 1 + j) + k]);
+                        let want = if i == j { 1.0 } else { 0.0 };
+                        worst = worst.max((dot(di, dj) - want).abs());
+                    }
+                }
+            }
+        }
+        worst
+    }
+}
+
+/// `H = Σ_s |p_s|²/(2 m_s) + Σ_s w_s·q_s` (`w_s = −m g` on the centres and point masses).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MultibodyEnergy<T> {
+    inv_masses: Vec<T>,
+    weights: Vec<[T; 3]>,
+}
+
+impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
+    fn energy(&self, x: &V) -> T {
+        let n = 3 * self.inv_masses.len();
+        let (q, p) = x.as_slice().split_at(n);
+        let mut e = T::zero();
+        for (s, (&w, g)) in self.inv_masses.iter().zip(&self.weights).enumerate() {
+            for k in 0..3 {
+                e = e + T::lit(0.5) * w * p[3 * s + k] * p[3 * s + k] + g[k] * q[3 * s + k];
+            }
+        }
+        e
+    }
+    fn gradient(&self, x: &V, out: &mut V) {
+        let n = 3 * self.inv_masses.len();
+        let p = &x.as_slice()[n..];
+        let (oq, op) = out.as_mut_slice().split_at_mut(n);
+        for (s, (&w, g)) in self.inv_masses.iter().zip(&self.weights).enumerate() {
+            for k in 0..3 {
+                oq[3 * s + k] = g[k];
+                op[3 * s + k] = w * p[3 * s + k];
+            }
+        }
+    }
+    fn is_quadratic(&self) -> bool {
+        true
+    }
+    /// `∇²H = diag(0, M⁻¹)`.
+    fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
+        let n = 3 * self.inv_masses.len();
+        let vp = &v.as_slice()[n..];
+        let (oq, op) = out.as_mut_slice().split_at_mut(n);
+        oq.iter_mut().for_each(|o| *o = T::zero());
+        for (s, &w) in self.inv_masses.iter().enumerate() {
+            for k in 0..3 {
+                op[3 * s + k] = w * vp[3 * s + k];
+            }
+        }
+        true
+    }
+}
+
+fn check_mass(mass: f64) -> Result<(), SetupError> {
+    if mass > 0.0 && mass.is_finite() {
+        Ok(())
+    } else {
+        Err(SetupError::InvalidParameter {
+            name: "mass".to_owned(),
+            value: mass,
+            requirement: "positive and finite",
+        })
+    }
+}
+
+fn check_finite(name: &str, v: &[f64; 3]) -> Result<(), SetupError> {
+    match v.iter().find(|x| !x.is_finite()) {
+        Some(&bad) => Err(SetupError::InvalidParameter {
+            name: name.to_owned(),
+            value: bad,
+            requirement: "finite",
+        }),
+        None => Ok(()),
+    }
+}
+
+impl Inertia {
+    /// The inertia's rotational kinetic energy `½ ωᵀJω` for the body angular velocity `ω`
+    /// (in the principal frame).
+    pub fn kinetic_energy(&self, omega_principal: [f64; 3]) -> f64 {
+        let j = self.moments();
+        0.5 * (0..3)
+            .map(|i| j[i] * omega_principal[i].powi(2))
+            .sum::<f64>()
+    }
+}
