@@ -484,6 +484,14 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
     fn is_quadratic(&self) -> bool {
         true
     }
+    /// The mechanical form: `½ Σ w p²` with the slots' inverse masses (three per slot), and a
+    /// linear potential — so the implicit schemes eliminate the momenta.
+    fn kinetic_inverse_mass(&self, w: &mut [T]) -> bool {
+        for (s, &wi) in self.inv_masses.iter().enumerate() {
+            w[3 * s..3 * s + 3].fill(wi);
+        }
+        true
+    }
     /// `∇²H = diag(0, M⁻¹)`.
     fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
         let n = 3 * self.inv_masses.len();
