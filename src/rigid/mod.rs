@@ -11,15 +11,19 @@
 //! `model.rs` the assembled model ([`Multibody`]).
 
 mod body;
+pub mod elements;
 mod inertia;
 pub mod joints;
+mod kick;
 mod model;
 mod pose;
 mod rows;
 
 pub use body::RigidBody;
+pub use elements::{HingeAngle, JointDamper, JointSpring};
 pub use inertia::Inertia;
 pub use joints::{Ball, BodyRef, Hinge, JointKind, Slider, Universal};
+pub use kick::MultibodyKick;
 pub use model::{Frames, Multibody, MultibodyEnergy};
 pub use pose::{Rotation, cross, dot};
 pub use rows::{QuadraticRows, RowBuilder};

@@ -2,7 +2,9 @@
 //! joints, under uniform gravity — a [`System`] of mechanical form with a constant diagonal
 //! mass matrix, run by the library's flows (RATTLE: the projection around kick ∘ drift ∘ kick).
 
-use super::joints::{Affine, BodyRef, JointKind};
+use super::elements::{HingeAngle, JointDamper, JointSpring};
+use super::joints::{Affine, BodyRef, Hinge, JointKind};
+use super::kick::MultibodyKick;
 use super::pose::{Rotation, cross, dot};
 use super::rows::{QuadraticRows, RowBuilder};
 use super::{Inertia, RigidBody};
@@ -51,6 +53,8 @@ pub struct Multibody {
     rows: Vec<RowBuilder<f64>>,
     /// `(joint kind, first row)` of each joint.
     joints: Vec<(&'static str, usize)>,
+    springs: Vec<JointSpring>,
+    dampers: Vec<JointDamper>,
 }
 
 /// A joint's view of the model: where body points and axes are, as [`Affine`] functions of the
@@ -188,6 +192,8 @@ impl Multibody {
             p0: Vec::new(),
             rows: Vec::new(),
             joints: Vec::new(),
+            springs: Vec::new(),
+            dampers: Vec::new(),
         }
     }
 
@@ -284,6 +290,62 @@ impl Multibody {
         Ok(self.joints.len() - 1)
     }
 
+    /// Adds a spring `½ k (θ − θ₀)²` on `hinge`'s angle (`θ = 0` at the initial poses; the
+    /// hinge itself is added with [`add_joint`](Self::add_joint)); returns its index.
+    ///
+    /// # Errors
+    /// [`SetupError::InvalidParameter`] for a stiffness that is negative or not finite or a
+    /// rest angle that is not finite; the hinge's own errors.
+    pub fn add_hinge_spring(
+        &mut self,
+        hinge: &Hinge,
+        stiffness: f64,
+        rest: f64,
+    ) -> Result<usize, SetupError> {
+        if !(stiffness >= 0.0 && stiffness.is_finite() && rest.is_finite()) {
+            return Err(SetupError::InvalidParameter {
+                name: "hinge spring".to_owned(),
+                value: stiffness,
+                requirement: "a stiffness non-negative and finite, a finite rest angle",
+            });
+        }
+        let angle = HingeAngle::of(hinge, &Frames { model: self })?;
+        self.springs.push(JointSpring {
+            angle,
+            stiffness,
+            rest,
+        });
+        Ok(self.springs.len() - 1)
+    }
+
+    /// Adds a damper `c θ̇` on `hinge`'s rate, acting along the constraint-consistent
+    /// direction ([`JointDamper`]); returns its index.
+    ///
+    /// # Errors
+    /// [`SetupError::InvalidParameter`] for a coefficient that is negative or not finite; the
+    /// hinge's own errors.
+    pub fn add_hinge_damper(
+        &mut self,
+        hinge: &Hinge,
+        coefficient: f64,
+    ) -> Result<usize, SetupError> {
+        if !(coefficient >= 0.0 && coefficient.is_finite()) {
+            return Err(SetupError::InvalidParameter {
+                name: "hinge damper".to_owned(),
+                value: coefficient,
+                requirement: "non-negative and finite",
+            });
+        }
+        let angle = HingeAngle::of(hinge, &Frames { model: self })?;
+        self.dampers.push(JointDamper { angle, coefficient });
+        Ok(self.dampers.len() - 1)
+    }
+
+    /// The angle of spring `spring`'s hinge at state `x` (radians, `0` at the initial poses).
+    pub fn spring_angle(&self, x: &[f64], spring: usize) -> f64 {
+        self.springs[spring].angle.value(&x[..self.q0.len()])
+    }
+
     /// The number of slots (three positions each).
     pub fn slots(&self) -> usize {
         self.masses.len()
@@ -296,16 +358,22 @@ impl Multibody {
 
     /// The model as a [`System`] in the scalar `T`.
     pub fn system<T: Real>(&self) -> System<Canonical, MultibodyEnergy<T>, QuadraticRows<T>> {
+        System::new(Canonical, self.energy(), self.quadratic_rows())
+    }
+
+    /// The constraint rows in the scalar `T`.
+    pub fn quadratic_rows<T: Real>(&self) -> QuadraticRows<T> {
         let mut rows = QuadraticRows::new(self.q0.len());
         for row in &self.rows {
             rows.push(&row.cast());
         }
-        System::new(Canonical, self.energy(), rows)
+        rows
     }
 
     /// The Hamiltonian in the scalar `T`.
     pub fn energy<T: Real>(&self) -> MultibodyEnergy<T> {
         MultibodyEnergy {
+            springs: self.springs.clone(),
             inv_masses: self.masses.iter().map(|&m| T::lit(1.0 / m)).collect(),
             weights: self
                 .masses
@@ -330,22 +398,28 @@ impl Multibody {
         x
     }
 
-    /// The exact flow of gravity: `p_c += h m g` on every centre of mass and point mass.
-    pub fn kick<V: Vector>(&self) -> FnFlow<impl FnMut(V::Real, &mut V) + Clone + use<V>> {
-        let n = self.q0.len();
+    /// The kick: the exact flow of the potential (gravity on every centre of mass and point
+    /// mass, the springs on joint angles), with the joint dampers' consistent flows around it
+    /// ([`MultibodyKick`]).
+    pub fn kick<V: Vector>(&self) -> MultibodyKick<V::Real> {
         let force: Vec<V::Real> = self
             .energy::<V::Real>()
             .weights
             .iter()
             .flat_map(|w| w.map(|v| -v))
             .collect();
-        from_fn(move |h: V::Real, x: &mut V| {
-            let p = &mut x.as_mut_slice()[n..];
-            for (pi, &f) in p.iter_mut().zip(&force) {
-                *pi = *pi + h * f;
-            }
-        })
-        .kick()
+        let inv = self
+            .masses
+            .iter()
+            .flat_map(|&m| [<V::Real as Real>::lit(1.0 / m); 3])
+            .collect();
+        MultibodyKick::new(
+            force,
+            self.springs.clone(),
+            self.dampers.clone(),
+            self.quadratic_rows(),
+            inv,
+        )
     }
 
     /// The exact flow of the kinetic energy: `q_s += h p_s/m_s`.
@@ -456,6 +530,7 @@ impl Multibody {
 pub struct MultibodyEnergy<T> {
     inv_masses: Vec<T>,
     weights: Vec<[T; 3]>,
+    springs: Vec<JointSpring>,
 }
 
 impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
@@ -467,6 +542,10 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
             for k in 0..3 {
                 e = e + T::lit(0.5) * w * p[3 * s + k] * p[3 * s + k] + g[k] * q[3 * s + k];
             }
+        }
+        for s in &self.springs {
+            let stretch = s.angle.value(q) - T::lit(s.rest);
+            e = e + T::lit(0.5 * s.stiffness) * stretch * stretch;
         }
         e
     }
@@ -480,9 +559,18 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
                 op[3 * s + k] = w * p[3 * s + k];
             }
         }
+        let q = &x.as_slice()[..n];
+        for s in &self.springs {
+            let stretch = s.angle.value(q) - T::lit(s.rest);
+            s.angle.gradient_add(
+                q,
+                T::lit(s.stiffness) * stretch,
+                &mut out.as_mut_slice()[..n],
+            );
+        }
     }
     fn is_quadratic(&self) -> bool {
-        true
+        self.springs.is_empty()
     }
     /// The mechanical form: `½ Σ w p²` with the slots' inverse masses (three per slot), and a
     /// linear potential — so the implicit schemes eliminate the momenta.
@@ -492,8 +580,11 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
         }
         true
     }
-    /// `∇²H = diag(0, M⁻¹)`.
+    /// `∇²H = diag(0, M⁻¹)` without springs (differences with them).
     fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
+        if !self.springs.is_empty() {
+            return false;
+        }
         let n = 3 * self.inv_masses.len();
         let vp = &v.as_slice()[n..];
         let (oq, op) = out.as_mut_slice().split_at_mut(n);

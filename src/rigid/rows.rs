@@ -95,6 +95,11 @@ impl<T: Real> QuadraticRows<T> {
         }
     }
 
+    /// The number of rows.
+    pub fn count(&self) -> usize {
+        self.rows.len()
+    }
+
     /// The number of positions the rows read.
     pub fn positions(&self) -> usize {
         self.nq
@@ -150,6 +155,27 @@ impl<T: Real> QuadraticRows<T> {
         row.columns.iter().fold(row.constant, |s, (i, b, range)| {
             s + q[*i] * half * (self.partial(q, *b, range) + *b)
         })
+    }
+}
+
+impl<T: Real> QuadraticRows<T> {
+    /// `out = G(q) v` on position slices.
+    pub fn apply_positions(&self, q: &[T], v: &[T], out: &mut [T]) {
+        for (row, o) in self.rows.iter().zip(out.iter_mut()) {
+            *o = row.columns.iter().fold(T::zero(), |s, (i, b, range)| {
+                s + self.partial(q, *b, range) * v[*i]
+            });
+        }
+    }
+
+    /// `out += α G(q)ᵀ μ` on position slices.
+    pub fn transpose_add_positions(&self, q: &[T], mu: &[T], alpha: T, out: &mut [T]) {
+        for (row, &m) in self.rows.iter().zip(mu) {
+            let c = alpha * m;
+            for (i, b, range) in &row.columns {
+                out[*i] = out[*i] + c * self.partial(q, *b, range);
+            }
+        }
     }
 }
 

@@ -545,3 +545,138 @@ fn a_lagrange_top_on_a_ball_joint_precesses_steadily() {
     eprintln!("Lagrange top, precession rate {s:.6}: axis errors {errs:?}, order {p:.3}");
     assert!((p - 2.0).abs() < 0.2, "{p}");
 }
+
+/// A hinge of `body` to the world about the world axis `axis` through the world point `at`
+/// (the body's anchor at the same point).
+fn world_hinge(body: usize, anchor: [f64; 3], at: [f64; 3], axis: [f64; 3]) -> Hinge {
+    Hinge {
+        a: BodyRef::Body(body),
+        anchor_a: anchor,
+        axis_a: axis,
+        b: BodyRef::World,
+        anchor_b: at,
+        axis_b: axis,
+    }
+}
+
+#[test]
+fn a_torsion_oscillator_on_a_hinge_rings_down_as_its_closed_form() {
+    // A box (0.4 × 0.2 × 0.1, 1 kg) on a hinge about z through its centre, a spring k = 1 and a
+    // damper c = 0.02 on the angle, started turning at ω₀ = 2: I θ'' + c θ' + k θ = 0, so the
+    // body's angle is φ(t) = (ω₀/ω_d) e^{−ζω t} sin ω_d t (the hinge's θ = −φ: it measures the
+    // world against the body). Order 2, every row at round-off, and the energy budget
+    // H − H₀ + D (D the dampers' booked energy) falling as h².
+    let (k, c, w0) = (1.0, 0.02, 2.0);
+    let inertia = Inertia::solid_box(1.0, [0.4, 0.2, 0.1]).unwrap();
+    let i = inertia.moments()[2];
+    let mut model = Multibody::new([0.0, 0.0, -9.81]);
+    let mut body = RigidBody::at_rest(1.0, inertia, [0.0; 3]);
+    body.angular_velocity = [0.0, 0.0, w0];
+    let b = model.add_rigid(body).unwrap();
+    let hinge = world_hinge(b, [0.0; 3], [0.0; 3], [0.0, 0.0, 1.0]);
+    model.add_joint(&hinge).unwrap();
+    model.add_hinge_spring(&hinge, k, 0.0).unwrap();
+    model.add_hinge_damper(&hinge, c).unwrap();
+    let x0: V = model.initial_state();
+    let wn = (k / i).sqrt();
+    let zeta = c / (2.0 * (k * i).sqrt());
+    let wd = wn * (1.0 - zeta * zeta).sqrt();
+    let t_end = 3.0;
+    let exact = -(w0 / wd) * (-zeta * wn * t_end).exp() * (wd * t_end).sin();
+    let hs = [0.02, 0.01, 0.005, 0.0025];
+    let system = model.system::<f64>();
+    let h0 = system.hamiltonian.energy(&x0);
+    let mut budgets = Vec::new();
+    let errs: Vec<f64> = hs
+        .iter()
+        .map(|&h| {
+            let mut flow = rattle(&model, &x0);
+            let mut x = x0.clone();
+            let mut ledger = lieflow::flow::Ledger::at(0.0);
+            let mut rows = vec![0.0f64; model.constraints()];
+            let mut g_max = 0.0f64;
+            for _ in 0..(t_end / h).round() as usize {
+                flow.step_at(&mut ledger, h, &mut x).unwrap();
+                system.constraint.residual(&x, &mut rows);
+                g_max = rows.iter().fold(g_max, |a, &r| a.max(r.abs()));
+            }
+            assert!(g_max <= 16.0 * f64::EPSILON, "h = {h}: rows {g_max:e}");
+            let e = system.hamiltonian.energy(&x);
+            budgets.push((e - h0 + ledger.dissipated).abs());
+            (model.spring_angle(x.as_slice(), 0) - exact).abs()
+        })
+        .collect();
+    let p = fitted_order(&hs, &errs, 1e-12);
+    let pb = fitted_order(&hs, &budgets, 1e-14);
+    eprintln!(
+        "torsion oscillator: angle errors {errs:?}, order {p:.3}; budget errors {budgets:?}, order {pb:.3}"
+    );
+    assert!((p - 2.0).abs() < 0.2, "{p}");
+    assert!((pb - 2.0).abs() < 0.3, "{pb}");
+}
+
+#[test]
+fn a_damper_on_an_off_centre_hinge_keeps_order_two_and_books_its_loss() {
+    // The case of METHOD §8's trap: a 1 kg box (0.3 × 0.2 × 0.1) on a hinge about y whose
+    // axis passes 0.15 m above its centre, under gravity, a damper c = 0.05: a damped compound
+    // pendulum, I_p θ'' = −m g l sin θ − c θ' (I_p = J_y + m l²). The damper's rate ∇θ·q̇ lives
+    // on the directors alone; the motion it damps also moves the centre. Along the consistent
+    // direction the run keeps order 2 and books what H loses, to O(h²).
+    let (g, l, c, theta0) = (9.81, 0.15, 0.05, 1.0f64);
+    let inertia = Inertia::solid_box(1.0, [0.3, 0.2, 0.1]).unwrap();
+    let ip = inertia.moments()[1] + l * l;
+    let tilt = Rotation::from_axis_angle([0.0, 1.0, 0.0], theta0).unwrap();
+    let mut model = Multibody::new([0.0, 0.0, -g]);
+    let mut body = RigidBody::at_rest(1.0, inertia, tilt.apply([0.0, 0.0, -l]));
+    body.orientation = tilt;
+    let b = model.add_rigid(body).unwrap();
+    let hinge = world_hinge(b, [0.0, 0.0, l], [0.0; 3], [0.0, 1.0, 0.0]);
+    model.add_joint(&hinge).unwrap();
+    model.add_hinge_damper(&hinge, c).unwrap();
+    let x0: V = model.initial_state();
+    let t_end = 2.0;
+    let reference = {
+        let f = |th: f64, om: f64| (om, (-g * l * th.sin() - c * om) / ip);
+        let (mut th, mut om) = (theta0, 0.0);
+        let dt = 1e-4f64;
+        for _ in 0..(t_end / dt).round() as usize {
+            let k1 = f(th, om);
+            let k2 = f(th + 0.5 * dt * k1.0, om + 0.5 * dt * k1.1);
+            let k3 = f(th + 0.5 * dt * k2.0, om + 0.5 * dt * k2.1);
+            let k4 = f(th + dt * k3.0, om + dt * k3.1);
+            th += dt / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0);
+            om += dt / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1);
+        }
+        [-l * th.sin(), 0.0, -l * th.cos()]
+    };
+    let hs = [0.02, 0.01, 0.005, 0.0025];
+    let system = model.system::<f64>();
+    let h0 = system.hamiltonian.energy(&x0);
+    let mut budgets = Vec::new();
+    let mut losses = Vec::new();
+    let errs: Vec<f64> = hs
+        .iter()
+        .map(|&h| {
+            let mut flow = rattle(&model, &x0);
+            let mut x = x0.clone();
+            let mut ledger = lieflow::flow::Ledger::at(0.0);
+            for _ in 0..(t_end / h).round() as usize {
+                flow.step_at(&mut ledger, h, &mut x).unwrap();
+            }
+            let e = system.hamiltonian.energy(&x);
+            budgets.push((e - h0 + ledger.dissipated).abs());
+            losses.push(ledger.dissipated);
+            (0..3)
+                .map(|k| (x[k] - reference[k]).abs())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let p = fitted_order(&hs, &errs, 1e-12);
+    let pb = fitted_order(&hs, &budgets, 1e-14);
+    eprintln!(
+        "off-centre damped hinge: errors {errs:?}, order {p:.3}; booked {losses:?}, budget errors {budgets:?}, order {pb:.3}"
+    );
+    assert!((p - 2.0).abs() < 0.2, "{p}");
+    assert!((pb - 2.0).abs() < 0.3, "{pb}");
+    assert!(losses.iter().all(|&d| d > 0.1), "{losses:?}");
+}
