@@ -12,6 +12,7 @@
 
 mod body;
 pub mod elements;
+mod energy;
 mod inertia;
 pub mod joints;
 mod kick;

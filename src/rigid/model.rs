@@ -2,17 +2,18 @@
 //! joints, under uniform gravity — a [`System`] of mechanical form with a constant diagonal
 //! mass matrix, run by the library's flows (RATTLE: the projection around kick ∘ drift ∘ kick).
 
+use super::RigidBody;
 use super::elements::{HingeAngle, JointDamper, JointSpring};
+pub use super::energy::MultibodyEnergy;
 use super::joints::{Affine, BodyRef, Hinge, JointKind};
 use super::kick::MultibodyKick;
 use super::pose::{Rotation, cross, dot};
 use super::rows::{QuadraticRows, RowBuilder};
-use super::{Inertia, RigidBody};
 use crate::error::SetupError;
 use crate::flow::{Coupling, FnFlow, ProjectionOptions, from_fn};
 use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
-use crate::system::{Canonical, Case, Hamiltonian, System};
+use crate::system::{Canonical, Case, System};
 use crate::vector::Vector;
 
 /// A body of the model: its first slot, and for a rigid body its principal axes in its frame.
@@ -525,79 +526,6 @@ impl Multibody {
     }
 }
 
-/// `H = Σ_s |p_s|²/(2 m_s) + Σ_s w_s·q_s` (`w_s = −m g` on the centres and point masses).
-#[derive(Debug, Clone, PartialEq)]
-pub struct MultibodyEnergy<T> {
-    inv_masses: Vec<T>,
-    weights: Vec<[T; 3]>,
-    springs: Vec<JointSpring>,
-}
-
-impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
-    fn energy(&self, x: &V) -> T {
-        let n = 3 * self.inv_masses.len();
-        let (q, p) = x.as_slice().split_at(n);
-        let mut e = T::zero();
-        for (s, (&w, g)) in self.inv_masses.iter().zip(&self.weights).enumerate() {
-            for k in 0..3 {
-                e = e + T::lit(0.5) * w * p[3 * s + k] * p[3 * s + k] + g[k] * q[3 * s + k];
-            }
-        }
-        for s in &self.springs {
-            let stretch = s.angle.value(q) - T::lit(s.rest);
-            e = e + T::lit(0.5 * s.stiffness) * stretch * stretch;
-        }
-        e
-    }
-    fn gradient(&self, x: &V, out: &mut V) {
-        let n = 3 * self.inv_masses.len();
-        let p = &x.as_slice()[n..];
-        let (oq, op) = out.as_mut_slice().split_at_mut(n);
-        for (s, (&w, g)) in self.inv_masses.iter().zip(&self.weights).enumerate() {
-            for k in 0..3 {
-                oq[3 * s + k] = g[k];
-                op[3 * s + k] = w * p[3 * s + k];
-            }
-        }
-        let q = &x.as_slice()[..n];
-        for s in &self.springs {
-            let stretch = s.angle.value(q) - T::lit(s.rest);
-            s.angle.gradient_add(
-                q,
-                T::lit(s.stiffness) * stretch,
-                &mut out.as_mut_slice()[..n],
-            );
-        }
-    }
-    fn is_quadratic(&self) -> bool {
-        self.springs.is_empty()
-    }
-    /// The mechanical form: `½ Σ w p²` with the slots' inverse masses (three per slot), and a
-    /// linear potential — so the implicit schemes eliminate the momenta.
-    fn kinetic_inverse_mass(&self, w: &mut [T]) -> bool {
-        for (s, &wi) in self.inv_masses.iter().enumerate() {
-            w[3 * s..3 * s + 3].fill(wi);
-        }
-        true
-    }
-    /// `∇²H = diag(0, M⁻¹)` without springs (differences with them).
-    fn hessian_apply(&self, _x: &V, v: &V, out: &mut V) -> bool {
-        if !self.springs.is_empty() {
-            return false;
-        }
-        let n = 3 * self.inv_masses.len();
-        let vp = &v.as_slice()[n..];
-        let (oq, op) = out.as_mut_slice().split_at_mut(n);
-        oq.iter_mut().for_each(|o| *o = T::zero());
-        for (s, &w) in self.inv_masses.iter().enumerate() {
-            for k in 0..3 {
-                op[3 * s + k] = w * vp[3 * s + k];
-            }
-        }
-        true
-    }
-}
-
 fn check_mass(mass: f64) -> Result<(), SetupError> {
     if mass > 0.0 && mass.is_finite() {
         Ok(())
@@ -618,16 +546,5 @@ fn check_finite(name: &str, v: &[f64; 3]) -> Result<(), SetupError> {
             requirement: "finite",
         }),
         None => Ok(()),
-    }
-}
-
-impl Inertia {
-    /// The inertia's rotational kinetic energy `½ ωᵀJω` for the body angular velocity `ω`
-    /// (in the principal frame).
-    pub fn kinetic_energy(&self, omega_principal: [f64; 3]) -> f64 {
-        let j = self.moments();
-        0.5 * (0..3)
-            .map(|i| j[i] * omega_principal[i].powi(2))
-            .sum::<f64>()
     }
 }
