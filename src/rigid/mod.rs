@@ -13,6 +13,7 @@
 mod body;
 pub mod elements;
 mod energy;
+mod frames;
 mod inertia;
 pub mod joints;
 mod kick;
@@ -22,9 +23,10 @@ mod rows;
 
 pub use body::RigidBody;
 pub use elements::{HingeAngle, JointDamper, JointSpring};
+pub use frames::{Affine, Frames};
 pub use inertia::Inertia;
 pub use joints::{Ball, BodyRef, Hinge, JointKind, Slider, Universal};
 pub use kick::MultibodyKick;
-pub use model::{Frames, Multibody, MultibodyEnergy};
+pub use model::{Multibody, MultibodyEnergy};
 pub use pose::{Rotation, cross, dot};
 pub use rows::{QuadraticRows, RowBuilder};

@@ -5,7 +5,8 @@
 use super::RigidBody;
 use super::elements::{HingeAngle, JointDamper, JointSpring};
 pub use super::energy::MultibodyEnergy;
-use super::joints::{Affine, BodyRef, Hinge, JointKind};
+use super::frames::{Entry, Frames};
+use super::joints::{Hinge, JointKind};
 use super::kick::MultibodyKick;
 use super::pose::{Rotation, cross, dot};
 use super::rows::{QuadraticRows, RowBuilder};
@@ -15,13 +16,6 @@ use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
 use crate::system::{Canonical, Case, System};
 use crate::vector::Vector;
-
-/// A body of the model: its first slot, and for a rigid body its principal axes in its frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Entry {
-    Point { slot: usize },
-    Rigid { slot: usize, axes: Rotation },
-}
 
 /// Point masses and rigid bodies joined by joints, under uniform gravity; see the module
 /// documentation and `../shared/docs/METHOD.md` §8.
@@ -58,130 +52,18 @@ pub struct Multibody {
     dampers: Vec<JointDamper>,
 }
 
-/// A joint's view of the model: where body points and axes are, as [`Affine`] functions of the
-/// positions, and the initial positions.
-#[derive(Debug)]
-pub struct Frames<'a> {
-    model: &'a Multibody,
-}
-
 /// How far from its row an initial pose may be (the rows' scale is 1: unit directors, metres).
 const INITIAL_ROW_TOL: f64 = 1e-9;
 
-impl Frames<'_> {
-    /// The model's initial positions.
-    pub fn initial_positions(&self) -> &[f64] {
-        &self.model.q0
-    }
-
-    fn entry(&self, body: usize) -> Result<Entry, SetupError> {
-        self.model
-            .entries
-            .get(body)
-            .copied()
-            .ok_or_else(|| SetupError::Dimension {
-                what: format!(
-                    "a joint names body {body} of a model of {} bodies",
-                    self.model.entries.len()
-                ),
-            })
-    }
-
-    /// The point `X` of `body`'s frame (about its centre of mass); a world point for the world.
-    pub fn point(&self, body: BodyRef, x: [f64; 3]) -> Result<Affine, SetupError> {
-        let BodyRef::Body(b) = body else {
-            return Ok(Affine::constant(x));
-        };
-        Ok(match self.entry(b)? {
-            Entry::Point { slot } => Affine {
-                terms: vec![(slot, 1.0)],
-                constant: x,
-            },
-            Entry::Rigid { slot, axes } => {
-                // Principal coordinates X_p = Pᵀ X; r = c + Σ X_p,i dᵢ.
-                let xp = axes.transpose().apply(x);
-                let mut terms = vec![(slot, 1.0)];
-                terms.extend((0..3).map(|i| (slot + 1 + i, xp[i])));
-                Affine {
-                    terms,
-                    constant: [0.0; 3],
-                }
-            }
-        })
-    }
-
-    /// The direction `a` of `body`'s frame; a world direction for the world.
-    ///
-    /// # Errors
-    /// [`SetupError::Dimension`] for a point mass (it has no orientation) or an unknown body.
-    pub fn axis(&self, body: BodyRef, a: [f64; 3]) -> Result<Affine, SetupError> {
-        let BodyRef::Body(b) = body else {
-            return Ok(Affine::constant(a));
-        };
-        match self.entry(b)? {
-            Entry::Point { .. } => Err(point_has_no_axes(b)),
-            Entry::Rigid { slot, axes } => {
-                let ap = axes.transpose().apply(a);
-                Ok(Affine {
-                    terms: (0..3).map(|i| (slot + 1 + i, ap[i])).collect(),
-                    constant: [0.0; 3],
-                })
-            }
-        }
-    }
-
-    /// The three directors of `body` (the world's axes for the world).
-    ///
-    /// # Errors
-    /// As [`axis`](Self::axis).
-    pub fn directors(&self, body: BodyRef) -> Result<[Affine; 3], SetupError> {
-        let BodyRef::Body(b) = body else {
-            return Ok(core::array::from_fn(|i| {
-                let mut e = [0.0; 3];
-                e[i] = 1.0;
-                Affine::constant(e)
-            }));
-        };
-        match self.entry(b)? {
-            Entry::Point { .. } => Err(point_has_no_axes(b)),
-            Entry::Rigid { slot, .. } => Ok(core::array::from_fn(|i| Affine {
-                terms: vec![(slot + 1 + i, 1.0)],
-                constant: [0.0; 3],
-            })),
-        }
-    }
-
-    /// The world vector `w` (at the initial poses) carried along with `body`:
-    /// `Q Q₀ᵀ w`, as a combination of its directors (constant for the world).
-    ///
-    /// # Errors
-    /// As [`axis`](Self::axis).
-    pub fn follow(&self, body: BodyRef, w: [f64; 3]) -> Result<Affine, SetupError> {
-        let d = self.directors(body)?;
-        if body == BodyRef::World {
-            return Ok(Affine::constant(w));
-        }
-        let q0 = self.initial_positions();
-        let mut terms = Vec::new();
-        for di in &d {
-            // Q₀ᵀ w: the components of w along the initial directors.
-            let c = dot(di.at(q0), w);
-            terms.extend(di.terms.iter().map(|&(s, a)| (s, a * c)));
-        }
-        Ok(Affine {
-            terms,
-            constant: [0.0; 3],
-        })
-    }
-}
-
-fn point_has_no_axes(b: usize) -> SetupError {
-    SetupError::Dimension {
-        what: format!("body {b} is a point mass: a joint that holds an axis needs a rigid body"),
-    }
-}
-
 impl Multibody {
+    /// The joints' view of the model.
+    fn frames(&self) -> Frames<'_> {
+        Frames {
+            entries: &self.entries,
+            q0: &self.q0,
+        }
+    }
+
     /// An empty model under the uniform field `gravity` (an acceleration, m/s²).
     pub fn new(gravity: [f64; 3]) -> Self {
         Self {
@@ -272,7 +154,7 @@ impl Multibody {
     /// initial poses do not satisfy its rows (anchors apart, axes not aligned), naming the joint
     /// and the row.
     pub fn add_joint(&mut self, joint: &dyn JointKind) -> Result<usize, SetupError> {
-        let rows = joint.rows(&Frames { model: self })?;
+        let rows = joint.rows(&self.frames())?;
         let scratch = QuadraticRows::<f64>::new(self.q0.len());
         for (r, row) in rows.iter().enumerate() {
             let mut one = scratch.clone();
@@ -310,7 +192,7 @@ impl Multibody {
                 requirement: "a stiffness non-negative and finite, a finite rest angle",
             });
         }
-        let angle = HingeAngle::of(hinge, &Frames { model: self })?;
+        let angle = HingeAngle::of(hinge, &self.frames())?;
         self.springs.push(JointSpring {
             angle,
             stiffness,
@@ -337,7 +219,7 @@ impl Multibody {
                 requirement: "non-negative and finite",
             });
         }
-        let angle = HingeAngle::of(hinge, &Frames { model: self })?;
+        let angle = HingeAngle::of(hinge, &self.frames())?;
         self.dampers.push(JointDamper { angle, coefficient });
         Ok(self.dampers.len() - 1)
     }

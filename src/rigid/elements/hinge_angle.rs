@@ -11,8 +11,8 @@
 
 use crate::error::SetupError;
 use crate::real::Real;
+use crate::rigid::frames::Frames;
 use crate::rigid::joints::{Affine, BodyRef, Hinge, perpendiculars, unit_axis};
-use crate::rigid::model::Frames;
 
 /// The angle of a hinge (see the module documentation).
 #[derive(Debug, Clone, PartialEq)]

@@ -3,7 +3,7 @@
 
 use super::{BodyRef, JointKind, coincide};
 use crate::error::SetupError;
-use crate::rigid::model::Frames;
+use crate::rigid::frames::Frames;
 use crate::rigid::rows::RowBuilder;
 
 /// A ball joint between `a` and `b` at the anchors given in each body's frame (about its centre

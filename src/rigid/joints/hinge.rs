@@ -4,7 +4,7 @@
 
 use super::{BodyRef, JointKind, coincide, dot_row, perpendiculars, unit_axis};
 use crate::error::SetupError;
-use crate::rigid::model::Frames;
+use crate::rigid::frames::Frames;
 use crate::rigid::rows::RowBuilder;
 
 /// A hinge between `a` and `b` at the anchors, turning about `axis_a` (in `a`'s frame), which

@@ -14,19 +14,9 @@ pub use hinge::Hinge;
 pub use slider::Slider;
 pub use universal::Universal;
 
-use super::model::Frames;
+pub use super::frames::{Affine, BodyRef, Frames};
 use super::rows::RowBuilder;
 use crate::error::SetupError;
-
-/// One end of a joint: a body of the model, or the world (fixed).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BodyRef {
-    /// The fixed world frame.
-    World,
-    /// The body of this index (as [`Multibody::add_rigid`](super::Multibody::add_rigid) and
-    /// [`add_point`](super::Multibody::add_point) returned it).
-    Body(usize),
-}
 
 /// A kind of joint: the rows it adds between its bodies.
 pub trait JointKind {
@@ -39,36 +29,6 @@ pub trait JointKind {
     /// [`SetupError`] for a body that is not in the model, a zero axis, or a point body where
     /// the joint needs orientation.
     fn rows(&self, frames: &Frames<'_>) -> Result<Vec<RowBuilder<f64>>, SetupError>;
-}
-
-/// A 3-vector linear in the positions: `Σ_s α_s q_s + c` over slots `s` (3 positions each).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Affine {
-    /// `(slot, α)`.
-    pub terms: Vec<(usize, f64)>,
-    /// `c`.
-    pub constant: [f64; 3],
-}
-
-impl Affine {
-    /// The constant vector `c`.
-    pub fn constant(c: [f64; 3]) -> Self {
-        Self {
-            terms: Vec::new(),
-            constant: c,
-        }
-    }
-
-    /// Its value at positions `q`.
-    pub fn at(&self, q: &[f64]) -> [f64; 3] {
-        let mut v = self.constant;
-        for &(s, a) in &self.terms {
-            for (k, vk) in v.iter_mut().enumerate() {
-                *vk += a * q[3 * s + k];
-            }
-        }
-        v
-    }
 }
 
 /// The three rows `(a − b)_k = 0`.

@@ -6,7 +6,7 @@
 
 use super::{BodyRef, JointKind, dot_row, perpendiculars, unit_axis};
 use crate::error::SetupError;
-use crate::rigid::model::Frames;
+use crate::rigid::frames::Frames;
 use crate::rigid::rows::RowBuilder;
 
 /// A slider between `a` and `b` along `axis_a` (in `a`'s frame) through the anchors.

@@ -3,7 +3,7 @@
 
 use super::{BodyRef, JointKind, coincide, dot_row, unit_axis};
 use crate::error::SetupError;
-use crate::rigid::model::Frames;
+use crate::rigid::frames::Frames;
 use crate::rigid::rows::RowBuilder;
 
 /// A universal joint between `a` and `b` at the anchors, with the cross's arms `axis_a` (in
