@@ -357,3 +357,50 @@ fn the_reduced_schemes_allocate_nothing_per_step() {
         }
     }
 }
+
+#[test]
+fn rigid_bodies_on_damped_sprung_hinges_allocate_nothing_per_step() {
+    // Two boxes chained by hinges (6 + 6 rows of QᵀQ = I, 5 + 5 of the hinges: the sparse path),
+    // a spring and a consistent damper on each hinge: RATTLE around the kick (gravity,
+    // springs, dampers with their Gram solves) and the drift.
+    use lieflow::rigid::{BodyRef, Hinge, Inertia, Multibody, RigidBody};
+    let inertia = Inertia::solid_box(1.0, [0.3, 0.2, 0.1]).unwrap();
+    let mut model = Multibody::new([0.0, 0.0, -9.81]);
+    let mut first = RigidBody::at_rest(1.0, inertia, [0.0, 0.0, -0.15]);
+    first.angular_velocity = [0.0, 1.0, 0.0];
+    first.velocity = [-0.15, 0.0, 0.0];
+    let a = model.add_rigid(first).unwrap();
+    let mut second = RigidBody::at_rest(1.0, inertia, [0.0, 0.0, -0.45]);
+    second.angular_velocity = [0.0, 1.0, 0.0];
+    second.velocity = [-0.45, 0.0, 0.0];
+    let b = model.add_rigid(second).unwrap();
+    let top = Hinge {
+        a: BodyRef::Body(a),
+        anchor_a: [0.0, 0.0, 0.15],
+        axis_a: [0.0, 1.0, 0.0],
+        b: BodyRef::World,
+        anchor_b: [0.0; 3],
+        axis_b: [0.0, 1.0, 0.0],
+    };
+    let middle = Hinge {
+        a: BodyRef::Body(b),
+        anchor_a: [0.0, 0.0, 0.15],
+        axis_a: [0.0, 1.0, 0.0],
+        b: BodyRef::Body(a),
+        anchor_b: [0.0, 0.0, -0.15],
+        axis_b: [0.0, 1.0, 0.0],
+    };
+    for hinge in [&top, &middle] {
+        model.add_joint(hinge).unwrap();
+        model.add_hinge_spring(hinge, 2.0, 0.0).unwrap();
+        model.add_hinge_damper(hinge, 0.05).unwrap();
+    }
+    type V = faer::Col<f64>;
+    let mut x: V = model.initial_state();
+    let mut flow = model
+        .kick::<V>()
+        .strang(model.drift::<V>())
+        .projected(model.system::<f64>(), &x, model.projection_options())
+        .unwrap();
+    assert_eq!(allocations_per_run(&mut flow, &mut x, 1e-3), 0);
+}

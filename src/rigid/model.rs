@@ -351,6 +351,23 @@ impl Multibody {
         q.then(&axes.transpose())
     }
 
+    /// Body `body`'s orientation as the unit quaternion `[w, x, y, z]` (`w ≥ 0`) at state `x`.
+    ///
+    /// # Panics
+    /// For an index that is not a rigid body of the model.
+    pub fn quaternion(&self, x: &[f64], body: usize) -> [f64; 4] {
+        self.orientation(x, body).quaternion()
+    }
+
+    /// Body `body`'s angular velocity in its own frame, `Rᵀω`, at state `x`.
+    ///
+    /// # Panics
+    /// For an index that is not a rigid body of the model.
+    pub fn body_angular_velocity(&self, x: &[f64], body: usize) -> [f64; 3] {
+        let r = self.orientation(x, body);
+        r.transpose().apply(self.angular_velocity(x, body))
+    }
+
     /// Body `body`'s angular velocity in the world, `ω = ½ Σ dᵢ × ḋᵢ`, at state `x`.
     ///
     /// # Panics

@@ -113,6 +113,29 @@ fn rigid_body_prints_the_json_contract_last() {
     assert!(c <= 1e-14, "{c:e}");
 }
 
+#[test]
+fn spinning_top_prints_the_json_contract_last() {
+    let (code, out, _) = run("spinning_top", &["--t-end", "0.5", "--dt", "5e-4"]);
+    assert_eq!(code, 0);
+    let last = out.lines().last().unwrap();
+    for key in [
+        "t",
+        "x",
+        "steps",
+        "max_abs_g",
+        "energy_max_err",
+        "ns_per_step",
+    ] {
+        field(last, key);
+    }
+    // The rows at round-off; the axis on its steady precession to the step's O(h²) error
+    // (2e-5 at h = 5e-4 in `rigid::a_lagrange_top…`).
+    let g: f64 = field(last, "max_abs_g").parse().unwrap();
+    assert!(g <= 1e-14, "{g:e}");
+    let a: f64 = field(last, "azimuth_err").parse().unwrap();
+    assert!(a <= 1e-4, "{a:e}");
+}
+
 /// The damped pendulum: the discrete gradient never increases H across step sizes; the
 /// projection scheme keeps the residuals at round-off; a triple jump is refused (exit 1).
 #[test]
@@ -232,6 +255,7 @@ fn bad_flags_exit_2_with_a_message_and_help_exits_0() {
             "paper_example",
             "spherical_pendulum",
             "rigid_body",
+            "spinning_top",
             "damped_pendulum",
             "stiff_chain",
             "chain",
