@@ -80,6 +80,7 @@ fn main() {
         de = de.max((system.hamiltonian.energy(&x) - e0).abs());
     }
     let t = steps as f64 * dt;
+    let stats = flow.stats();
     let e = model.orientation(x.as_slice(), body).column(2);
     let tilt_end = e[2].acos();
     let azimuth = e[1].atan2(e[0]);
@@ -96,6 +97,12 @@ fn main() {
     );
     println!("  max |g|          = {g_max:.3e}   (QᵀQ = I and the joint)");
     println!("  max |H - H0|     = {de:.3e}");
+    println!(
+        "  Newton           = {:.2} iterations, {:.2} residual evaluations, {:.2} factorizations per step",
+        stats.newton_iterations as f64 / steps as f64,
+        stats.residual_evaluations as f64 / steps as f64,
+        stats.factorizations as f64 / steps as f64
+    );
     println!("  time             = {ns_per_step:.0} ns/step");
     Json::default()
         .str("example", "spinning_top")
