@@ -114,4 +114,19 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for MultibodyKick<T> {
     fn is_kick(&self) -> bool {
         true
     }
+    /// At frozen positions the potential's kick adds a constant and the dampers' flows are
+    /// linear in the momenta.
+    fn is_affine_in_momenta(&self) -> bool {
+        true
+    }
+    /// `DΦ v = v` for `v` without a position part, without dampers (whose flows would act on
+    /// it); `false` otherwise (the potential's Hessian is not formed here).
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        let n = self.force.len();
+        if !self.dampers.is_empty() || v.as_slice()[..n].iter().any(|&c| c != T::zero()) {
+            return false;
+        }
+        out.copy_from(v);
+        true
+    }
 }

@@ -11,6 +11,7 @@
 //! `model.rs` the assembled model ([`Multibody`]).
 
 mod body;
+mod drift;
 pub mod elements;
 mod energy;
 mod frames;
@@ -22,6 +23,7 @@ mod pose;
 mod rows;
 
 pub use body::RigidBody;
+pub use drift::MultibodyDrift;
 pub use elements::{HingeAngle, JointDamper, JointSpring};
 pub use frames::{Affine, Frames};
 pub use inertia::Inertia;

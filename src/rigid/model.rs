@@ -3,6 +3,7 @@
 //! mass matrix, run by the library's flows (RATTLE: the projection around kick ∘ drift ∘ kick).
 
 use super::RigidBody;
+use super::drift::MultibodyDrift;
 use super::elements::{HingeAngle, JointDamper, JointSpring};
 pub use super::energy::MultibodyEnergy;
 use super::frames::{Entry, Frames};
@@ -11,7 +12,7 @@ use super::kick::MultibodyKick;
 use super::pose::{Rotation, cross, dot};
 use super::rows::{QuadraticRows, RowBuilder};
 use crate::error::SetupError;
-use crate::flow::{Coupling, FnFlow, ProjectionOptions, from_fn};
+use crate::flow::{Coupling, ProjectionOptions};
 use crate::nonlinear::NewtonOptions;
 use crate::real::Real;
 use crate::system::{Canonical, Case, System};
@@ -305,23 +306,14 @@ impl Multibody {
         )
     }
 
-    /// The exact flow of the kinetic energy: `q_s += h p_s/m_s`.
-    pub fn drift<V: Vector>(&self) -> FnFlow<impl FnMut(V::Real, &mut V) + Clone + use<V>> {
-        let n = self.q0.len();
-        let inv: Vec<V::Real> = self
-            .masses
-            .iter()
-            .map(|&m| <V::Real as Real>::lit(1.0 / m))
-            .collect();
-        from_fn(move |h: V::Real, x: &mut V| {
-            let (q, p) = x.as_mut_slice().split_at_mut(n);
-            for ((qs, ps), &w) in q.chunks_exact_mut(3).zip(p.chunks_exact(3)).zip(&inv) {
-                let s = h * w;
-                for k in 0..3 {
-                    qs[k] = qs[k] + s * ps[k];
-                }
-            }
-        })
+    /// The exact flow of the kinetic energy, `q_s += h p_s/m_s` ([`MultibodyDrift`]).
+    pub fn drift<V: Vector>(&self) -> MultibodyDrift<V::Real> {
+        MultibodyDrift::new(
+            self.masses
+                .iter()
+                .flat_map(|&m| [<V::Real as Real>::lit(1.0 / m); 3])
+                .collect(),
+        )
     }
 
     /// The projection options for RATTLE on this model: the degenerate case and decoupled
