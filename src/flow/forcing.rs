@@ -6,8 +6,9 @@
 //! projected midpoint rule and the discrete gradient take it at the step's midpoint
 //! (`t_n + h/2`, one node). Each books the supplied work of its own energy identity.
 
-use crate::error::SetupError;
+use crate::error::{SetupError, StepError};
 use crate::port::{InputMap, Signal};
+use crate::real::Real as _;
 use crate::system::{HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
@@ -101,14 +102,14 @@ impl<V: Vector> Forcing<V> {
 
     /// Evaluates `s u(t + e_r h)` at the nodes `e_r` of the step `[t, t + h]` (`s = scale`:
     /// `h` where the scheme adds `h B u` to an increment, `1` where it adds `B u` to a field).
-    /// `Err` names the first input whose value is not finite: `(input, time, value)`.
+    /// `Err` names the first input whose value is not finite ([`StepError::NonFiniteInput`]).
     pub(crate) fn begin(
         &mut self,
         t: V::Real,
         h: V::Real,
         nodes: &[V::Real],
         scale: V::Real,
-    ) -> Result<(), (usize, V::Real, V::Real)> {
+    ) -> Result<(), StepError> {
         let k = self.signals.len();
         self.hu.resize(k * nodes.len(), V::Real::zero());
         for (r, &e) in nodes.iter().enumerate() {
@@ -116,7 +117,11 @@ impl<V: Vector> Forcing<V> {
             for (j, s) in self.signals.iter().enumerate() {
                 let u = s.value(tr);
                 if !u.is_finite() {
-                    return Err((j, tr, u));
+                    return Err(StepError::NonFiniteInput {
+                        input: j,
+                        t: tr.to_f64_lossy(),
+                        value: u.to_f64_lossy(),
+                    });
                 }
                 self.hu[r * k + j] = scale * u;
             }

@@ -156,11 +156,12 @@ impl Multibody {
     /// and the row.
     pub fn add_joint(&mut self, joint: &dyn JointKind) -> Result<usize, SetupError> {
         let rows = joint.rows(&self.frames())?;
-        let scratch = QuadraticRows::<f64>::new(self.q0.len());
-        for (r, row) in rows.iter().enumerate() {
-            let mut one = scratch.clone();
-            one.push(row);
-            let g = one.row_residual(&self.q0, 0);
+        let mut joint_rows = QuadraticRows::<f64>::new(self.q0.len());
+        for row in &rows {
+            joint_rows.push(row);
+        }
+        for r in 0..rows.len() {
+            let g = joint_rows.row_residual(&self.q0, r);
             if g.is_nan() || g.abs() > INITIAL_ROW_TOL {
                 return Err(SetupError::InvalidParameter {
                     name: format!("{} joint {} (row {r})", joint.name(), self.joints.len()),

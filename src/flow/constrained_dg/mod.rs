@@ -404,14 +404,8 @@ where
             return Ok(());
         }
         let t0 = ledger.t;
-        if let Some(forcing) = self.forcing.as_mut()
-            && let Err((input, t, value)) = forcing.begin(t0, h, &[V::Real::lit(0.5)], h)
-        {
-            return Err(StepError::NonFiniteInput {
-                input,
-                t: t.to_f64_lossy(),
-                value: value.to_f64_lossy(),
-            });
+        if let Some(forcing) = self.forcing.as_mut() {
+            forcing.begin(t0, h, &[V::Real::lit(0.5)], h)?;
         }
         // The stored step is overwritten below; report no balance unless this step succeeds.
         self.have_step = false;

@@ -398,14 +398,8 @@ where
         let continued = self.ended && self.start.as_slice() == self.end.as_slice();
         self.guess(h, x);
         let t0 = ledger.t;
-        if let Some(forcing) = self.forcing.as_mut()
-            && let Err((input, t, value)) = forcing.begin(t0, h, &self.tables.nodes, h)
-        {
-            return Err(StepError::NonFiniteInput {
-                input,
-                t: t.to_f64_lossy(),
-                value: value.to_f64_lossy(),
-            });
+        if let Some(forcing) = self.forcing.as_mut() {
+            forcing.begin(t0, h, &self.tables.nodes, h)?;
         }
         let floor = self.rounding_floor(x);
         self.system.constraint().residual(x, &mut self.g0);

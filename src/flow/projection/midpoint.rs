@@ -450,14 +450,8 @@ where
         if !nonzero {
             return Ok(());
         }
-        if let Some(forcing) = self.forcing.as_mut()
-            && let Err((input, t, value)) = forcing.begin(ledger.t, h, &[V::Real::lit(0.5)], h)
-        {
-            return Err(StepError::NonFiniteInput {
-                input,
-                t: t.to_f64_lossy(),
-                value: value.to_f64_lossy(),
-            });
+        if let Some(forcing) = self.forcing.as_mut() {
+            forcing.begin(ledger.t, h, &[V::Real::lit(0.5)], h)?;
         }
         if !from_last {
             let w = &mut self.w;

@@ -12,7 +12,7 @@
 use crate::error::SetupError;
 use crate::real::Real;
 use crate::rigid::frames::Frames;
-use crate::rigid::joints::{Affine, BodyRef, Hinge, perpendiculars, unit_axis};
+use crate::rigid::joints::{Affine, Hinge, perpendiculars, unit_axis};
 
 /// The angle of a hinge (see the module documentation).
 #[derive(Debug, Clone, PartialEq)]
@@ -55,7 +55,6 @@ impl HingeAngle {
         let u_b = frames.axis(hinge.b, u)?;
         // The same world vector at the initial poses, carried by A.
         let u_a = frames.follow(hinge.a, u_b.at(frames.initial_positions()))?;
-        let _ = BodyRef::World;
         Ok(Self { axis, u_a, u_b })
     }
 
