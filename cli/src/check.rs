@@ -24,14 +24,20 @@ pub(crate) fn check(path: &Path, json: bool) -> ExitCode {
     }
 }
 
+/// `3 bodies` or `3 bodies (2 rigid)`.
+pub(crate) fn bodies(a: &Assembly) -> String {
+    let n = count(a.bodies, "body", "bodies");
+    if a.rigid_bodies == 0 {
+        n
+    } else {
+        format!("{n} ({} rigid)", a.rigid_bodies)
+    }
+}
+
 pub(crate) fn print_assembly(a: &Assembly) {
     println!("scene        {}", a.name);
     if let Some(d) = a.dim {
-        println!(
-            "space        {d}D, {}, state of {}",
-            count(a.bodies, "body", "bodies"),
-            a.state_len
-        );
+        println!("space        {d}D, {}, state of {}", bodies(a), a.state_len);
     } else {
         println!("model        built-in, state of {}", a.state_len);
     }

@@ -30,7 +30,7 @@ fn headline(a: &Assembly, plan: &RunPlan, dt: f64) -> String {
     let holds = match a.dim {
         Some(_) => format!(
             "{}, {}",
-            count(a.bodies, "body", "bodies"),
+            crate::check::bodies(a),
             count(a.constraint_rows, "constraint row", "constraint rows")
         ),
         None if a.constraint_rows == 0 => format!("built-in model, state of {}", a.state_len),

@@ -23,12 +23,15 @@ mod pose;
 mod rows;
 
 pub use body::RigidBody;
+pub(crate) use body::orthonormality;
 pub use drift::MultibodyDrift;
 pub use elements::{HingeAngle, JointDamper, JointSpring};
+pub(crate) use frames::Entry;
 pub use frames::{Affine, Frames};
 pub use inertia::Inertia;
 pub use joints::{Ball, BodyRef, Hinge, JointKind, Slider, Universal};
 pub use kick::MultibodyKick;
 pub use model::{Multibody, MultibodyEnergy};
 pub use pose::{Rotation, cross, dot};
+pub(crate) use pose::{body_frame, director_spin};
 pub use rows::{QuadraticRows, RowBuilder};

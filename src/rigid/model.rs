@@ -129,21 +129,7 @@ impl Multibody {
             self.push_slot(ei, false, d, cross(body.angular_velocity, d));
         }
         // QᵀQ = I: (|dᵢ|² − 1)/2 and dᵢ·dⱼ.
-        for i in 0..3 {
-            let mut row = RowBuilder::new();
-            for k in 0..3 {
-                row.product(3 * (slot + 1 + i) + k, 3 * (slot + 1 + i) + k, 0.5);
-            }
-            row.constant(-0.5);
-            self.rows.push(row);
-        }
-        for (i, j) in [(0, 1), (0, 2), (1, 2)] {
-            let mut row = RowBuilder::new();
-            for k in 0..3 {
-                row.product(3 * (slot + 1 + i) + k, 3 * (slot + 1 + j) + k, 1.0);
-            }
-            self.rows.push(row);
-        }
+        self.rows.extend(super::body::orthonormality(slot));
         self.entries.push(Entry::Rigid { slot, axes });
         Ok(self.entries.len() - 1)
     }
@@ -337,11 +323,7 @@ impl Multibody {
         let Entry::Rigid { slot, axes } = self.entries[body] else {
             panic!("body {body} is not a rigid body");
         };
-        let q = Rotation(core::array::from_fn(|r| {
-            core::array::from_fn(|c| x[3 * (slot + 1 + c) + r])
-        }));
-        // Q = R P, so R = Q Pᵀ.
-        q.then(&axes.transpose())
+        super::pose::body_frame(x, slot, &axes)
     }
 
     /// Body `body`'s orientation as the unit quaternion `[w, x, y, z]` (`w ≥ 0`) at state `x`.
@@ -369,18 +351,8 @@ impl Multibody {
         let Entry::Rigid { slot, .. } = self.entries[body] else {
             panic!("body {body} is not a rigid body");
         };
-        let n = self.q0.len();
-        let mut w = [0.0; 3];
-        for i in 0..3 {
-            let s = slot + 1 + i;
-            let d: [f64; 3] = core::array::from_fn(|k| x[3 * s + k]);
-            let v: [f64; 3] = core::array::from_fn(|k| x[n + 3 * s + k] / self.masses[s]);
-            let c = cross(d, v);
-            for k in 0..3 {
-                w[k] += 0.5 * c[k];
-            }
-        }
-        w
+        let (q, p) = x.split_at(self.q0.len());
+        super::pose::director_spin(q, p, slot, |s| self.masses[s])
     }
 
     /// The total angular momentum about the world's origin at state `x`: `Σ c × p_c` over

@@ -176,3 +176,33 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
+
+/// The body frame `R = Q Pᵀ` of a body whose directors (the columns of `Q = R P`) are the slots
+/// `slot + 1 …` of the positions `q` (three each), `P` its principal axes.
+pub(crate) fn body_frame(q: &[f64], slot: usize, axes: &Rotation) -> Rotation {
+    let directors = Rotation(core::array::from_fn(|r| {
+        core::array::from_fn(|c| q[3 * (slot + 1 + c) + r])
+    }));
+    directors.then(&axes.transpose())
+}
+
+/// The angular velocity in the world of the body whose directors are the slots `slot + 1 …`,
+/// `ω = ½ Σ dᵢ × ḋᵢ` (`Q̇ Qᵀ = ω̂` for orthonormal `Q`), with `ḋᵢ = p_dᵢ / mass(s)` of slot `s`.
+pub(crate) fn director_spin(
+    q: &[f64],
+    p: &[f64],
+    slot: usize,
+    mass: impl Fn(usize) -> f64,
+) -> [f64; 3] {
+    let mut w = [0.0; 3];
+    for i in 0..3 {
+        let s = slot + 1 + i;
+        let d: [f64; 3] = core::array::from_fn(|k| q[3 * s + k]);
+        let v: [f64; 3] = core::array::from_fn(|k| p[3 * s + k] / mass(s));
+        let c = cross(d, v);
+        for k in 0..3 {
+            w[k] += 0.5 * c[k];
+        }
+    }
+    w
+}

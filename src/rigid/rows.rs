@@ -159,6 +159,28 @@ impl<T: Real> QuadraticRows<T> {
 }
 
 impl<T: Real> QuadraticRows<T> {
+    /// Calls `f(i, ∂g_r/∂q_i)` for every column `i` row `r` touches, in increasing `i`.
+    #[inline]
+    pub(crate) fn for_each_partial(&self, q: &[T], r: usize, mut f: impl FnMut(usize, T)) {
+        for (i, b, range) in &self.rows[r].columns {
+            f(*i, self.partial(q, *b, range));
+        }
+    }
+
+    /// `uᵀ A_r v` of row `r` (its Hessian is the constant `A_r`).
+    #[inline]
+    pub(crate) fn row_hessian(&self, u: &[T], v: &[T], r: usize) -> T {
+        self.rows[r]
+            .columns
+            .iter()
+            .fold(T::zero(), |s, (i, _, range)| {
+                let av = self.pairs[range.clone()]
+                    .iter()
+                    .fold(T::zero(), |s, &(j, a)| s + a * v[j]);
+                s + u[*i] * av
+            })
+    }
+
     /// `out = G(q) v` on position slices.
     pub fn apply_positions(&self, q: &[T], v: &[T], out: &mut [T]) {
         for (row, o) in self.rows.iter().zip(out.iter_mut()) {

@@ -8,13 +8,27 @@ use std::collections::HashMap;
 /// The most bodies a scene may generate (the state alone is then 2·3·10⁷ doubles, 480 MB).
 pub const MAX_BODIES: usize = 10_000_000;
 
-/// A body after generators are expanded.
+/// A body after generators are expanded: a point, the centre of mass of a rigid body, or one
+/// of a rigid body's directors (a slot of the state with its own mass `E_i`, not selectable by
+/// name: effects act on points and centres).
 pub(crate) struct Body {
     pub(crate) name: String,
     pub(crate) mass: f64,
     pub(crate) q: [f64; 3],
     pub(crate) v: [f64; 3],
     pub(crate) charge: f64,
+    pub(crate) director: bool,
+}
+
+/// A rigid body of the scene: its centre's index in the body list (its directors follow it)
+/// and its orientation and principal axes at the start.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RigidEntry {
+    pub(crate) centre: usize,
+    /// `R`: the body frame in the world at the start.
+    pub(crate) orientation: crate::rigid::Rotation,
+    /// `P`: the principal axes in the body frame (`Q = R P`).
+    pub(crate) axes: crate::rigid::Rotation,
 }
 
 /// Bodies, names and selectors.
@@ -22,6 +36,8 @@ pub(crate) struct Bodies {
     pub(crate) dim: usize,
     pub(crate) list: Vec<Body>,
     pub(crate) groups: HashMap<String, Vec<usize>>,
+    /// The rigid bodies, by their centres.
+    pub(crate) rigid: Vec<RigidEntry>,
 }
 
 impl Bodies {
@@ -66,10 +82,22 @@ impl Bodies {
         Ok(())
     }
 
+    /// The rigid body whose centre is body `b`, if it is one.
+    pub(crate) fn rigid_at(&self, b: usize) -> Option<&RigidEntry> {
+        self.rigid.iter().find(|r| r.centre == b)
+    }
+
+    /// Every body a selector may name: points and rigid bodies' centres, not their directors.
+    pub(crate) fn all(&self) -> Vec<usize> {
+        (0..self.list.len())
+            .filter(|&b| !self.list[b].director)
+            .collect()
+    }
+
     /// The bodies a selector names.
     pub(crate) fn select(&self, sel: &str, path: &FieldPath) -> Result<Vec<usize>> {
         if sel == "*" {
-            return Ok((0..self.list.len()).collect());
+            return Ok(self.all());
         }
         if let Some(g) = self.groups.get(sel) {
             return Ok(g.clone());
@@ -119,7 +147,7 @@ impl Bodies {
         path: &FieldPath,
     ) -> Result<Vec<usize>> {
         match sels {
-            None => Ok((0..self.list.len()).collect()),
+            None => Ok(self.all()),
             Some(s) => self.select_all(s, path),
         }
     }

@@ -40,6 +40,7 @@
 
 pub(crate) mod bodies;
 mod compile;
+pub mod constraints;
 mod counter;
 pub mod effects;
 mod error;
@@ -49,6 +50,7 @@ mod names;
 pub mod observe;
 pub mod path;
 pub mod ports;
+mod rigid_spec;
 mod run;
 pub mod schema;
 pub(crate) mod simulation;

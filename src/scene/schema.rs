@@ -94,23 +94,37 @@ pub struct Builtin {
     pub dim: Option<usize>,
 }
 
-/// One point particle.
+/// One body: a point particle, or with `inertia` a rigid body (its centre of mass and
+/// orientation; 3D).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BodySpec {
     /// Unique name.
     pub name: String,
-    /// Mass, positive.
-    pub mass: f64,
-    /// Initial position (`dim` entries).
+    /// Mass, positive (a rigid body whose `inertia` is a shape with a `density` may leave it
+    /// out: the shape's volume times the density).
+    #[serde(default)]
+    pub mass: Option<f64>,
+    /// Initial position (`dim` entries): of the centre of mass for a rigid body.
     pub position: Vec<f64>,
     /// Initial velocity (`dim` entries; default 0).
     #[serde(default)]
     pub velocity: Option<Vec<f64>>,
-    /// Electric charge, for a magnetic field (default 0).
+    /// Electric charge, for a magnetic field (default 0; points only).
     #[serde(default)]
     pub charge: f64,
+    /// The inertia about the centre of mass, in the body's frame: makes the body rigid.
+    #[serde(default)]
+    pub inertia: Option<InertiaSpec>,
+    /// The body's frame in the world at the start (rigid bodies; default: the world's axes).
+    #[serde(default)]
+    pub orientation: Option<OrientationSpec>,
+    /// Initial angular velocity in the world frame, rad/s (rigid bodies; default 0).
+    #[serde(default)]
+    pub angular_velocity: Option<Vec<f64>>,
 }
+
+pub use super::rigid_spec::{InertiaSpec, OrientationSpec};
 
 /// A chain of `links` bodies joined by rods, the first rod fixed at `anchor`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -197,68 +211,6 @@ pub struct GridSpec {
     pub velocity: Option<Vec<f64>>,
 }
 
-/// A holonomic constraint, by `type`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum ConstraintSpec {
-    /// `q_b = point` for each body `b` (`dim` equations each).
-    Pin {
-        /// A name: the constraint's label in messages, its multipliers' CSV columns, and
-        /// what `--off NAME` switches off.
-        #[serde(default)]
-        name: Option<String>,
-        /// The bodies pinned.
-        bodies: Vec<String>,
-        /// Where (default: each body's initial position; only for a single body).
-        #[serde(default)]
-        point: Option<Vec<f64>>,
-    },
-    /// `|q_a − q_b| = length` between two bodies, or between one body and a fixed `point`.
-    Rod {
-        /// A name: the constraint's label in messages, its multipliers' CSV columns, and
-        /// what `--off NAME` switches off.
-        #[serde(default)]
-        name: Option<String>,
-        /// One or two bodies.
-        bodies: Vec<String>,
-        /// The fixed end, when one body is named.
-        #[serde(default)]
-        point: Option<Vec<f64>>,
-        /// Length (default: the initial distance).
-        #[serde(default)]
-        length: Option<f64>,
-    },
-    /// `|q_b − center| = radius` for each body `b`.
-    Sphere {
-        /// A name: the constraint's label in messages, its multipliers' CSV columns, and
-        /// what `--off NAME` switches off.
-        #[serde(default)]
-        name: Option<String>,
-        /// The bodies held on the sphere.
-        bodies: Vec<String>,
-        /// Centre (default: the origin).
-        #[serde(default)]
-        center: Option<Vec<f64>>,
-        /// Radius (default: each body's initial distance from the centre).
-        #[serde(default)]
-        radius: Option<f64>,
-    },
-    /// `n · q_b = offset` for each body `b` (`n` normalized).
-    Plane {
-        /// A name: the constraint's label in messages, its multipliers' CSV columns, and
-        /// what `--off NAME` switches off.
-        #[serde(default)]
-        name: Option<String>,
-        /// The bodies held on the plane.
-        bodies: Vec<String>,
-        /// The normal, non-zero.
-        normal: Vec<f64>,
-        /// Offset (default: `n · q_b` of the first body's initial position).
-        #[serde(default)]
-        offset: Option<f64>,
-    },
-}
-
 /// A scene parameter: a name for the number at `path`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -272,18 +224,7 @@ pub struct ParameterSpec {
     pub description: Option<String>,
 }
 
-impl ConstraintSpec {
-    /// Its `name`, if the file gives one.
-    pub fn name(&self) -> Option<&String> {
-        match self {
-            Self::Pin { name, .. }
-            | Self::Rod { name, .. }
-            | Self::Sphere { name, .. }
-            | Self::Plane { name, .. } => name.as_ref(),
-        }
-    }
-}
-
+pub use super::constraints::{ConstraintSpec, PinSpec, PlaneSpec, RodSpec, SphereSpec};
 pub use super::effects::{
     DampingSpec, DashpotSpec, EffectSpec, GravitySpec, MagneticSpec, PairSpec, SpringSpec, TrapSpec,
 };

@@ -3,7 +3,7 @@
 //! (the discrete Moser–Veselov map), order 2 against Euler's equations and a compound
 //! pendulum's, a slider's closed-form fall, and impossible inertias refused by name.
 
-use crate::common::fitted_order;
+use crate::common::{fitted_order, pendulum_angle};
 use lieflow::flow::{Flow, FlowExt};
 use lieflow::prelude::*;
 use lieflow::rigid::{
@@ -63,23 +63,6 @@ fn euler(j: [f64; 3], omega: [f64; 3], t_end: f64, dt: f64) -> [f64; 3] {
         }
     }
     w
-}
-
-/// `θ(t_end)` of `θ'' = accel(θ, θ')` from rest at `θ₀`, by RK4 at 1e-4 (error below 1e-13 for
-/// the pendulums here).
-fn pendulum_angle(accel: impl Fn(f64, f64) -> f64, theta0: f64, t_end: f64) -> f64 {
-    let f = |th: f64, om: f64| (om, accel(th, om));
-    let (mut th, mut om) = (theta0, 0.0);
-    let dt = 1e-4f64;
-    for _ in 0..(t_end / dt).round() as usize {
-        let k1 = f(th, om);
-        let k2 = f(th + 0.5 * dt * k1.0, om + 0.5 * dt * k1.1);
-        let k3 = f(th + 0.5 * dt * k2.0, om + 0.5 * dt * k2.1);
-        let k4 = f(th + dt * k3.0, om + dt * k3.1);
-        th += dt / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0);
-        om += dt / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1);
-    }
-    th
 }
 
 #[test]

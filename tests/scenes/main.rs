@@ -21,5 +21,6 @@ mod scene_hidden;
 mod scene_implicit_inputs;
 mod scene_modelling;
 mod scene_ports;
+mod scene_rigid;
 mod scene_taut_chain;
 mod scene_unconstrained;

@@ -294,7 +294,7 @@ fn parameters_name_numbers_of_the_scene_and_a_bad_path_is_refused_where_it_is_wr
         .map(|p| p.2)
         .collect();
     assert_eq!(values, [0.5, 4.0]);
-    assert_eq!(both.file.bodies[1].mass, 4.0);
+    assert_eq!(both.file.bodies[1].mass, Some(4.0));
     let bad = text.replace("effects[0].coefficient", "effects[3].coefficient");
     let e = parse(&bad).compile().err().unwrap();
     assert_eq!(e.path.to_string(), "parameters[0].path");

@@ -6,13 +6,12 @@ use super::{
     validate::{finite, norm, positive, sub, vector, vector_or},
 };
 pub(crate) use crate::scene::bodies::{Bodies, Body};
+use crate::scene::constraints::{Constraint, Rod, Sphere};
 use crate::scene::error::{FieldPath, SceneErrorKind};
-use crate::scene::model::ConstraintKind;
 use crate::scene::schema::SceneFile;
 use std::collections::HashMap;
 
-/// A constraint term as declared: its geometry, its label, where it is in the file.
-pub(crate) type Declared = (ConstraintKind, String, FieldPath);
+pub(crate) use crate::scene::constraints::Declared;
 
 /// Expands bodies and generators; returns the bodies and the generators' own constraints.
 pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec<Declared>)> {
@@ -20,17 +19,42 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
         dim,
         list: Vec::new(),
         groups: HashMap::new(),
+        rigid: Vec::new(),
     };
     let mut generated = Vec::new();
     let root = FieldPath::root();
     for (i, b) in file.bodies.iter().enumerate() {
         let path = root.key("bodies").index(i);
+        if b.inertia.is_some() {
+            super::rigid::push_rigid(&mut bodies, b, i, &path, &mut generated)?;
+            continue;
+        }
+        for (field, set) in [
+            ("orientation", b.orientation.is_some()),
+            ("angular_velocity", b.angular_velocity.is_some()),
+        ] {
+            if set {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.key(field),
+                    format!("`{field}` is for a rigid body: give it an `inertia`"),
+                ));
+            }
+        }
+        let mass = b.mass.ok_or_else(|| {
+            err(
+                SceneErrorKind::Value,
+                path.key("mass"),
+                "a body needs a `mass`",
+            )
+        })?;
         let body = Body {
             name: b.name.clone(),
-            mass: positive(b.mass, &path.key("mass"), "mass")?,
+            mass: positive(mass, &path.key("mass"), "mass")?,
             q: vector(&b.position, dim, &path.key("position"))?,
             v: vector_or(&b.velocity, dim, &path.key("velocity"), [0.0; 3])?,
             charge: finite(b.charge, &path.key("charge"))?,
+            director: false,
         };
         bodies.reserve(1, &path)?;
         let idx = bodies.push(body);
@@ -76,20 +100,21 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
                 q,
                 v,
                 charge,
+                director: false,
             });
             let kind = match members.last() {
-                None => ConstraintKind::Rod {
+                None => Constraint::Rod(Rod {
                     a: idx,
                     b: None,
                     point: anchor,
                     length,
-                },
-                Some(&prev) => ConstraintKind::Rod {
+                }),
+                Some(&prev) => Constraint::Rod(Rod {
                     a: idx,
                     b: Some(prev),
                     point: [0.0; 3],
                     length,
-                },
+                }),
             };
             generated.push((
                 kind,
@@ -210,13 +235,14 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
                 q,
                 v,
                 charge,
+                director: false,
             });
             generated.push((
-                ConstraintKind::Sphere {
+                Constraint::Sphere(Sphere {
                     body: idx,
                     center,
                     radius,
-                },
+                }),
                 format!("shells[{i}] '{}' particle {j}", s.name),
                 path.clone(),
             ));
@@ -268,6 +294,7 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
                 q,
                 v,
                 charge,
+                director: false,
             }));
         }
         bodies.add_group(&g.name, members, &path.key("name"))?;

@@ -289,6 +289,7 @@ pub(super) fn builtin_assembly(
         name: file.name.clone().unwrap_or_else(|| what.to_owned()),
         dim: None,
         bodies: 0,
+        rigid_bodies: 0,
         state_len: n,
         constraints: if m == 0 {
             Vec::new()

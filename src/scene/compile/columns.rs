@@ -5,7 +5,7 @@
 
 use super::bodies::Bodies;
 use crate::scene::error::FieldPath;
-use crate::scene::model::{ConstraintKind, SceneModel};
+use crate::scene::model::SceneModel;
 use crate::scene::schema::SceneFile;
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -57,26 +57,15 @@ pub(super) fn multiplier_names(
     let mut out = Vec::with_capacity(model.m);
     for term in &model.constraints {
         let named = declared_name(&term.path);
-        let (kind, body) = match &term.kind {
-            ConstraintKind::Pin { body, .. } => ("pin", name(*body).to_owned()),
-            ConstraintKind::Rod { a, b: Some(b), .. } => {
-                ("rod", format!("{}-{}", name(*a), name(*b)))
-            }
-            ConstraintKind::Rod { a, b: None, .. } => ("rod", name(*a).to_owned()),
-            ConstraintKind::Sphere { body, .. } => ("sphere", name(*body).to_owned()),
-            ConstraintKind::Plane { body, .. } => ("plane", name(*body).to_owned()),
-        };
+        let info = term.kind.info();
+        let (kind, body) = (info.kind(), info.bodies(&|b| name(b).to_owned()));
         let base = match named {
             Some((n, false)) => n,
             Some((n, true)) => format!("{n}:{body}"),
             None => format!("{kind}:{body}"),
         };
-        if matches!(term.kind, ConstraintKind::Pin { .. }) {
-            out.extend(
-                AXES[..model.dim]
-                    .iter()
-                    .map(|axis| format!("{base}.{axis}")),
-            );
+        if term.rows(model.dim) > 1 {
+            out.extend((0..term.rows(model.dim)).map(|r| format!("{base}.{}", info.row_name(r))));
         } else {
             out.push(base);
         }

@@ -6,13 +6,12 @@ use super::{
     bodies::{Bodies, Declared},
     err,
     initial::row_scales,
-    validate::{finite, norm, positive, sub, vector, vector_or},
 };
 use crate::error::{LinearSolveError, SetupError};
 use crate::scene::error::{FieldPath, SceneError, SceneErrorKind};
 use crate::scene::gram::MassGram;
-use crate::scene::model::{ConstraintKind, ConstraintTerm, SceneModel};
-use crate::scene::schema::{ConstraintSpec, SceneFile};
+use crate::scene::model::{ConstraintTerm, SceneModel};
+use crate::scene::schema::SceneFile;
 
 /// The declared constraints' terms after the generators' own, each labelled with its name when
 /// it has one; a constraint whose name is in `file.off` is checked and left out, and listed in
@@ -23,13 +22,12 @@ pub(super) fn constraint_terms(
     generated: Vec<Declared>,
     disabled: &mut Vec<String>,
 ) -> Result<Vec<Declared>> {
-    let dim = bodies.dim;
     let mut out = generated;
     let root = FieldPath::root().key("constraints");
     for (i, c) in file.constraints.iter().enumerate() {
         let path = root.index(i);
         let start = out.len();
-        declared_terms(c, i, &path, bodies, dim, &mut out)?;
+        c.declare(i, &path, bodies, &mut out)?;
         if let Some(name) = c.name() {
             if file.off.contains(name) {
                 out.truncate(start);
@@ -42,175 +40,6 @@ pub(super) fn constraint_terms(
         }
     }
     Ok(out)
-}
-
-/// The terms of one declared constraint `c`, the `i`-th, appended to `out`.
-fn declared_terms(
-    c: &ConstraintSpec,
-    i: usize,
-    path: &FieldPath,
-    bodies: &Bodies,
-    dim: usize,
-    out: &mut Vec<Declared>,
-) -> Result<()> {
-    {
-        match c {
-            ConstraintSpec::Pin {
-                bodies: sel, point, ..
-            } => {
-                let list = bodies.select_all(sel, &path.key("bodies"))?;
-                if point.is_some() && list.len() != 1 {
-                    return Err(err(
-                        SceneErrorKind::Value,
-                        path.key("point"),
-                        "a pin with a `point` names exactly one body",
-                    ));
-                }
-                for b in list {
-                    let point = vector_or(point, dim, &path.key("point"), bodies.list[b].q)?;
-                    out.push((
-                        ConstraintKind::Pin { body: b, point },
-                        format!("constraints[{i}] pin '{}'", bodies.list[b].name),
-                        path.clone(),
-                    ));
-                }
-            }
-            ConstraintSpec::Rod {
-                bodies: sel,
-                point,
-                length,
-                ..
-            } => {
-                let bp = path.key("bodies");
-                let ends: Vec<usize> = sel
-                    .iter()
-                    .enumerate()
-                    .map(|(j, s)| {
-                        let v = bodies.select(s, &bp.index(j))?;
-                        if v.len() == 1 {
-                            Ok(v[0])
-                        } else {
-                            Err(err(
-                                SceneErrorKind::Reference,
-                                bp.index(j),
-                                format!("'{s}' names {} bodies; a rod end is one body", v.len()),
-                            ))
-                        }
-                    })
-                    .collect::<Result<_>>()?;
-                let (a, b, p) = match (ends.as_slice(), point) {
-                    (&[a, b], None) if a != b => (a, Some(b), [0.0; 3]),
-                    (&[a], Some(p)) => (a, None, vector(p, dim, &path.key("point"))?),
-                    _ => {
-                        // Point at the `point` when it is the extra piece.
-                        let at = if point.is_some() && ends.len() != 1 {
-                            path.key("point")
-                        } else {
-                            bp
-                        };
-                        return Err(err(
-                            SceneErrorKind::Value,
-                            at,
-                            "a rod joins two different bodies, or one body and a fixed `point`",
-                        ));
-                    }
-                };
-                let other = b.map_or(p, |b| bodies.list[b].q);
-                let initial = norm(sub(bodies.list[a].q, other));
-                let length = match length {
-                    Some(l) => positive(*l, &path.key("length"), "length")?,
-                    None => positive(
-                        initial,
-                        &path.key("bodies"),
-                        "initial distance of the rod's ends",
-                    )?,
-                };
-                let names = match b {
-                    Some(b) => format!("'{}'–'{}'", bodies.list[a].name, bodies.list[b].name),
-                    None => format!("'{}'–point", bodies.list[a].name),
-                };
-                out.push((
-                    ConstraintKind::Rod {
-                        a,
-                        b,
-                        point: p,
-                        length,
-                    },
-                    format!("constraints[{i}] rod {names}"),
-                    path.clone(),
-                ));
-            }
-            ConstraintSpec::Sphere {
-                bodies: sel,
-                center,
-                radius,
-                ..
-            } => {
-                let center = vector_or(center, dim, &path.key("center"), [0.0; 3])?;
-                let radius = radius
-                    .map(|r| positive(r, &path.key("radius"), "radius"))
-                    .transpose()?;
-                for b in bodies.select_all(sel, &path.key("bodies"))? {
-                    let r = match radius {
-                        Some(r) => r,
-                        None => positive(
-                            norm(sub(bodies.list[b].q, center)),
-                            &path.key("bodies"),
-                            "initial distance from the centre",
-                        )?,
-                    };
-                    out.push((
-                        ConstraintKind::Sphere {
-                            body: b,
-                            center,
-                            radius: r,
-                        },
-                        format!("constraints[{i}] sphere '{}'", bodies.list[b].name),
-                        path.clone(),
-                    ));
-                }
-            }
-            ConstraintSpec::Plane {
-                bodies: sel,
-                normal,
-                offset,
-                ..
-            } => {
-                let n = vector(normal, dim, &path.key("normal"))?;
-                let len = norm(n);
-                if len == 0.0 {
-                    return Err(err(
-                        SceneErrorKind::Value,
-                        path.key("normal"),
-                        "the normal must not be zero",
-                    ));
-                }
-                let n = n.map(|x| x / len);
-                let list = bodies.select_all(sel, &path.key("bodies"))?;
-                let offset = offset.map(|o| finite(o, &path.key("offset"))).transpose()?;
-                for &b in &list {
-                    let off = match offset {
-                        Some(o) => o,
-                        None => {
-                            n[0] * bodies.list[list[0]].q[0]
-                                + n[1] * bodies.list[list[0]].q[1]
-                                + n[2] * bodies.list[list[0]].q[2]
-                        }
-                    };
-                    out.push((
-                        ConstraintKind::Plane {
-                            body: b,
-                            normal: n,
-                            offset: off,
-                        },
-                        format!("constraints[{i}] plane '{}'", bodies.list[b].name),
-                        path.clone(),
-                    ));
-                }
-            }
-        }
-    }
-    Ok(())
 }
 
 /// The label of the constraint term that owns row `row`.

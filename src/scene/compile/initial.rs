@@ -2,7 +2,7 @@
 //! projection onto both when the scene asks for it.
 
 use crate::scene::gram::MassGram;
-use crate::scene::model::{ConstraintKind, SceneModel};
+use crate::scene::model::SceneModel;
 use crate::system::HolonomicConstraint;
 use crate::vector::Vector;
 use faer::Col;
@@ -12,35 +12,9 @@ use std::sync::Arc;
 /// rounds at `ε L (L + |q_a| + |q_b|)`, a plane at `ε (|q| + |offset|)`, …) and its length `ℓ`
 /// (the factor between a velocity and its hidden-constraint residual).
 pub(super) fn row_scales(model: &SceneModel, q: &[f64]) -> Vec<(f64, f64)> {
-    let d = model.dim;
-    let at = |b: usize| (0..d).fold(0.0f64, |a, k| a.max(q[b * d + k].abs()));
-    let size = |p: &[f64; 3]| p.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    let mut out = vec![(1.0, 1.0); model.m];
+    let mut out = vec![(0.0, 0.0); model.m];
     for c in &model.constraints {
-        match &c.kind {
-            ConstraintKind::Pin { body, point } => {
-                for k in 0..d {
-                    out[c.row + k] = (1.0 + at(*body) + size(point), 1.0);
-                }
-            }
-            ConstraintKind::Rod {
-                a,
-                b,
-                point,
-                length,
-            } => {
-                let far = at(*a) + b.map_or_else(|| size(point), at);
-                out[c.row] = (length * (length + far), *length);
-            }
-            ConstraintKind::Sphere {
-                body,
-                center,
-                radius,
-            } => out[c.row] = (radius * (radius + at(*body) + size(center)), *radius),
-            ConstraintKind::Plane { body, offset, .. } => {
-                out[c.row] = (1.0 + at(*body) + offset.abs(), 1.0)
-            }
-        }
+        c.kind.info().scales(q, model.dim, &mut out[c.row..]);
     }
     out
 }

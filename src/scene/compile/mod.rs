@@ -11,6 +11,7 @@ mod fingerprint;
 mod implicit;
 mod initial;
 mod raise;
+mod rigid;
 mod scheme;
 mod storage;
 
@@ -19,7 +20,7 @@ pub use crate::scene::bodies::MAX_BODIES;
 pub use crate::scene::effects::MAX_PAIRS;
 
 use super::error::{FieldPath, SceneError, SceneErrorKind};
-use super::model::{ConstraintKind, SceneModel};
+use super::model::SceneModel;
 use super::ports::{SceneEvents, compile_events, compile_outputs};
 use super::run::{RunPlan, Simulation};
 use super::schema::{SCENE_VERSION, SceneFile};
@@ -50,8 +51,10 @@ pub struct Assembly {
     pub name: String,
     /// Dimension of the space (scenes of bodies).
     pub dim: Option<usize>,
-    /// Number of bodies.
+    /// Number of bodies (points and rigid bodies).
     pub bodies: usize,
+    /// How many of them are rigid (each four slots of the state: its centre and directors).
+    pub rigid_bodies: usize,
     /// Length of the state.
     pub state_len: usize,
     /// Constraint terms by type and their rows, e.g. `("rod", 12)`.
@@ -243,12 +246,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     }
     let mut constraint_counts: Vec<(String, usize)> = Vec::new();
     for t in &model.constraints {
-        let kind = match t.kind {
-            ConstraintKind::Pin { .. } => "pin",
-            ConstraintKind::Rod { .. } => "rod",
-            ConstraintKind::Sphere { .. } => "sphere",
-            ConstraintKind::Plane { .. } => "plane",
-        };
+        let kind = t.kind.info().kind();
         match constraint_counts.iter_mut().find(|(k, _)| k == kind) {
             Some(e) => e.1 += t.rows(dim),
             None => constraint_counts.push((kind.to_owned(), t.rows(dim))),
@@ -261,7 +259,8 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     let assembly = Assembly {
         name: file.name.clone().unwrap_or_else(|| "scene".to_owned()),
         dim: Some(dim),
-        bodies: model.bodies(),
+        bodies: bodies.all().len(),
+        rigid_bodies: bodies.rigid.len(),
         state_len: n,
         constraints: constraint_counts,
         constraint_rows: m,

@@ -13,8 +13,8 @@ use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{
-    ConstraintKind, DashpotFlow, FreeFlight, Kick, SceneKick, SceneModel, SceneSplitting,
-    consistent_account, consistent_momentum,
+    DashpotFlow, FreeFlight, Kick, SceneKick, SceneModel, SceneSplitting, consistent_account,
+    consistent_momentum,
 };
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
@@ -244,12 +244,9 @@ pub(super) fn projection_options<T: Real>(
     let extent = x0[..nq].iter().fold(T::zero(), |a, &b| a.max(b.abs()));
     let mut ell = T::infinity();
     for c in &model.constraints {
-        let l = match c.kind {
-            ConstraintKind::Rod { length, .. } => length,
-            ConstraintKind::Sphere { radius, .. } => radius,
-            _ => continue,
-        };
-        ell = ell.min(l);
+        if let Some(l) = c.kind.length() {
+            ell = ell.min(l);
+        }
     }
     if !ell.is_finite() {
         ell = extent.max(T::one());

@@ -38,7 +38,7 @@ use flight::Flight;
 pub use flight::{FlightCache, FreeFlight};
 pub use potential::{Kick, KickCache};
 pub use splitting::{SceneKick, SceneSplitting};
-pub(crate) use terms::{ConstraintKind, ConstraintTerm, StructureTerm};
+pub(crate) use terms::{ConstraintTerm, StructureTerm};
 
 use crate::real::Real;
 pub(crate) use crate::scene::counter::Counter;

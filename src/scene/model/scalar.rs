@@ -2,7 +2,7 @@
 
 use super::{
     Counter, SceneModel,
-    terms::{ConstraintKind, ConstraintTerm, StructureTerm},
+    terms::{ConstraintTerm, StructureTerm},
 };
 use crate::real::Real;
 use crate::scene::effects::PotentialTerm;
@@ -27,41 +27,7 @@ impl SceneModel<f64> {
             .constraints
             .iter()
             .map(|t| ConstraintTerm {
-                kind: match t.kind {
-                    ConstraintKind::Pin { body, point } => ConstraintKind::Pin {
-                        body,
-                        point: c3(point),
-                    },
-                    ConstraintKind::Rod {
-                        a,
-                        b,
-                        point,
-                        length,
-                    } => ConstraintKind::Rod {
-                        a,
-                        b,
-                        point: c3(point),
-                        length: c(length),
-                    },
-                    ConstraintKind::Sphere {
-                        body,
-                        center,
-                        radius,
-                    } => ConstraintKind::Sphere {
-                        body,
-                        center: c3(center),
-                        radius: c(radius),
-                    },
-                    ConstraintKind::Plane {
-                        body,
-                        normal,
-                        offset,
-                    } => ConstraintKind::Plane {
-                        body,
-                        normal: c3(normal),
-                        offset: c(offset),
-                    },
-                },
+                kind: t.kind.with_scalar(),
                 row: t.row,
                 label: t.label.clone(),
                 path: t.path.clone(),

@@ -11,6 +11,7 @@ mod event;
 mod expr;
 mod input;
 mod output;
+mod rigid_reads;
 mod rows;
 mod signal;
 

@@ -1,6 +1,7 @@
 //! `[[outputs]]`: named quantities of a run, written as CSV columns and drawn.
 
 use super::SceneInputs;
+use super::rigid_reads::{RigidQuantity, RigidRead};
 use super::rows::{ConstraintRef, ConstraintRows};
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
@@ -36,6 +37,13 @@ pub enum Quantity {
     /// tension (positive pulls its ends together), a sphere's pull toward its centre, a plane's
     /// push along its normal, a pin's force component.
     ConstraintForce,
+    /// A rigid body's orientation as a unit quaternion (`component` 0 … 3: `w, x, y, z`,
+    /// `w ≥ 0`).
+    Orientation,
+    /// A rigid body's angular velocity in the world (rad/s).
+    AngularVelocity,
+    /// A rigid body's angular velocity in its own frame (rad/s).
+    BodyAngularVelocity,
     /// `H`.
     Energy,
     /// The kinetic energy.
@@ -88,6 +96,7 @@ pub(crate) enum Read {
     Multiplier(usize),
     /// A row and its term.
     ConstraintForce(usize, usize),
+    Rigid(RigidRead),
     Energy,
     Kinetic,
     Supplied,
@@ -160,10 +169,11 @@ impl CompiledOutput {
                 .map_or(f64::NAN, |(a, b)| 0.5 * (a[row] + b[row])),
             Read::ConstraintForce(row, term) => {
                 let t = &model.constraints[term];
-                let scale = t.kind.force_per_multiplier(&at.x[..nq], model.dim);
+                let scale = t.kind.info().force_per_multiplier(&at.x[..nq], model.dim);
                 at.multipliers
                     .map_or(f64::NAN, |(a, b)| 0.5 * (a[row] + b[row]) * scale)
             }
+            Read::Rigid(r) => r.value(at.x, &model.inv_masses),
             Read::Energy => model.energy(scratch.state(at.x)),
             Read::Kinetic => model.kinetic_energy(at.x),
             Read::Supplied => at.energies.0,
@@ -319,6 +329,9 @@ pub(crate) fn compile_read(
                 name.replacen("lambda", "force", 1),
             )
         }
+        Quantity::Orientation | Quantity::AngularVelocity | Quantity::BodyAngularVelocity => {
+            rigid_read(spec, bodies, path)?
+        }
         Quantity::Energy => (Read::Energy, "H".to_owned()),
         Quantity::Kinetic => (Read::Kinetic, "kinetic".to_owned()),
         Quantity::Supplied => (Read::Supplied, "supplied".to_owned()),
@@ -328,6 +341,54 @@ pub(crate) fn compile_read(
         name: spec.name.clone().unwrap_or(default),
         read,
     })
+}
+
+/// A rigid body's orientation or angular velocity: the body must be rigid, the component in
+/// range.
+fn rigid_read(spec: &OutputSpec, bodies: &Bodies, path: &FieldPath) -> Result<(Read, String)> {
+    let sel = spec.body.as_deref().ok_or_else(|| {
+        err(
+            SceneErrorKind::Value,
+            path.clone(),
+            "a rigid body's output names a `body`",
+        )
+    })?;
+    let list = bodies.select(sel, &path.key("body"))?;
+    let Some(r) = list
+        .as_slice()
+        .first()
+        .filter(|_| list.len() == 1)
+        .and_then(|&b| bodies.rigid_at(b))
+    else {
+        return Err(err(
+            SceneErrorKind::Reference,
+            path.key("body"),
+            format!("'{sel}' is not one rigid body (a body with an `inertia`)"),
+        ));
+    };
+    let k = spec.component.unwrap_or(0);
+    let (what, count, name) = match spec.quantity {
+        Quantity::Orientation => (RigidQuantity::Orientation(k), 4, ["qw", "qx", "qy", "qz"]),
+        Quantity::AngularVelocity => (RigidQuantity::AngularVelocity(k), 3, ["wx", "wy", "wz", ""]),
+        _ => (
+            RigidQuantity::BodyAngularVelocity(k),
+            3,
+            ["Wx", "Wy", "Wz", ""],
+        ),
+    };
+    if k >= count {
+        return Err(err(
+            SceneErrorKind::Dimension,
+            path.key("component"),
+            format!("component {k} of {count} (0 … {})", count - 1),
+        ));
+    }
+    let read = Read::Rigid(RigidRead {
+        centre: r.centre,
+        axes: r.axes,
+        what,
+    });
+    Ok((read, format!("{}.{}", bodies.list[r.centre].name, name[k])))
 }
 
 /// Compiles `[[outputs]]`.

@@ -1,0 +1,94 @@
+//! A rigid body of a scene as four slots of the state (`../shared/docs/METHOD.md` §8,
+//! docs/method.md §12c): its centre of mass with the mass `m`, and its three directors — the
+//! columns of `Q = R P`, `R` its orientation and `P` its principal axes — each a slot with the
+//! mass `Eᵢ = (J_j + J_k − J_i)/2`, so the kinetic energy is `Σ |p_s|²/2m_s` over slots as for
+//! points; the six rows of `QᵀQ = I` are the body's own constraint term. Effects select the
+//! centre (gravity acts there); the directors are not named.
+
+use super::Result;
+use super::validate::{err, finite, vector, vector_or};
+use crate::rigid::cross;
+use crate::scene::bodies::{Bodies, Body, RigidEntry};
+use crate::scene::constraints::{Constraint, Declared, Rows};
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::schema::BodySpec;
+
+/// Appends the rigid body `b` (declared at `bodies[i]`, `path`): its four slots and its
+/// orthonormality rows.
+pub(super) fn push_rigid(
+    bodies: &mut Bodies,
+    b: &BodySpec,
+    i: usize,
+    path: &FieldPath,
+    generated: &mut Vec<Declared>,
+) -> Result<()> {
+    let Some(inertia) = &b.inertia else {
+        return Ok(());
+    };
+    if bodies.dim != 3 {
+        return Err(err(
+            SceneErrorKind::Dimension,
+            path.key("inertia"),
+            "rigid bodies need dim = 3 (planar bodies are not supported yet)",
+        ));
+    }
+    if finite(b.charge, &path.key("charge"))? != 0.0 {
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            path.key("charge"),
+            "a charge is for point bodies; a rigid body carries none",
+        ));
+    }
+    let (mass, inertia) = inertia.resolve(b.mass, path)?;
+    let orientation = match &b.orientation {
+        Some(o) => o.resolve(&path.key("orientation"))?,
+        None => crate::rigid::Rotation::identity(),
+    };
+    let omega = vector_or(
+        &b.angular_velocity,
+        3,
+        &path.key("angular_velocity"),
+        [0.0; 3],
+    )?;
+    let q = vector(&b.position, 3, &path.key("position"))?;
+    let v = vector_or(&b.velocity, 3, &path.key("velocity"), [0.0; 3])?;
+    bodies.reserve(4, path)?;
+    let axes = crate::rigid::Rotation(inertia.axes());
+    let directors = orientation.then(&axes);
+    let centre = bodies.push(Body {
+        name: b.name.clone(),
+        mass,
+        q,
+        v,
+        charge: 0.0,
+        director: false,
+    });
+    for (k, &e) in inertia.director_masses().iter().enumerate() {
+        let d = directors.column(k);
+        bodies.push(Body {
+            name: format!("{}.d{}", b.name, k + 1),
+            mass: e,
+            q: d,
+            v: cross(omega, d),
+            charge: 0.0,
+            director: true,
+        });
+    }
+    bodies.add_group(&b.name, vec![centre], &path.key("name"))?;
+    bodies.rigid.push(RigidEntry {
+        centre,
+        orientation,
+        axes,
+    });
+    generated.push((
+        Constraint::Rows(Rows::new(
+            "directors",
+            (centre, None),
+            crate::rigid::orthonormality(centre),
+            3 * (centre + 4),
+        )),
+        format!("bodies[{i}] '{}' directors", b.name),
+        path.clone(),
+    ));
+    Ok(())
+}

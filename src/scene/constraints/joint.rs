@@ -1,0 +1,212 @@
+//! What the joints between bodies share: their ends (one or two bodies — one joins a body to
+//! the world), their anchors and axes (given in the world at the start, or in each body's
+//! frame), and their rows built by the library's joint kinds (`crate::rigid::joints`) on the
+//! scene's slots as one [`Rows`] term.
+
+use super::{Constraint, Declared, rows::Rows};
+use crate::rigid::{BodyRef, Entry, Frames, JointKind, Rotation};
+use crate::scene::bodies::Bodies;
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::validate::{Result, err, vector};
+
+/// A joint's bodies: `a`, and `b` or the world.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Ends {
+    pub(super) a: usize,
+    pub(super) b: Option<usize>,
+}
+
+/// The one or two bodies `sel` names, each one body, different; 3D scenes only.
+pub(super) fn ends(sel: &[String], bodies: &Bodies, path: &FieldPath, kind: &str) -> Result<Ends> {
+    if bodies.dim != 3 {
+        return Err(err(
+            SceneErrorKind::Dimension,
+            path.clone(),
+            format!("a {kind} joint needs dim = 3 (planar bodies are not supported yet)"),
+        ));
+    }
+    let bp = path.key("bodies");
+    let one = |j: usize, s: &String| -> Result<usize> {
+        let v = bodies.select(s, &bp.index(j))?;
+        match v.as_slice() {
+            &[b] => Ok(b),
+            _ => Err(err(
+                SceneErrorKind::Reference,
+                bp.index(j),
+                format!("'{s}' names {} bodies; a joint's end is one body", v.len()),
+            )),
+        }
+    };
+    match sel {
+        [a] => Ok(Ends {
+            a: one(0, a)?,
+            b: None,
+        }),
+        [a, b] => {
+            let (a, b) = (one(0, a)?, one(1, b)?);
+            if a == b {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    bp,
+                    "a joint joins two different bodies (or one body and the world)",
+                ));
+            }
+            Ok(Ends { a, b: Some(b) })
+        }
+        _ => Err(err(
+            SceneErrorKind::Value,
+            bp,
+            format!(
+                "a {kind} joint names one body (joined to the world) or two, not {}",
+                sel.len()
+            ),
+        )),
+    }
+}
+
+/// The body frame of end `b` (`None`: the world): its centre and orientation at the start.
+fn frame(bodies: &Bodies, b: Option<usize>) -> ([f64; 3], Rotation) {
+    match b {
+        None => ([0.0; 3], Rotation::identity()),
+        Some(b) => (
+            bodies.list[b].q,
+            bodies
+                .rigid_at(b)
+                .map_or_else(Rotation::identity, |r| r.orientation),
+        ),
+    }
+}
+
+/// The anchor in each end's frame: from `anchor`, a world point at the start, or `anchors`,
+/// one per end in its own frame (a world point for the world).
+pub(super) fn anchors(
+    anchor: &Option<Vec<f64>>,
+    anchors: &Option<Vec<Vec<f64>>>,
+    ends: Ends,
+    bodies: &Bodies,
+    path: &FieldPath,
+) -> Result<[[f64; 3]; 2]> {
+    per_end(
+        anchor,
+        anchors,
+        ("anchor", "anchors"),
+        ends,
+        bodies,
+        path,
+        true,
+    )
+}
+
+/// An axis in each end's frame: from `axis`, a world direction at the start, or `axes`, one per
+/// end in its own frame.
+pub(super) fn axes(
+    axis: &Option<Vec<f64>>,
+    axes: &Option<Vec<Vec<f64>>>,
+    names: (&str, &str),
+    ends: Ends,
+    bodies: &Bodies,
+    path: &FieldPath,
+) -> Result<[[f64; 3]; 2]> {
+    per_end(axis, axes, names, ends, bodies, path, false)
+}
+
+/// A point (`point`) or direction in both ends' frames, from a world value or per-end values.
+fn per_end(
+    world: &Option<Vec<f64>>,
+    each: &Option<Vec<Vec<f64>>>,
+    (one, two): (&str, &str),
+    ends: Ends,
+    bodies: &Bodies,
+    path: &FieldPath,
+    point: bool,
+) -> Result<[[f64; 3]; 2]> {
+    match (world, each) {
+        (Some(w), None) => {
+            let w = vector(w, 3, &path.key(one))?;
+            let local = |b: Option<usize>| {
+                let (c, r) = frame(bodies, b);
+                let rel = if point {
+                    core::array::from_fn(|k| w[k] - c[k])
+                } else {
+                    w
+                };
+                r.transpose().apply(rel)
+            };
+            Ok([local(Some(ends.a)), local(ends.b)])
+        }
+        (None, Some(v)) => {
+            let p = path.key(two);
+            if v.len() != 2 {
+                return Err(err(
+                    SceneErrorKind::Dimension,
+                    p,
+                    format!(
+                        "one per end, in its frame (a world value for the world): two, not {}",
+                        v.len()
+                    ),
+                ));
+            }
+            Ok([
+                vector(&v[0], 3, &p.index(0))?,
+                vector(&v[1], 3, &p.index(1))?,
+            ])
+        }
+        _ => Err(err(
+            SceneErrorKind::Value,
+            path.clone(),
+            format!(
+                "give `{one}` (in the world, at the start) or `{two}` (one per end, in its frame), exactly one"
+            ),
+        )),
+    }
+}
+
+/// The library's `joint` (with ends `BodyRef::Body(0)` = `a`, `Body(1)` = `b`, or the world)
+/// built on the scene's slots and appended to `out` as one term.
+pub(super) fn declare(
+    joint: &dyn JointKind,
+    ends: Ends,
+    bodies: &Bodies,
+    i: usize,
+    path: &FieldPath,
+    out: &mut Vec<Declared>,
+) -> Result<()> {
+    let entry = |b: usize| match bodies.rigid_at(b) {
+        Some(r) => Entry::Rigid {
+            slot: b,
+            axes: r.axes,
+        },
+        None => Entry::Point { slot: b },
+    };
+    let mut entries = vec![entry(ends.a)];
+    entries.extend(ends.b.map(entry));
+    let q0: Vec<f64> = bodies.list.iter().flat_map(|b| b.q).collect();
+    let frames = Frames {
+        entries: &entries,
+        q0: &q0,
+    };
+    let rows = joint
+        .rows(&frames)
+        .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))?;
+    let name = |b: usize| format!("'{}'", bodies.list[b].name);
+    let label = match ends.b {
+        Some(b) => format!(
+            "constraints[{i}] {} {}–{}",
+            joint.name(),
+            name(ends.a),
+            name(b)
+        ),
+        None => format!("constraints[{i}] {} {}–world", joint.name(), name(ends.a)),
+    };
+    out.push((
+        Constraint::Rows(Rows::new(joint.name(), (ends.a, ends.b), rows, q0.len())),
+        label,
+        path.clone(),
+    ));
+    Ok(())
+}
+
+/// The library's reference to end `b` (`None`: the world).
+pub(super) fn body_ref(index: usize, b: Option<usize>) -> BodyRef {
+    b.map_or(BodyRef::World, |_| BodyRef::Body(index))
+}

@@ -1,0 +1,163 @@
+//! Rows of degree at most two on the bodies' slots, `g_r(q) = ½ qᵀA_r q + b_rᵀq + c_r`
+//! ([`QuadraticRows`]): a rigid body's `QᵀQ = I` and the joints between bodies
+//! (`../shared/docs/METHOD.md` §8, docs/method.md §12c). A rigid body is four slots of the
+//! state — its centre and its three directors `dᵢ` — so a row's gradient with respect to a slot
+//! is a 3-vector like a point's, and the scene's projection, Gram matrix and sparsity pattern
+//! read these rows as they read a rod's.
+
+use super::{ConstraintInfo, ConstraintOps, extent};
+use crate::real::Real;
+use crate::rigid::{QuadraticRows, RowBuilder};
+
+/// A term of quadratic rows over slots of three positions (3D scenes).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Rows<T = f64> {
+    /// Its kind in summaries and CSV columns (`"hinge"`, `"directors"`).
+    kind: &'static str,
+    /// The bodies it joins (scene body indices), for its CSV columns.
+    ends: (usize, Option<usize>),
+    /// The slots its rows touch, for their scales.
+    slots: Vec<usize>,
+    /// The rows as built, to change the scalar.
+    source: Vec<RowBuilder<f64>>,
+    rows: QuadraticRows<T>,
+}
+
+impl Rows<f64> {
+    /// The term of `rows` (columns `3 s + k` of slot `s`), of `kind`, between `ends`.
+    pub(crate) fn new(
+        kind: &'static str,
+        ends: (usize, Option<usize>),
+        source: Vec<RowBuilder<f64>>,
+        positions: usize,
+    ) -> Self {
+        let mut rows = QuadraticRows::new(positions);
+        for row in &source {
+            rows.push(row);
+        }
+        let mut slots = Vec::new();
+        let q = vec![0.0; positions];
+        for r in 0..rows.count() {
+            rows.for_each_partial(&q, r, |i, _| slots.push(i / 3));
+        }
+        slots.sort_unstable();
+        slots.dedup();
+        Self {
+            kind,
+            ends,
+            slots,
+            source,
+            rows,
+        }
+    }
+
+    pub(crate) fn with_scalar<U: Real>(&self) -> Rows<U> {
+        let mut rows = QuadraticRows::new(self.rows.positions());
+        for row in &self.source {
+            rows.push(&row.cast());
+        }
+        Rows {
+            kind: self.kind,
+            ends: self.ends,
+            slots: self.slots.clone(),
+            source: self.source.clone(),
+            rows,
+        }
+    }
+}
+
+impl<T: Real> ConstraintOps<T> for Rows<T> {
+    #[inline]
+    fn rows(&self, _d: usize) -> usize {
+        self.rows.count()
+    }
+    #[inline]
+    fn residual(&self, q: &[T], _d: usize, out: &mut [T]) {
+        for (r, o) in out[..self.rows.count()].iter_mut().enumerate() {
+            *o = self.rows.row_residual(q, r);
+        }
+    }
+    #[inline]
+    fn row_dots(
+        &self,
+        q: &[T],
+        v: &[T],
+        _d: usize,
+        scale: Option<&[T]>,
+        mut f: impl FnMut(usize, T),
+    ) {
+        for r in 0..self.rows.count() {
+            let mut s = T::zero();
+            self.rows.for_each_partial(q, r, |i, g| {
+                let vi = match scale {
+                    Some(w) => w[i / 3] * v[i],
+                    None => v[i],
+                };
+                s = s + g * vi;
+            });
+            f(r, s);
+        }
+    }
+    #[inline]
+    fn gradient_transpose_add(&self, q: &[T], mu: &[T], alpha: T, _d: usize, out: &mut [T]) {
+        let n = self.rows.count();
+        self.rows.transpose_add_positions(q, &mu[..n], alpha, out);
+    }
+    /// One call per slot a row touches: the row's columns come in increasing order, so a
+    /// slot's three are consecutive.
+    #[inline]
+    fn gradients(&self, q: &[T], _d: usize, mut f: impl FnMut(usize, usize, [T; 3])) {
+        for r in 0..self.rows.count() {
+            let mut slot = usize::MAX;
+            let mut g = [T::zero(); 3];
+            self.rows.for_each_partial(q, r, |i, c| {
+                if i / 3 != slot {
+                    if slot != usize::MAX {
+                        f(r, slot, g);
+                    }
+                    slot = i / 3;
+                    g = [T::zero(); 3];
+                }
+                g[i % 3] = c;
+            });
+            if slot != usize::MAX {
+                f(r, slot, g);
+            }
+        }
+    }
+    #[inline]
+    fn hessian_form(&self, u: &[T], v: &[T], _d: usize, out: &mut [T]) {
+        for (r, o) in out[..self.rows.count()].iter_mut().enumerate() {
+            *o = self.rows.row_hessian(u, v, r);
+        }
+    }
+    #[inline]
+    fn velocity_curvature_add(&self, v: &[T], _d: usize, out: &mut [T]) {
+        for (r, o) in out[..self.rows.count()].iter_mut().enumerate() {
+            *o = *o + self.rows.row_hessian(v, v, r);
+        }
+    }
+}
+
+impl ConstraintInfo for Rows<f64> {
+    fn kind(&self) -> &'static str {
+        self.kind
+    }
+    fn bodies(&self, name: &dyn Fn(usize) -> String) -> String {
+        match self.ends.1 {
+            Some(b) => format!("{}-{}", name(self.ends.0), name(b)),
+            None => name(self.ends.0),
+        }
+    }
+    /// A row of products of unit directors and positions rounds at `ε (1 + |q|)` over the
+    /// slots it touches; its length is 1 (directors are unit vectors).
+    fn scales(&self, q: &[f64], d: usize, out: &mut [(f64, f64)]) {
+        let size = self.slots.iter().fold(1.0f64, |a, &s| a + extent(q, s, d));
+        out[..self.rows.count()].fill((size, 1.0));
+    }
+    /// A joint's point-coincidence rows push with `−λ` along their axis, as a pin's; the
+    /// multipliers of orientation rows are torques about axes that turn with the bodies.
+    fn force_per_multiplier(&self, _q: &[f64], _d: usize) -> f64 {
+        -1.0
+    }
+}
