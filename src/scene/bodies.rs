@@ -87,6 +87,26 @@ impl Bodies {
         self.rigid.iter().find(|r| r.centre == b)
     }
 
+    /// The library's view of bodies `list` for joints and joint elements
+    /// ([`Frames`](crate::rigid::Frames)): entry `i` is body `list[i]`, a point or a rigid body
+    /// with its principal axes, its slot the body's index.
+    pub(crate) fn entries(&self, list: &[usize]) -> Vec<crate::rigid::Entry> {
+        list.iter()
+            .map(|&b| match self.rigid_at(b) {
+                Some(r) => crate::rigid::Entry::Rigid {
+                    slot: b,
+                    axes: r.axes,
+                },
+                None => crate::rigid::Entry::Point { slot: b },
+            })
+            .collect()
+    }
+
+    /// The initial positions of every slot, three each (3D scenes).
+    pub(crate) fn positions(&self) -> Vec<f64> {
+        self.list.iter().flat_map(|b| b.q).collect()
+    }
+
     /// Every body a selector may name: points and rigid bodies' centres, not their directors.
     pub(crate) fn all(&self) -> Vec<usize> {
         (0..self.list.len())

@@ -19,6 +19,7 @@ mod scene_errors;
 mod scene_flight;
 mod scene_hidden;
 mod scene_implicit_inputs;
+mod scene_joint_elements;
 mod scene_modelling;
 mod scene_ports;
 mod scene_rigid;

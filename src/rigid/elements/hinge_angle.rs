@@ -32,6 +32,17 @@ fn at<T: Real>(v: &Affine, q: &[T]) -> [T; 3] {
     out
 }
 
+/// The linear part of `v` (its terms, without the constant) at the displacement `v`.
+fn along<T: Real>(x: &Affine, v: &[T]) -> [T; 3] {
+    let mut o = [T::zero(); 3];
+    for &(slot, coef) in &x.terms {
+        for (k, ok) in o.iter_mut().enumerate() {
+            *ok = *ok + T::lit(coef) * v[3 * slot + k];
+        }
+    }
+    o
+}
+
 fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
@@ -72,8 +83,8 @@ impl HingeAngle {
         s.atan2(c)
     }
 
-    /// `out += scale ∇θ(q)` (positions only; `out` has at least the positions' length).
-    pub fn gradient_add<T: Real>(&self, q: &[T], scale: T, out: &mut [T]) {
+    /// `∂θ/∂(a, u_A, u_B)` at `q`, each times `scale`.
+    fn partials<T: Real>(&self, q: &[T], scale: T) -> [[T; 3]; 3] {
         let (a, ua, ub, s, c) = self.parts(q);
         let f = scale / (s * s + c * c);
         let da = cross(ua, ub).map(|v| f * c * v);
@@ -81,12 +92,151 @@ impl HingeAngle {
         let dua: [T; 3] = core::array::from_fn(|k| f * (c * b_a[k] - s * ub[k]));
         let a_u = cross(a, ua);
         let dub: [T; 3] = core::array::from_fn(|k| f * (c * a_u[k] - s * ua[k]));
-        for (v, d) in [(&self.axis, da), (&self.u_a, dua), (&self.u_b, dub)] {
+        [da, dua, dub]
+    }
+
+    /// `out += scale ∇θ(q)` (positions only; `out` has at least the positions' length).
+    pub fn gradient_add<T: Real>(&self, q: &[T], scale: T, out: &mut [T]) {
+        let d = self.partials(q, scale);
+        for (v, d) in [&self.axis, &self.u_a, &self.u_b].into_iter().zip(d) {
             for &(slot, coef) in &v.terms {
                 for k in 0..3 {
                     out[3 * slot + k] = out[3 * slot + k] + T::lit(coef) * d[k];
                 }
             }
         }
+    }
+
+    /// `∇θ(q) · v`, the rate of `θ` along `v` (positions only).
+    pub fn derivative<T: Real>(&self, q: &[T], v: &[T]) -> T {
+        let d = self.partials(q, T::one());
+        [&self.axis, &self.u_a, &self.u_b]
+            .into_iter()
+            .zip(d)
+            .fold(T::zero(), |acc, (x, d)| acc + dot(d, along(x, v)))
+    }
+
+    /// `out += scale ∇²θ(q) v` (positions only): the directional derivative of the gradient
+    /// above along `v`, with `δS = ∇S·v`, `δC = ∇C·v`, `N = S² + C²`:
+    ///
+    /// ```text
+    /// δ∇θ = (δC ∇S − δS ∇C + C δ∇S − S δ∇C)/N − 2 (S δS + C δC)/N · ∇θ
+    /// ```
+    ///
+    /// (`∇S = (u_A × u_B, u_B × a, a × u_A)`, `∇C = (0, u_B, u_A)` over `(a, u_A, u_B)`).
+    pub fn hessian_apply_add<T: Real>(&self, q: &[T], v: &[T], scale: T, out: &mut [T]) {
+        let (a, ua, ub, s, c) = self.parts(q);
+        let (da, dua, dub) = (
+            along(&self.axis, v),
+            along(&self.u_a, v),
+            along(&self.u_b, v),
+        );
+        let zero = [T::zero(); 3];
+        let add = |x: [T; 3], y: [T; 3]| [x[0] + y[0], x[1] + y[1], x[2] + y[2]];
+        let gs = [cross(ua, ub), cross(ub, a), cross(a, ua)];
+        let gc = [zero, ub, ua];
+        let ds = dot(gs[0], da) + dot(gs[1], dua) + dot(gs[2], dub);
+        let dc = dot(ub, dua) + dot(ua, dub);
+        let dgs = [
+            add(cross(dua, ub), cross(ua, dub)),
+            add(cross(dub, a), cross(ub, da)),
+            add(cross(da, ua), cross(a, dua)),
+        ];
+        let dgc = [zero, dub, dua];
+        let n = s * s + c * c;
+        let k = T::lit(2.0) * (s * ds + c * dc) / n;
+        for (i, x) in [&self.axis, &self.u_a, &self.u_b].into_iter().enumerate() {
+            let d: [T; 3] = core::array::from_fn(|j| {
+                scale
+                    * ((dc * gs[i][j] - ds * gc[i][j] + c * dgs[i][j] - s * dgc[i][j])
+                        - k * (c * gs[i][j] - s * gc[i][j]))
+                    / n
+            });
+            for &(slot, coef) in &x.terms {
+                for (j, dj) in d.iter().enumerate() {
+                    out[3 * slot + j] = out[3 * slot + j] + T::lit(coef) * *dj;
+                }
+            }
+        }
+    }
+
+    /// The slots `θ` depends on.
+    pub fn slots(&self) -> Vec<usize> {
+        let mut s: Vec<usize> = [&self.axis, &self.u_a, &self.u_b]
+            .iter()
+            .flat_map(|x| x.terms.iter().map(|t| t.0))
+            .collect();
+        s.sort_unstable();
+        s.dedup();
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rigid::frames::Entry;
+    use crate::rigid::joints::BodyRef;
+    use crate::rigid::pose::Rotation;
+
+    /// The Hessian product is the derivative of the gradient: central differences of
+    /// `∇θ` along `v` agree with `∇²θ v` to their truncation `h²/6 |∇⁴θ|` plus round-off
+    /// `ε |∇θ| / h` (`h = 1e-4`: below 1e-7 for these unit-scale directors).
+    #[test]
+    fn the_hessian_product_is_the_gradient_s_derivative() {
+        let r = Rotation::from_axis_angle([0.3, -0.4, 0.8], 0.7).unwrap();
+        let mut q0 = vec![0.0; 24];
+        for i in 0..3 {
+            let (c, d) = (Rotation::identity().column(i), r.column(i));
+            q0[3 * (1 + i)..3 * (2 + i)].copy_from_slice(&c);
+            q0[3 * (5 + i)..3 * (6 + i)].copy_from_slice(&d);
+        }
+        let entries = [
+            Entry::Rigid {
+                slot: 0,
+                axes: Rotation::identity(),
+            },
+            Entry::Rigid { slot: 4, axes: r },
+        ];
+        let frames = Frames {
+            entries: &entries,
+            q0: &q0,
+        };
+        let hinge = Hinge {
+            a: BodyRef::Body(0),
+            anchor_a: [0.0; 3],
+            axis_a: [0.0, 0.0, 1.0],
+            b: BodyRef::Body(1),
+            anchor_b: [0.0; 3],
+            axis_b: r.transpose().apply([0.0, 0.0, 1.0]),
+        };
+        let angle = HingeAngle::of(&hinge, &frames).unwrap();
+        // Away from the initial poses, in a direction that touches every slot.
+        let q: Vec<f64> = q0
+            .iter()
+            .enumerate()
+            .map(|(i, x)| x + 0.05 * ((i as f64) * 0.7).sin())
+            .collect();
+        let v: Vec<f64> = (0..24).map(|i| ((i as f64) * 1.3).cos()).collect();
+        let h = 1e-4;
+        let grad = |s: f64| {
+            let x: Vec<f64> = q.iter().zip(&v).map(|(a, b)| a + s * b).collect();
+            let mut g = vec![0.0; 24];
+            angle.gradient_add(&x, 1.0, &mut g);
+            g
+        };
+        let (gp, gm) = (grad(h), grad(-h));
+        let mut hv = vec![0.0; 24];
+        angle.hessian_apply_add(&q, &v, 1.0, &mut hv);
+        let scale = hv.iter().fold(1.0f64, |a, x| a.max(x.abs()));
+        for i in 0..24 {
+            let fd = (gp[i] - gm[i]) / (2.0 * h);
+            assert!((fd - hv[i]).abs() < 1e-7 * scale, "{i}: {fd} vs {}", hv[i]);
+        }
+        // And the rate is the gradient's product with the direction.
+        let mut g = vec![0.0; 24];
+        angle.gradient_add(&q, 1.0, &mut g);
+        let gv: f64 = g.iter().zip(&v).map(|(a, b)| a * b).sum();
+        assert!((angle.derivative(&q, &v) - gv).abs() < 1e-14 * (1.0 + gv.abs()));
     }
 }

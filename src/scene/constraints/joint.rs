@@ -4,20 +4,29 @@
 //! scene's slots as one [`Rows`] term.
 
 use super::{Constraint, Declared, rows::Rows};
-use crate::rigid::{BodyRef, Entry, Frames, JointKind, Rotation};
+use crate::rigid::{BodyRef, Frames, JointKind, Rotation};
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::validate::{Result, err, vector};
 
 /// A joint's bodies: `a`, and `b` or the world.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Ends {
-    pub(super) a: usize,
-    pub(super) b: Option<usize>,
+pub(crate) struct Ends {
+    pub(crate) a: usize,
+    pub(crate) b: Option<usize>,
+}
+
+impl Ends {
+    /// `[a]` or `[a, b]`: the bodies `BodyRef::Body(0)` and `Body(1)` name.
+    pub(crate) fn list(&self) -> Vec<usize> {
+        let mut v = vec![self.a];
+        v.extend(self.b);
+        v
+    }
 }
 
 /// The one or two bodies `sel` names, each one body, different; 3D scenes only.
-pub(super) fn ends(sel: &[String], bodies: &Bodies, path: &FieldPath, kind: &str) -> Result<Ends> {
+pub(crate) fn ends(sel: &[String], bodies: &Bodies, path: &FieldPath, kind: &str) -> Result<Ends> {
     if bodies.dim != 3 {
         return Err(err(
             SceneErrorKind::Dimension,
@@ -99,7 +108,7 @@ pub(super) fn anchors(
 
 /// An axis in each end's frame: from `axis`, a world direction at the start, or `axes`, one per
 /// end in its own frame.
-pub(super) fn axes(
+pub(crate) fn axes(
     axis: &Option<Vec<f64>>,
     axes: &Option<Vec<Vec<f64>>>,
     names: (&str, &str),
@@ -171,16 +180,8 @@ pub(super) fn declare(
     path: &FieldPath,
     out: &mut Vec<Declared>,
 ) -> Result<()> {
-    let entry = |b: usize| match bodies.rigid_at(b) {
-        Some(r) => Entry::Rigid {
-            slot: b,
-            axes: r.axes,
-        },
-        None => Entry::Point { slot: b },
-    };
-    let mut entries = vec![entry(ends.a)];
-    entries.extend(ends.b.map(entry));
-    let q0: Vec<f64> = bodies.list.iter().flat_map(|b| b.q).collect();
+    let entries = bodies.entries(&ends.list());
+    let q0 = bodies.positions();
     let frames = Frames {
         entries: &entries,
         q0: &q0,
@@ -207,6 +208,6 @@ pub(super) fn declare(
 }
 
 /// The library's reference to end `b` (`None`: the world).
-pub(super) fn body_ref(index: usize, b: Option<usize>) -> BodyRef {
+pub(crate) fn body_ref(index: usize, b: Option<usize>) -> BodyRef {
     b.map_or(BodyRef::World, |_| BodyRef::Body(index))
 }

@@ -19,7 +19,7 @@
 
 mod ball;
 mod hinge;
-mod joint;
+pub(crate) mod joint;
 mod pin;
 mod plane;
 mod rod;

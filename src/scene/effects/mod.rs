@@ -19,6 +19,7 @@ mod magnetic;
 mod pair;
 mod radial;
 mod spring;
+mod torsion;
 mod trap;
 
 pub use damping::DampingSpec;
@@ -28,6 +29,7 @@ pub use gravity::GravitySpec;
 pub use magnetic::MagneticSpec;
 pub use pair::{MAX_PAIRS, PairSpec};
 pub use spring::SpringSpec;
+pub use torsion::TorsionSpringSpec;
 pub use trap::TrapSpec;
 
 use crate::real::Real;
@@ -166,6 +168,8 @@ effects! {
     Gravity(gravity::GravitySpec) = "gravity",
     /// A spring between two bodies, `V = k/2 (|q_a − q_b| − L)²`.
     Spring(spring::SpringSpec) = "spring",
+    /// A torsion spring about a hinge's axis between rigid bodies, `V = k/2 (θ − θ₀)²`.
+    TorsionSpring(torsion::TorsionSpringSpec) = "torsion-spring",
     /// A pair potential between every two bodies of a group.
     Pair(pair::PairSpec) = "pair",
     /// A harmonic trap `V = k/2 Σ |q_b − c|²`.
@@ -252,6 +256,8 @@ potentials! {
     Pairs(radial::Pairs),
     /// `k/2 Σ_b |q_b − c|²`.
     Trap(trap::Trap),
+    /// `k/2 (θ − θ₀)²` on a hinge's angle.
+    Torsion(torsion::Torsion),
 }
 
 /// A declared term of `V` with its label and counter.
