@@ -97,3 +97,47 @@ fn a_torsion_spring_on_a_hinge_rings_at_each_scheme_s_order() {
         );
     }
 }
+
+#[test]
+fn a_hinge_motor_spins_a_disc_up_with_its_exact_torque_and_power() {
+    // The disc on its hinge (J = 0.02), a constant torque τ = 0.1 from rest: the hinge's
+    // forces have no moment about its axis and the motor's kick adds exactly τ h of angular
+    // momentum a step, so θ' = τ t / J at every step to round-off under the splitting; the
+    // supplied work τ θ is booked and H balances it.
+    let (tau, j, t_end) = (0.1, 0.02, 2.0);
+    let text = oscillator(0.01, t_end, "")
+        .replace("angular_velocity = [0, 0, 1]", "angular_velocity = [0, 0, 0]")
+        .replace(
+            "[[effects]]\ntype = \"torsion-spring\"\nbodies = [\"disc\"]\naxis = [0, 0, 1]\nstiffness = 0.5\n",
+            &format!(
+                "[[inputs]]\ntype = \"hinge-torque\"\nname = \"motor\"\nbodies = [\"disc\"]\naxis = [0, 0, 1]\nsignal = {{ type = \"constant\", value = {tau} }}\n[[outputs]]\nquantity = \"port-output\"\ninput = \"motor\"\n"
+            ),
+        );
+    assert!(text.contains("hinge-torque"), "{text}");
+    let mut c = Scene::from_toml(&text, "motor.toml")
+        .unwrap()
+        .compile()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut worst = 0.0f64;
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |s| {
+        let want = tau * s.t / j;
+        // Outputs: the port output θ', ω_z, the quaternion's z.
+        worst = worst
+            .max((s.outputs[0] - want).abs())
+            .max((s.outputs[1] - want).abs());
+    });
+    assert!(s.error.is_none(), "{:?}", s.error);
+    assert!(worst < 1e-12, "θ' off τt/J by {worst:e}");
+    let omega = tau * t_end / j;
+    let kinetic = 0.5 * j * omega * omega;
+    assert!(
+        (s.supplied.unwrap() - kinetic).abs() < 1e-9 * kinetic,
+        "{:?}",
+        s.supplied
+    );
+    assert!(
+        s.max_energy_balance_error.unwrap() < 1e-12 * kinetic,
+        "{:?}",
+        s.max_energy_balance_error
+    );
+}

@@ -6,11 +6,10 @@
 
 use super::{Assembler, Effect, Potential, PotentialOps};
 use crate::real::Real;
-use crate::rigid::{Frames, Hinge, HingeAngle};
-use crate::scene::constraints::joint;
-use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::rigid::HingeAngle;
+use crate::scene::error::FieldPath;
 use crate::scene::names::Flag;
-use crate::scene::validate::{Result, err, finite, non_negative};
+use crate::scene::validate::{Result, finite, non_negative};
 use serde::Deserialize;
 
 /// `type = "torsion-spring"`.
@@ -54,9 +53,8 @@ impl Effect for TorsionSpringSpec {
         _on: bool,
     ) -> Result<Option<Potential<f64>>> {
         let bodies = cx.bodies;
-        let ends = joint::ends(&self.bodies, bodies, path, "torsion-spring")?;
-        let [axis_a, axis_b] =
-            joint::axes(&self.axis, &self.axes, ("axis", "axes"), ends, bodies, path)?;
+        let angle =
+            crate::scene::ports::hinge_angle(&self.bodies, &self.axis, &self.axes, bodies, path)?;
         let k = non_negative(self.stiffness, &path.key("stiffness"), "stiffness")?;
         let rest = self
             .rest_angle_deg
@@ -64,22 +62,6 @@ impl Effect for TorsionSpringSpec {
             .transpose()?
             .unwrap_or(0.0)
             .to_radians();
-        let entries = bodies.entries(&ends.list());
-        let q0 = bodies.positions();
-        let frames = Frames {
-            entries: &entries,
-            q0: &q0,
-        };
-        let hinge = Hinge {
-            a: joint::body_ref(0, Some(ends.a)),
-            anchor_a: [0.0; 3],
-            axis_a,
-            b: joint::body_ref(1, ends.b),
-            anchor_b: [0.0; 3],
-            axis_b,
-        };
-        let angle = HingeAngle::of(&hinge, &frames)
-            .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))?;
         let slots = angle.slots();
         Ok(Some(Potential::Torsion(Torsion {
             angle,

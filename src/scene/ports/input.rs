@@ -44,12 +44,32 @@ pub enum InputSpec {
         /// `u(t)`.
         signal: SignalSpec,
     },
+    /// A motor on a hinge: the torque `u(t)` about the axis between two rigid bodies (the second
+    /// feels the reaction) or a rigid body and the world, `B(q) = ∇θ(q)` on the directors'
+    /// momenta (`θ` the hinge's angle): its port output is `θ'` and its power `u θ'` exactly.
+    /// Put it beside a `hinge` about the same axis.
+    HingeTorque {
+        /// Unique name.
+        name: String,
+        /// One rigid body (turned against the world) or two, the first rigid.
+        bodies: Vec<String>,
+        /// The axis in the world at the start.
+        #[serde(default)]
+        axis: Option<Vec<f64>>,
+        /// Or: the axis in each body's frame.
+        #[serde(default)]
+        axes: Option<Vec<Vec<f64>>>,
+        /// `u(t)`, N m.
+        signal: SignalSpec,
+    },
 }
 
 impl InputSpec {
     pub(crate) fn name(&self) -> &str {
         match self {
-            Self::Force { name, .. } | Self::Torque { name, .. } => name,
+            Self::Force { name, .. }
+            | Self::Torque { name, .. }
+            | Self::HingeTorque { name, .. } => name,
         }
     }
     /// `"force on bob"`, `"torque on bob about (0, 0)"`: for `lieflow check`.
@@ -71,12 +91,17 @@ impl InputSpec {
                 Some(a) => format!("torque on {body} about {a}, {kind}"),
                 None => format!("torque on {body} about a fixed pivot, {kind}"),
             },
+            Self::HingeTorque { bodies, .. } => {
+                format!("torque on the hinge of {}, {kind}", bodies.join(" and "))
+            }
         }
     }
     /// The input's signal as the file gives it.
     pub fn signal(&self) -> &SignalSpec {
         match self {
-            Self::Force { signal, .. } | Self::Torque { signal, .. } => signal,
+            Self::Force { signal, .. }
+            | Self::Torque { signal, .. }
+            | Self::HingeTorque { signal, .. } => signal,
         }
     }
 }
@@ -93,6 +118,8 @@ pub(crate) enum InputTerm<T> {
         pivot: Pivot<T>,
         axis: [T; 3],
     },
+    /// `B = ∇θ` of a hinge's angle.
+    Hinge(crate::rigid::HingeAngle),
 }
 
 /// A torque's pivot.
@@ -184,6 +211,12 @@ impl InputTerm<f64> {
                     axis,
                 }
             }
+            InputSpec::HingeTorque {
+                bodies: sel,
+                axis,
+                axes,
+                ..
+            } => Self::Hinge(super::hinge_angle(sel, axis, axes, bodies, path)?),
         })
     }
 }
@@ -205,6 +238,7 @@ impl<S: Real> InputTerm<S> {
                 },
                 axis: c3(*axis),
             },
+            Self::Hinge(angle) => InputTerm::Hinge(angle.clone()),
         }
     }
 }
@@ -227,6 +261,7 @@ impl<T: Real> InputTerm<T> {
     pub(crate) fn unit_force(&self, q: &[T], d: usize) -> [T; 3] {
         match self {
             Self::Force { direction, .. } => *direction,
+            Self::Hinge(_) => [T::zero(); 3],
             Self::Torque { body, pivot, axis } => {
                 let from = match pivot {
                     Pivot::Point(p) => *p,

@@ -169,6 +169,7 @@ impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
         for (term, yj) in self.terms.iter().zip(y.iter_mut()) {
             let f = term.unit_force(q, d);
             *yj = match term {
+                InputTerm::Hinge(angle) => angle.derivative(q, v),
                 InputTerm::Force { bodies, .. } => {
                     bodies.iter().fold(V::Real::zero(), |s, &b| s + dot(&f, b))
                 }
@@ -190,6 +191,10 @@ impl<T: Real> SceneInputMap<T> {
     fn push(&self, q: &[T], p: &mut [T], w: &[T]) {
         let d = self.dim;
         for (term, &wj) in self.terms.iter().zip(w) {
+            if let InputTerm::Hinge(angle) = term {
+                angle.gradient_add(q, wj, p);
+                continue;
+            }
             let f = term.unit_force(q, d);
             let mut push = |b: usize, s: T| {
                 for k in 0..d {
@@ -197,6 +202,7 @@ impl<T: Real> SceneInputMap<T> {
                 }
             };
             match term {
+                InputTerm::Hinge(_) => {}
                 InputTerm::Force { bodies, .. } => bodies.iter().for_each(|&b| push(b, T::one())),
                 InputTerm::Torque { body, pivot, .. } => {
                     push(*body, T::one());
@@ -207,6 +213,39 @@ impl<T: Real> SceneInputMap<T> {
             }
         }
     }
+}
+
+/// The angle of the first of `sel`'s bodies against the second (or the world) about `axis`
+/// (world, at the start) or `axes` (each body's frame), zero at the initial poses, positive
+/// counter-clockwise about the axis.
+pub(crate) fn hinge_angle(
+    sel: &[String],
+    axis: &Option<Vec<f64>>,
+    axes: &Option<Vec<Vec<f64>>>,
+    bodies: &Bodies,
+    path: &FieldPath,
+) -> Result<crate::rigid::HingeAngle> {
+    use crate::scene::constraints::joint;
+    let ends = joint::ends(sel, bodies, path, "hinge")?;
+    let [axis_a, axis_b] = joint::axes(axis, axes, ("axis", "axes"), ends, bodies, path)?;
+    let entries = bodies.entries(&ends.list());
+    let q0 = bodies.positions();
+    let frames = crate::rigid::Frames {
+        entries: &entries,
+        q0: &q0,
+    };
+    // `HingeAngle` measures its second body against its first: the first named body turns
+    // against the second (or the world), positive counter-clockwise about the axis.
+    let hinge = crate::rigid::Hinge {
+        a: joint::body_ref(1, ends.b),
+        anchor_a: [0.0; 3],
+        axis_a: axis_b,
+        b: joint::body_ref(0, Some(ends.a)),
+        anchor_b: [0.0; 3],
+        axis_b: axis_a,
+    };
+    crate::rigid::HingeAngle::of(&hinge, &frames)
+        .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))
 }
 
 /// Compiles `[[inputs]]`; `None` when there are none.
