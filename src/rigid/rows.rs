@@ -190,9 +190,13 @@ impl<T: Real> QuadraticRows<T> {
         }
     }
 
-    /// `out += α G(q)ᵀ μ` on position slices.
+    /// `out += α G(q)ᵀ μ` on position slices (rows with `μ_r = 0` skipped).
     pub fn transpose_add_positions(&self, q: &[T], mu: &[T], alpha: T, out: &mut [T]) {
         for (row, &m) in self.rows.iter().zip(mu) {
+            // A zero multiplier adds nothing (a Newton probing Gᵀ e_j sets one row at a time).
+            if m == T::zero() {
+                continue;
+            }
             let c = alpha * m;
             for (i, b, range) in &row.columns {
                 out[*i] = out[*i] + c * self.partial(q, *b, range);
@@ -220,14 +224,7 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for QuadraticRows<T> {
         }
     }
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
-        let q = x.as_slice();
-        let o = out.as_mut_slice();
-        for (row, &m) in self.rows.iter().zip(mu) {
-            let c = alpha * m;
-            for (i, b, range) in &row.columns {
-                o[*i] = o[*i] + c * self.partial(q, *b, range);
-            }
-        }
+        self.transpose_add_positions(x.as_slice(), mu, alpha, out.as_mut_slice());
     }
     /// `uᵀA_r v`: the rows are quadratic, their Hessians constant.
     fn hessian_form(&self, _x: &V, u: &V, v: &V, out: &mut [T]) -> bool {

@@ -292,7 +292,11 @@ where
     // positions whose momenta are so coupled couple in the multiplier systems too.
     couple_through_momenta(system, n, &by_col, &mut gram);
     gram.sort_unstable_by_key(|&(i, j, _)| (j, i));
-    let pattern: Vec<(usize, usize)> = gram.iter().map(|&(i, j, _)| (i, j)).collect();
+    // Each (i, j) once: two constraints that share several state variables (a rigid body's
+    // rows share its directors' nine) meet once per variable, and a count with repeats would
+    // take a sparse system for a dense one.
+    let mut pattern: Vec<(usize, usize)> = gram.iter().map(|&(i, j, _)| (i, j)).collect();
+    pattern.dedup();
     // Every constraint needs a diagonal entry: a constraint with a zero gradient row is
     // redundant (it constrains nothing to first order).
     let structure = match Structure::of_pattern(&pattern) {

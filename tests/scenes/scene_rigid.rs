@@ -377,3 +377,62 @@ fn the_rigid_body_scenes_run_with_their_joints_at_round_off() {
         }
     }
 }
+
+/// A chain of `n` bars (0.1 m, 1 kg) on hinges about y, the first to the world, straight out
+/// along x.
+fn bar_chain(n: usize, steps: usize) -> String {
+    let mut s = String::from("version = 1\ndim = 3\n");
+    for i in 0..n {
+        s += &format!(
+            "[[bodies]]\nname = \"b{i}\"\nmass = 1.0\ninertia = {{ shape = \"box\", size = [0.1, 0.02, 0.02] }}\nposition = [{}, 0, 0]\n",
+            0.1 * i as f64 + 0.05
+        );
+    }
+    for i in 0..n {
+        let ends = if i == 0 {
+            "[\"b0\"]".to_owned()
+        } else {
+            format!("[\"b{i}\", \"b{}\"]", i - 1)
+        };
+        s += &format!(
+            "[[constraints]]\ntype = \"hinge\"\nbodies = {ends}\nanchor = [{}, 0, 0]\naxis = [0, 1, 0]\n",
+            0.1 * i as f64
+        );
+    }
+    s + &format!(
+        "[[effects]]\ntype = \"gravity\"\ng = [0, 0, -9.81]\n[integrator]\ndt = 1e-3\nt_end = {}\n",
+        steps as f64 * 1e-3
+    )
+}
+
+#[test]
+fn a_chain_of_bodies_projects_in_newton_iterations_flat_in_its_length() {
+    // The multiplier systems of a chain couple each body's rows with its neighbours' only: the
+    // projection factors them sparse (not dense: a pattern counted with repeats once took the
+    // dense path at 100 bodies), and Newton's iterations a step do not grow with the length.
+    // Time per body: docs/rigid-bodies.md (`lieflow run` on these chains).
+    let mut per_step = Vec::new();
+    for n in [10, 100, 1000] {
+        let mut c = parse(&bar_chain(n, 10))
+            .compile()
+            .unwrap_or_else(|e| panic!("{e}"));
+        if n >= 100 {
+            assert_eq!(
+                c.assembly.solver.as_deref(),
+                Some("Sparse"),
+                "{n} bodies: {:?}",
+                c.assembly.solver
+            );
+        }
+        let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+        assert!(s.error.is_none(), "{n}: {:?}", s.error);
+        // Rows at the projection's tolerance, 16 ε ℓ L with ℓ and L the chain's extent.
+        assert!(s.max_abs_g.unwrap() < 16.0 * f64::EPSILON * (0.1 * n as f64).powi(2).max(1.0));
+        per_step.push(s.newton_iterations as f64 / s.steps as f64);
+    }
+    eprintln!("Newton iterations a step for 10, 100, 1000 bodies: {per_step:?}");
+    assert!(
+        per_step[2] <= per_step[0] + 1.0 && per_step[1] <= per_step[0] + 1.0,
+        "{per_step:?}"
+    );
+}

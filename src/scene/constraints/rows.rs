@@ -98,6 +98,10 @@ impl<T: Real> ConstraintOps<T> for Rows<T> {
             f(r, s);
         }
     }
+    /// Rows whose multiplier is zero add nothing and are skipped
+    /// ([`QuadraticRows::transpose_add_positions`]): the projection's Newton probes `Gᵀ e_j`
+    /// one group of rows at a time, and a body's rows share its slots, so most groups are one
+    /// row.
     #[inline]
     fn gradient_transpose_add(&self, q: &[T], mu: &[T], alpha: T, _d: usize, out: &mut [T]) {
         let n = self.rows.count();
