@@ -66,8 +66,8 @@ pub use compile::{
 pub use error::{FieldPath, Location, PathSegment, SceneError, SceneErrorKind};
 pub use gram::MassGram;
 pub use model::{
-    DashpotFlow, EffectKind, FlightCache, FreeFlight, Kick, KickCache, SceneKick, SceneModel,
-    SceneSplitting,
+    DashpotFlow, EffectKind, FlightCache, FreeFlight, HingeDamperFlow, Kick, KickCache, SceneKick,
+    SceneModel, SceneSplitting,
 };
 pub use run::{
     Advanced, BUDGET_WARNING_FRACTION, EffectReport, RunFailure, RunPlan, RunSummary, Sample,

@@ -442,6 +442,9 @@ where
         if let Some(dashpots) = &model.dashpots {
             power += dashpots.power(&model.inv_masses, p, model.dim);
         }
+        if let Some(dampers) = &model.hinge_dampers {
+            power += dampers.power(&model.inv_masses, &x[..x.len() / 2], p);
+        }
         Some(power)
     }
     fn residuals(&mut self) -> Option<(f64, f64)> {
@@ -529,6 +532,14 @@ impl SceneModel {
             out.push(EffectReport {
                 name: t.label.clone(),
                 kind: "dashpot",
+                evaluations: t.counter.evaluations(),
+                time_share: None,
+            });
+        }
+        if let Some(t) = &self.hinge_dampers {
+            out.push(EffectReport {
+                name: t.label.clone(),
+                kind: "hinge-damper",
                 evaluations: t.counter.evaluations(),
                 time_share: None,
             });

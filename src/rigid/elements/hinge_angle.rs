@@ -32,12 +32,14 @@ fn at<T: Real>(v: &Affine, q: &[T]) -> [T; 3] {
     out
 }
 
-/// The linear part of `v` (its terms, without the constant) at the displacement `v`.
-fn along<T: Real>(x: &Affine, v: &[T]) -> [T; 3] {
+/// The linear part of `x` (its terms, without the constant) at the displacement `v`, each
+/// slot's part of `v` scaled by `scale[slot]` when given.
+fn along<T: Real>(x: &Affine, v: &[T], scale: Option<&[T]>) -> [T; 3] {
     let mut o = [T::zero(); 3];
     for &(slot, coef) in &x.terms {
+        let c = T::lit(coef) * scale.map_or(T::one(), |s| s[slot]);
         for (k, ok) in o.iter_mut().enumerate() {
-            *ok = *ok + T::lit(coef) * v[3 * slot + k];
+            *ok = *ok + c * v[3 * slot + k];
         }
     }
     o
@@ -113,7 +115,18 @@ impl HingeAngle {
         [&self.axis, &self.u_a, &self.u_b]
             .into_iter()
             .zip(d)
-            .fold(T::zero(), |acc, (x, d)| acc + dot(d, along(x, v)))
+            .fold(T::zero(), |acc, (x, d)| acc + dot(d, along(x, v, None)))
+    }
+
+    /// `θ' = ∇θ(q) · W⁻¹ p` for momenta `p` and the inverse mass `inv[s]` of each slot `s`.
+    pub fn rate<T: Real>(&self, q: &[T], p: &[T], inv: &[T]) -> T {
+        let d = self.partials(q, T::one());
+        [&self.axis, &self.u_a, &self.u_b]
+            .into_iter()
+            .zip(d)
+            .fold(T::zero(), |acc, (x, d)| {
+                acc + dot(d, along(x, p, Some(inv)))
+            })
     }
 
     /// `out += scale ∇²θ(q) v` (positions only): the directional derivative of the gradient
@@ -127,9 +140,9 @@ impl HingeAngle {
     pub fn hessian_apply_add<T: Real>(&self, q: &[T], v: &[T], scale: T, out: &mut [T]) {
         let (a, ua, ub, s, c) = self.parts(q);
         let (da, dua, dub) = (
-            along(&self.axis, v),
-            along(&self.u_a, v),
-            along(&self.u_b, v),
+            along(&self.axis, v, None),
+            along(&self.u_a, v, None),
+            along(&self.u_b, v, None),
         );
         let zero = [T::zero(); 3];
         let add = |x: [T; 3], y: [T; 3]| [x[0] + y[0], x[1] + y[1], x[2] + y[2]];

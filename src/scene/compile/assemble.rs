@@ -128,6 +128,11 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
                     .map(|t| (t.label.clone(), "dashpot".to_owned())),
             )
             .chain(
+                fx.hinge_dampers
+                    .iter()
+                    .map(|t| (t.label.clone(), "hinge-damper".to_owned())),
+            )
+            .chain(
                 fx.magnetic
                     .iter()
                     .map(|t| (t.label.clone(), "magnetic".to_owned())),
@@ -144,8 +149,9 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
         profile,
     );
     model.inputs = compile_inputs(&file.inputs, &bodies, dim, file.base_dir.as_deref())?;
-    model.zero_damping = fx.zero_damping && fx.dashpots.is_none();
+    model.zero_damping = fx.zero_damping && fx.dashpots.is_none() && fx.hinge_dampers.is_none();
     model.dashpots = fx.dashpots;
+    model.hinge_dampers = fx.hinge_dampers;
     let splitting = !matches!(
         file.integrator.scheme,
         Method::DiscreteGradient | Method::Midpoint | Method::Modified

@@ -18,6 +18,8 @@ pub(super) struct Effects {
     pub(super) zero_damping: bool,
     /// The dashpots that are on, with their merged label.
     pub(super) dashpots: Option<crate::scene::model::Dashpots<f64>>,
+    /// The hinge dampers that are on, with their merged label.
+    pub(super) hinge_dampers: Option<crate::scene::model::HingeDampers<f64>>,
 }
 
 /// Checks every declared effect (switched on or not) and assembles the ones switched on.
@@ -72,6 +74,7 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
         disabled: Vec::new(),
         zero_damping: false,
         dashpots: None,
+        hinge_dampers: None,
     };
     let mut cx = Assembler {
         bodies,
@@ -82,6 +85,8 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
         magnetic_labels: Vec::new(),
         dashpots: Vec::new(),
         dashpot_labels: Vec::new(),
+        hinge_dampers: Vec::new(),
+        hinge_damper_labels: Vec::new(),
     };
     let root = FieldPath::root().key("effects");
     for (i, e) in file.effects.iter().enumerate() {
@@ -112,8 +117,17 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
         mut magnetic_labels,
         dashpots,
         dashpot_labels,
+        hinge_dampers,
+        hinge_damper_labels,
         ..
     } = cx;
+    if !hinge_dampers.is_empty() {
+        fx.hinge_dampers = Some(crate::scene::model::HingeDampers {
+            label: hinge_damper_labels.join("+"),
+            dampers: hinge_dampers,
+            counter: Counter::default(),
+        });
+    }
     if !dashpots.is_empty() {
         fx.dashpots = Some(crate::scene::model::Dashpots {
             label: dashpot_labels.join("+"),

@@ -45,6 +45,20 @@ pub(super) fn implicit_flow(
     raise: Raise,
     backward: bool,
 ) -> Option<Result<SchemeFlow>> {
+    let implicit = matches!(
+        file.integrator.scheme,
+        Method::PetrovGalerkin | Method::DiscreteGradient | Method::Midpoint
+    );
+    if implicit && model.has_hinge_dampers() {
+        return Some(Err(err(
+            SceneErrorKind::Unsupported,
+            FieldPath::root().key("integrator").key("scheme"),
+            format!(
+                "'{}' does not take hinge dampers: their exact flow along the constraint-consistent direction joins the splitting's kick, and the implicit schemes' M does not hold them; use scheme = \"auto\" (order 2) or \"extrapolation\" (order 4 and up)",
+                file.integrator.scheme
+            ),
+        )));
+    }
     match file.integrator.scheme {
         Method::PetrovGalerkin => Some(petrov_galerkin(file, model, x0)),
         Method::DiscreteGradient => Some(discrete_gradient(model, x0)),

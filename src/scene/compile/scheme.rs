@@ -13,8 +13,8 @@ use crate::port::InputFlow;
 use crate::real::Real;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{
-    DashpotFlow, FreeFlight, Kick, SceneKick, SceneModel, SceneSplitting, consistent_account,
-    consistent_momentum,
+    DashpotFlow, FreeFlight, HingeDamperFlow, Kick, SceneKick, SceneModel, SceneSplitting,
+    consistent_account, consistent_momentum,
 };
 use crate::scene::run::RunPlan;
 use crate::scene::schema::{Diagnostic, Flags, IntegratorSpec, Method, SceneFile};
@@ -324,16 +324,26 @@ fn scene_kick<V: Vector + 'static>(
     // Dashpots couple bodies, so their flow is not part of the per-body flight: it joins the
     // kick as `D(τ/2) ∘ K(τ) ∘ D(τ/2)` (the dashpots alone without a kick), a symmetric
     // composition of exact flows.
-    let damped: Option<Box<dyn Flow<V>>> = DashpotFlow::new(model.clone()).map(|dashpots| {
+    let dashpots = DashpotFlow::new(model.clone()).map(|dashpots| {
         // On constrained bodies the dashpots book their dissipation on the consistent motion.
-        let dashpots = match consistent_momentum(model) {
+        match consistent_momentum(model) {
             Some(account) => dashpots.with_account(account),
             None => dashpots,
-        };
+        }
+    });
+    // Hinge dampers likewise: `J(τ/2) ∘ … ∘ J(τ/2)` around the rest of the kick.
+    let joints = HingeDamperFlow::new(model.clone());
+    let dampers: Option<Box<dyn Flow<V>>> = match (dashpots, joints) {
+        (Some(d), Some(j)) => Some(Box::new(d.strang(j))),
+        (Some(d), None) => Some(Box::new(d)),
+        (None, Some(j)) => Some(Box::new(j)),
+        (None, None) => None,
+    };
+    let damped: Option<Box<dyn Flow<V>>> = dampers.map(|dampers| {
         if model.has_kick() {
-            Box::new(dashpots.strang(Kick::new(model.clone()))) as Box<dyn Flow<V>>
+            Box::new(dampers.strang(Kick::new(model.clone()))) as Box<dyn Flow<V>>
         } else {
-            Box::new(dashpots)
+            dampers
         }
     });
     // The inputs are forces on the bodies: a kick, like the potential's; their sub-flow
@@ -365,14 +375,15 @@ fn assemble<V: Vector + 'static>(
     drift: FreeFlight<V::Real>,
 ) -> std::result::Result<Splitting<V>, SetupError> {
     let forced = model.inputs.is_some();
-    let has_potential = model.has_kick() || forced || model.has_dashpots();
+    let dampers = model.has_dashpots() || model.has_hinge_dampers();
+    let has_potential = model.has_kick() || forced || dampers;
     if model.m == 0 {
         return Ok(if has_potential {
             (
                 raised::<_, _, SceneSystem<V::Real>>(drift.strang(kick), raise, backward, None)?,
-                match (forced, model.has_dashpots()) {
+                match (forced, dampers) {
                     (true, _) => "free flight ∘ kick and inputs ∘ free flight (Strang)",
-                    (false, true) => "free flight ∘ kick and dashpots ∘ free flight (Strang)",
+                    (false, true) => "free flight ∘ kick and dampers ∘ free flight (Strang)",
                     (false, false) => "free flight ∘ kick ∘ free flight (Strang)",
                 },
                 None,
@@ -388,12 +399,12 @@ fn assemble<V: Vector + 'static>(
     let (splitting, name) = if has_potential {
         (
             SceneSplitting::Kicked(kick.strang(drift)),
-            match (forced, model.has_dashpots()) {
+            match (forced, dampers) {
                 (true, _) => {
                     "projection around kick and inputs ∘ free flight ∘ kick and inputs (Strang, RATTLE)"
                 }
                 (false, true) => {
-                    "projection around kick and dashpots ∘ free flight ∘ kick and dashpots (Strang, RATTLE)"
+                    "projection around kick and dampers ∘ free flight ∘ kick and dampers (Strang, RATTLE)"
                 }
                 (false, false) => "projection around kick ∘ free flight ∘ kick (Strang, RATTLE)",
             },

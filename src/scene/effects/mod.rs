@@ -15,6 +15,7 @@
 mod damping;
 mod dashpot;
 mod gravity;
+mod hinge_damper;
 mod magnetic;
 mod pair;
 mod radial;
@@ -26,6 +27,7 @@ pub use damping::DampingSpec;
 pub(crate) use damping::dissipated_power;
 pub use dashpot::DashpotSpec;
 pub use gravity::GravitySpec;
+pub use hinge_damper::HingeDamperSpec;
 pub use magnetic::MagneticSpec;
 pub use pair::{MAX_PAIRS, PairSpec};
 pub use spring::SpringSpec;
@@ -58,6 +60,10 @@ pub(crate) struct Assembler<'a> {
     pub(crate) dashpots: Vec<(usize, usize, f64)>,
     /// Labels of the dashpots that are on.
     pub(crate) dashpot_labels: Vec<String>,
+    /// `(θ, c)` per hinge damper that is on with `c > 0`.
+    pub(crate) hinge_dampers: Vec<(crate::rigid::HingeAngle, f64)>,
+    /// Labels of the hinge dampers that are on.
+    pub(crate) hinge_damper_labels: Vec<String>,
 }
 
 /// What an effect file provides for its table in the scene file (whose struct also has the
@@ -178,6 +184,8 @@ effects! {
     Damping(damping::DampingSpec) = "damping",
     /// A dashpot between two bodies, `p_a' = … − c (v_a − v_b)`: a term of `R` on the relative velocity.
     Dashpot(dashpot::DashpotSpec) = "dashpot",
+    /// A damper on a hinge's angle between rigid bodies, the torque `−c θ'`: a term of `R` along the constraint-consistent direction.
+    HingeDamper(hinge_damper::HingeDamperSpec) = "hinge-damper",
     /// A uniform magnetic field on charged bodies, `p_b' = … + e_b v_b × B`: a non-canonical `J`.
     Magnetic(magnetic::MagneticSpec) = "magnetic",
 }

@@ -56,7 +56,17 @@ pub(crate) fn consistent_account<T: Real>(
 pub(crate) fn consistent_momentum<T: Real>(
     model: &Arc<SceneModel<T>>,
 ) -> Option<Box<dyn ConsistentMomentum>> {
-    if model.m == 0 || model.dashpots.is_none() {
+    model.dashpots.as_ref()?;
+    consistent_projector(model)
+}
+
+/// The constraint-consistent part of a momentum or a force direction of `model`
+/// (`p − Gᵀ S⁻¹ G W⁻¹ p`), when it is constrained and runs in `f64`: the hinge dampers act
+/// along it.
+pub(crate) fn consistent_projector<T: Real>(
+    model: &Arc<SceneModel<T>>,
+) -> Option<Box<dyn ConsistentMomentum>> {
+    if model.m == 0 {
         return None;
     }
     let model = (model as &dyn Any).downcast_ref::<Arc<SceneModel<f64>>>()?;

@@ -23,6 +23,7 @@ mod constraints;
 mod dashpot;
 mod flight;
 mod hamiltonian;
+mod hinge_damper;
 mod potential;
 mod scalar;
 mod splitting;
@@ -36,6 +37,8 @@ pub use dashpot::DashpotFlow;
 pub(crate) use dashpot::Dashpots;
 use flight::Flight;
 pub use flight::{FlightCache, FreeFlight};
+pub use hinge_damper::HingeDamperFlow;
+pub(crate) use hinge_damper::HingeDampers;
 pub use potential::{Kick, KickCache};
 pub use splitting::{SceneKick, SceneSplitting};
 pub(crate) use terms::{ConstraintTerm, StructureTerm};
@@ -62,6 +65,8 @@ pub struct SceneModel<T = f64> {
     pub(crate) zero_damping: bool,
     /// Dashpots between bodies (a term of `R` on relative velocities), when declared.
     pub(crate) dashpots: Option<Dashpots<T>>,
+    /// Dampers on hinges' angles (their exact flows join the kick), when declared.
+    pub(crate) hinge_dampers: Option<HingeDampers<T>>,
     /// The state's component names (`q.<body>.<axis>`, `p.<body>.<axis>`), for CSV columns.
     pub(crate) state_names: Vec<String>,
     /// One name per constraint row, for the multipliers' CSV columns.
@@ -152,6 +157,7 @@ impl<T: Real> SceneModel<T> {
             inputs: None,
             zero_damping: false,
             dashpots: None,
+            hinge_dampers: None,
             state_names: Vec::new(),
             multiplier_names: Vec::new(),
         }
@@ -231,9 +237,16 @@ impl<T: Real> SceneModel<T> {
             .any(|t| !(self.gravity_in_flight && t.is_gravity()))
     }
 
-    /// `true` if a damping term or a dashpot is assembled (`M` has a dissipative part).
+    /// `true` if a damping term, a dashpot or a hinge damper is assembled (`M` has a
+    /// dissipative part).
     pub fn is_dissipative(&self) -> bool {
-        self.damping.is_some() || self.dashpots.is_some()
+        self.damping.is_some() || self.dashpots.is_some() || self.hinge_dampers.is_some()
+    }
+
+    /// `true` if hinge dampers are assembled (their exact flows join the kick; the implicit
+    /// schemes, whose `M` does not hold them, refuse them).
+    pub fn has_hinge_dampers(&self) -> bool {
+        self.hinge_dampers.is_some()
     }
 
     /// `true` if dashpots join bodies (their exact flow joins the kick).

@@ -59,6 +59,11 @@ impl SceneModel<f64> {
             pairs: t.pairs.iter().map(|&(a, b, k)| (a, b, c(k))).collect(),
             counter: Counter::default(),
         });
+        model.hinge_dampers = self.hinge_dampers.as_ref().map(|t| super::HingeDampers {
+            label: t.label.clone(),
+            dampers: t.dampers.iter().map(|(a, k)| (a.clone(), c(*k))).collect(),
+            counter: Counter::default(),
+        });
         model.state_names.clone_from(&self.state_names);
         model.multiplier_names.clone_from(&self.multiplier_names);
         model
