@@ -282,3 +282,81 @@ fn the_implicit_schemes_refuse_hinge_dampers_by_name() {
         );
     }
 }
+
+#[test]
+fn a_joint_reports_the_force_and_torque_it_exerts() {
+    // A disc (2 kg) on a hinge about z through its centre, under gravity, twisted about x by a
+    // held motor τ = 0.3 that the hinge resists: at rest, the hinge carries the weight,
+    // (0, 0, m g), and the opposite of the twist, (−τ, 0, 0), about the disc's centre — read
+    // from the step's multipliers to round-off.
+    let text = r#"
+version = 1
+dim = 3
+[[bodies]]
+name = "disc"
+mass = 2.0
+inertia = { shape = "cylinder", radius = 0.2, height = 0.05 }
+position = [0, 0, 0]
+[[constraints]]
+type = "hinge"
+name = "axle"
+bodies = ["disc"]
+anchor = [0, 0, 0]
+axis = [0, 0, 1]
+[[effects]]
+type = "gravity"
+g = [0, 0, -9.81]
+[[inputs]]
+type = "hinge-torque"
+name = "twist"
+bodies = ["disc"]
+axis = [1, 0, 0]
+signal = { type = "constant", value = 0.3 }
+[[outputs]]
+quantity = "joint-force"
+constraint = "axle"
+component = 2
+[[outputs]]
+quantity = "joint-torque"
+constraint = "axle"
+component = 0
+[[outputs]]
+quantity = "joint-torque"
+constraint = "axle"
+component = 1
+[[outputs]]
+quantity = "joint-force"
+constraint = "axle"
+component = 0
+[integrator]
+dt = 0.01
+t_end = 1.0
+"#;
+    let mut c = Scene::from_toml(text, "reaction.toml")
+        .unwrap()
+        .compile()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        c.simulation.output_names(),
+        [
+            "force_axle.z",
+            "torque_axle.x",
+            "torque_axle.y",
+            "force_axle.x"
+        ]
+    );
+    let mut samples = 0;
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |s| {
+        if s.step == 0 {
+            return;
+        }
+        samples += 1;
+        let o = s.outputs;
+        assert!((o[0] - 2.0 * 9.81).abs() < 1e-12, "{o:?}");
+        assert!(
+            (o[1] + 0.3).abs() < 1e-12 && o[2].abs() < 1e-12 && o[3].abs() < 1e-12,
+            "{o:?}"
+        );
+    });
+    assert!(s.error.is_none() && samples == 100, "{:?}", s.error);
+}

@@ -200,7 +200,10 @@ pub(super) fn declare(
         None => format!("constraints[{i}] {} {}–world", joint.name(), name(ends.a)),
     };
     out.push((
-        Constraint::Rows(Rows::new(joint.name(), (ends.a, ends.b), rows, q0.len())),
+        Constraint::Rows(
+            Rows::new(joint.name(), (ends.a, ends.b), rows, q0.len())
+                .with_rigid_first(bodies.rigid_at(ends.a).is_some()),
+        ),
         label,
         path.clone(),
     ));

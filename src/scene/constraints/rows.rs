@@ -16,6 +16,8 @@ pub(crate) struct Rows<T = f64> {
     kind: &'static str,
     /// The bodies it joins (scene body indices), for its CSV columns.
     ends: (usize, Option<usize>),
+    /// The first body is rigid (its directors follow its centre's slot).
+    rigid_first: bool,
     /// The slots its rows touch, for their scales.
     slots: Vec<usize>,
     /// The rows as built, to change the scalar.
@@ -45,10 +47,23 @@ impl Rows<f64> {
         Self {
             kind,
             ends,
+            rigid_first: false,
             slots,
             source,
             rows,
         }
+    }
+
+    /// The same term, its first body rigid (a joint's torque on it is then read).
+    pub(crate) fn with_rigid_first(mut self, rigid: bool) -> Self {
+        self.rigid_first = rigid;
+        self
+    }
+
+    /// A joint's first body and whether it is rigid (the slots after its centre then hold its
+    /// directors); `None` for a body's own orthonormality rows.
+    pub(crate) fn first_body(&self) -> Option<(usize, bool)> {
+        (self.kind != "directors").then_some((self.ends.0, self.rigid_first))
     }
 
     pub(crate) fn with_scalar<U: Real>(&self) -> Rows<U> {
@@ -59,6 +74,7 @@ impl Rows<f64> {
         Rows {
             kind: self.kind,
             ends: self.ends,
+            rigid_first: self.rigid_first,
             slots: self.slots.clone(),
             source: self.source.clone(),
             rows,

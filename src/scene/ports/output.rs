@@ -1,7 +1,7 @@
 //! `[[outputs]]`: named quantities of a run, written as CSV columns and drawn.
 
 use super::SceneInputs;
-use super::rigid_reads::{RigidQuantity, RigidRead};
+use super::rigid_reads::{JointRead, RigidQuantity, RigidRead};
 use super::rows::{ConstraintRef, ConstraintRows};
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
@@ -44,6 +44,12 @@ pub enum Quantity {
     AngularVelocity,
     /// A rigid body's angular velocity in its own frame (rad/s).
     BodyAngularVelocity,
+    /// The force a joint (`constraint`: its name) exerts on its first body, world frame, N
+    /// (`component` 0/1/2): `−Σ λ_r ∂g_r/∂c` over its rows, the step's mean multipliers.
+    JointForce,
+    /// The torque a joint exerts on its first body about that body's centre, world frame, N m:
+    /// `Σᵢ dᵢ × (−Σ λ_r ∂g_r/∂dᵢ)` over its directors.
+    JointTorque,
     /// `H`.
     Energy,
     /// The kinetic energy.
@@ -97,6 +103,7 @@ pub(crate) enum Read {
     /// A row and its term.
     ConstraintForce(usize, usize),
     Rigid(RigidRead),
+    Joint(JointRead),
     Energy,
     Kinetic,
     Supplied,
@@ -174,6 +181,7 @@ impl CompiledOutput {
                     .map_or(f64::NAN, |(a, b)| 0.5 * (a[row] + b[row]) * scale)
             }
             Read::Rigid(r) => r.value(at.x, &model.inv_masses),
+            Read::Joint(j) => j.value(model, at.x, at.multipliers),
             Read::Energy => model.energy(scratch.state(at.x)),
             Read::Kinetic => model.kinetic_energy(at.x),
             Read::Supplied => at.energies.0,
@@ -307,6 +315,8 @@ pub(crate) fn compile_read(
         }
         Quantity::Multiplier
         | Quantity::ConstraintForce
+        | Quantity::JointForce
+        | Quantity::JointTorque
         | Quantity::Supplied
         | Quantity::Dissipated
             if events =>
@@ -331,6 +341,32 @@ pub(crate) fn compile_read(
         }
         Quantity::Orientation | Quantity::AngularVelocity | Quantity::BodyAngularVelocity => {
             rigid_read(spec, bodies, path)?
+        }
+        Quantity::JointForce | Quantity::JointTorque => {
+            // The joint's first row names its term; `component` is the vector's.
+            let (row, _) = rows.resolve(spec.constraint.as_ref(), Some(0), path)?;
+            let k = spec.component.unwrap_or(0);
+            if k >= 3 {
+                return Err(err(
+                    SceneErrorKind::Dimension,
+                    path.key("component"),
+                    format!("component {k} of a 3-vector (0 … 2)"),
+                ));
+            }
+            let torque = spec.quantity == Quantity::JointTorque;
+            let joint = match spec.constraint.as_ref() {
+                Some(ConstraintRef::Name(n)) => n.clone(),
+                _ => format!("row{row}"),
+            };
+            let what = if torque { "torque" } else { "force" };
+            (
+                Read::Joint(JointRead {
+                    term: rows.term_of(row),
+                    torque,
+                    k,
+                }),
+                format!("{what}_{joint}.{}", axis[k]),
+            )
         }
         Quantity::Energy => (Read::Energy, "H".to_owned()),
         Quantity::Kinetic => (Read::Kinetic, "kinetic".to_owned()),
