@@ -218,3 +218,22 @@ def test_a_parameter_set_by_the_importer_is_the_scene_with_that_value(fmu):
     # … and not the scene's own damping.
     plain = replay(lieflow.load(SCENE), result["time"])
     assert np.max(np.abs(result["bob.x"] - plain)) > 1e-3
+
+
+def test_the_fmu_of_a_rigid_body_scene_validates_and_ends_where_lieflow_run_ends(tmp_path):
+    # The spinning top (a rigid body on a ball joint): its outputs are the top's centre height
+    # and the FMU's co-simulation lands on the command's final state.
+    import json
+
+    if not BIN.exists():
+        pytest.skip("the command is not built")
+    scene = ROOT / "scenes" / "spinning_top.toml"
+    path = tmp_path / "top.fmu"
+    subprocess.run([str(BIN), "fmu", str(scene), "-o", str(path)], check=True, capture_output=True)
+    assert validate_fmu(str(path)) == []
+    result = fmpy.simulate_fmu(str(path), output=["height"], stop_time=2.0, step_size=0.01,
+                               output_interval=0.01)
+    out = subprocess.run([str(BIN), "run", str(scene)], capture_output=True, text=True, check=True)
+    summary = json.loads(out.stdout.strip().splitlines()[-1])
+    assert result["time"][-1] == pytest.approx(summary["t"])
+    assert result["height"][-1] == pytest.approx(summary["x"][2], abs=1e-12)
