@@ -63,6 +63,9 @@ pub struct Series {
     /// Per drawn body, its positions.
     paths: Vec<Vec<[f64; 3]>>,
     names: Vec<String>,
+    /// Per drawn body, its slot in the state (a rigid body's directors, `<body>#dᵢ`, are not
+    /// drawn: its centre is).
+    slots: Vec<usize>,
     dim: usize,
     e0: Option<f64>,
     /// Per drawn output, its name and `(t, value)`.
@@ -77,7 +80,12 @@ impl Series {
         names: &[String],
         outputs: &[String],
     ) -> Self {
-        let (dim, drawn) = bodies.map_or((0, 0), |(d, n)| (d, n.min(PATHS)));
+        let (dim, count) = bodies.map_or((0, 0), |(d, n)| (d, n));
+        let slots: Vec<usize> = (0..count)
+            .filter(|&b| names.get(b).is_none_or(|n| !n.contains('#')))
+            .take(PATHS)
+            .collect();
+        let drawn = slots.len();
         Self {
             every: (steps / POINTS).max(1),
             energy: Vec::new(),
@@ -86,9 +94,11 @@ impl Series {
             phi: Vec::new(),
             bucket: (0.0, 0.0),
             paths: vec![Vec::new(); drawn],
-            names: (0..drawn)
-                .map(|b| names.get(b).cloned().unwrap_or_else(|| format!("body {b}")))
+            names: slots
+                .iter()
+                .map(|&b| names.get(b).cloned().unwrap_or_else(|| format!("body {b}")))
                 .collect(),
+            slots,
             dim,
             e0: None,
             outputs: outputs
@@ -127,7 +137,7 @@ impl Series {
             self.phi.push((s.t, phi));
         }
         let d = self.dim;
-        for (b, path) in self.paths.iter_mut().enumerate() {
+        for (&b, path) in self.slots.iter().zip(self.paths.iter_mut()) {
             let mut p = [0.0; 3];
             p[..d].copy_from_slice(&s.x[b * d..(b + 1) * d]);
             path.push(p);

@@ -21,6 +21,11 @@ pub fn default_outputs(scene: &mut Scene, sim: &dyn Simulation) -> bool {
         let Some((body, axis)) = rest.rsplit_once('.') else {
             continue;
         };
+        // A rigid body's directors (`<body>#dᵢ`) are slots of its state, not bodies: its
+        // centre's position and velocity are its outputs.
+        if body.contains('#') {
+            continue;
+        }
         let Some(k) = ["x", "y", "z"].iter().position(|a| *a == axis) else {
             continue;
         };

@@ -237,3 +237,21 @@ def test_the_fmu_of_a_rigid_body_scene_validates_and_ends_where_lieflow_run_ends
     summary = json.loads(out.stdout.strip().splitlines()[-1])
     assert result["time"][-1] == pytest.approx(summary["t"])
     assert result["height"][-1] == pytest.approx(summary["x"][2], abs=1e-12)
+
+
+def test_a_rigid_body_scene_without_outputs_shows_its_bodies_centres(tmp_path):
+    # With no [[outputs]], an FMU shows every body's position and velocity: a rigid body's
+    # centre, not its directors (slots of its state, not bodies).
+    if not BIN.exists():
+        pytest.skip("the command is not built")
+    text = (ROOT / "scenes" / "spinning_top.toml").read_text()
+    text = text.split("[[outputs]]")[0] + "[integrator]" + text.split("[integrator]")[1]
+    scene = tmp_path / "top.toml"
+    scene.write_text(text)
+    path = tmp_path / "top.fmu"
+    out = subprocess.run([str(BIN), "fmu", str(scene), "-o", str(path)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert validate_fmu(str(path)) == []
+    names = [v.name for v in fmpy.read_model_description(str(path)).modelVariables]
+    assert "top.x" in names and "top.vz" in names
+    assert not any("#" in n for n in names), names

@@ -74,6 +74,16 @@ impl<T: Real> RowBuilder<T> {
     }
 }
 
+impl<T> RowBuilder<T> {
+    /// The columns the row touches (linearly or in a product).
+    pub(crate) fn columns(&self) -> impl Iterator<Item = usize> + '_ {
+        self.b
+            .keys()
+            .copied()
+            .chain(self.a.keys().flat_map(|&(i, j)| [i, j]))
+    }
+}
+
 impl RowBuilder<f64> {
     /// The same row in the scalar `U`.
     pub fn cast<U: Real>(&self) -> RowBuilder<U> {

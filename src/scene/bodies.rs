@@ -38,6 +38,8 @@ pub(crate) struct Bodies {
     pub(crate) groups: HashMap<String, Vec<usize>>,
     /// The rigid bodies, by their centres.
     pub(crate) rigid: Vec<RigidEntry>,
+    /// The initial positions of every slot, built once when the joints first ask.
+    pub(crate) positions: std::cell::OnceCell<Vec<f64>>,
 }
 
 impl Bodies {
@@ -47,11 +49,13 @@ impl Bodies {
         members: Vec<usize>,
         path: &FieldPath,
     ) -> Result<()> {
-        if name.is_empty() || name == "*" || name.contains('.') {
+        if name.is_empty() || name == "*" || name.contains('.') || name.contains('#') {
             return Err(err(
                 SceneErrorKind::Reference,
                 path.clone(),
-                format!("the name '{name}' is reserved or empty (no '.', not '*')"),
+                format!(
+                    "the name '{name}' is reserved or empty (no '.' or '#', not '*'; '#' marks a rigid body's directors)"
+                ),
             ));
         }
         if self.groups.insert(name.to_owned(), members).is_some() {
@@ -65,6 +69,7 @@ impl Bodies {
     }
 
     pub(crate) fn push(&mut self, body: Body) -> usize {
+        self.positions = std::cell::OnceCell::new();
         self.list.push(body);
         self.list.len() - 1
     }
@@ -103,8 +108,9 @@ impl Bodies {
     }
 
     /// The initial positions of every slot, three each (3D scenes).
-    pub(crate) fn positions(&self) -> Vec<f64> {
-        self.list.iter().flat_map(|b| b.q).collect()
+    pub(crate) fn positions(&self) -> &[f64] {
+        self.positions
+            .get_or_init(|| self.list.iter().flat_map(|b| b.q).collect())
     }
 
     /// Every body a selector may name: points and rigid bodies' centres, not their directors.

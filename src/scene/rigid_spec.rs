@@ -126,6 +126,13 @@ impl InertiaSpec {
             ));
         }
         let mass_path = body.key("mass");
+        if self.axes.is_some() && self.moments.is_none() {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key("axes"),
+                "`axes` go with `moments` (a tensor or a shape has its own)",
+            ));
+        }
         if let Some(shape) = &self.shape {
             return self.shape(shape, mass, path, &mass_path);
         }

@@ -303,7 +303,7 @@ where
         Structure::Banded { lower, upper, .. } => Structure::Banded {
             lower,
             upper,
-            nnz: gram.len() + m,
+            nnz: pattern.len() + m,
         },
         other => other,
     };

@@ -303,6 +303,39 @@ fn impossible_bodies_and_misplaced_joints_are_refused_where_they_are_written() {
         (
             with_body(
                 "mass = 1\ninertia = { moments = [1, 2, 2] }",
+                "[[constraints]]\ntype = \"ball\"\nbodies = [\"b\"]\nanchor = [0, 0, 0]\n[[outputs]]\nquantity = \"joint-force\"\ncomponent = 2",
+            ),
+            SceneErrorKind::Value,
+            "outputs[0]",
+            "names its joint",
+        ),
+        (
+            with_body(
+                "mass = 1",
+                "[[constraints]]\ntype = \"rod\"\nname = \"r\"\nbodies = [\"b\"]\npoint = [0, 0, 0]\n[[outputs]]\nquantity = \"joint-force\"\nconstraint = \"r\"",
+            ),
+            SceneErrorKind::Reference,
+            "outputs[0].constraint",
+            "constraint-force",
+        ),
+        (
+            with_body(
+                "mass = 1",
+                "[[constraints]]\ntype = \"ball\"\nname = \"j\"\nbodies = [\"b\"]\nanchor = [0, 0, 0]\n[[outputs]]\nquantity = \"joint-torque\"\nconstraint = \"j\"",
+            ),
+            SceneErrorKind::Value,
+            "outputs[0].constraint",
+            "point mass",
+        ),
+        (
+            "version = 1\ndim = 3\n[[bodies]]\nname = \"a#d1\"\nmass = 1\nposition = [0, 0, 0]\n[integrator]\ndt = 0.01\nt_end = 0.1\n".to_owned(),
+            SceneErrorKind::Reference,
+            "bodies[0].name",
+            "'#'",
+        ),
+        (
+            with_body(
+                "mass = 1\ninertia = { moments = [1, 2, 2] }",
                 "[[outputs]]\nquantity = \"orientation\"\nbody = \"b\"\ncomponent = 4",
             ),
             SceneErrorKind::Dimension,
@@ -483,4 +516,67 @@ fn a_heavy_top_converges_at_the_order_of_each_composition() {
             );
         }
     }
+}
+
+#[test]
+fn switching_constraints_off_keeps_a_body_rigid() {
+    // `[flags] constraints = false` removes the joints, not a body's own rows: the free box
+    // still turns as a rigid body (its six rows at round-off), the hinge is gone.
+    let text = hinged_bar(0.01, 0.5, 1.0)
+        .replace("[integrator]", "[flags]\nconstraints = false\n[integrator]");
+    let c = parse(&text).compile().unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(
+        c.assembly.constraint_rows, 6,
+        "{:?}",
+        c.assembly.constraints
+    );
+    let (x, _, rows) = run_scene(&text);
+    assert!(rows <= ROWS, "{rows:e}");
+    // Free fall of the centre from rest: z drops by g t²/2.
+    let z0 = -0.5 * 1.0f64.cos();
+    assert!((x[2] - (z0 - 0.5 * 9.81 * 0.25)).abs() < 1e-12, "{}", x[2]);
+}
+
+#[test]
+fn a_torsion_spring_rests_away_from_its_half_turn_cusp() {
+    // A spring whose rest is 170° from the start: the disc swings through θ = ±180° (where the
+    // hinge angle wraps) towards its rest and back; the stretch θ − θ₀ is taken within half a
+    // turn of the rest, so the energy stays continuous and the splitting keeps it to O(h²).
+    let text = r#"
+version = 1
+dim = 3
+[[bodies]]
+name = "disc"
+mass = 1.0
+inertia = { shape = "cylinder", radius = 0.2, height = 0.05 }
+position = [0, 0, 0]
+[[constraints]]
+type = "hinge"
+bodies = ["disc"]
+anchor = [0, 0, 0]
+axis = [0, 0, 1]
+[[effects]]
+type = "torsion-spring"
+bodies = ["disc"]
+axis = [0, 0, 1]
+stiffness = 0.5
+rest_angle_deg = 170
+[integrator]
+dt = 0.001
+t_end = 3.0
+"#;
+    let mut c = parse(text).compile().unwrap_or_else(|e| panic!("{e}"));
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+    assert!(s.error.is_none(), "{:?}", s.error);
+    let h0 = s.energy_initial.unwrap();
+    // H₀ = ½ k (170°)², the oscillation spans ±170° about the rest, crossing ±180°.
+    assert!(
+        (h0 - 0.25 * (170f64.to_radians()).powi(2)).abs() < 1e-12,
+        "{h0}"
+    );
+    assert!(
+        s.max_abs_energy_error.unwrap() < 1e-4 * h0,
+        "{:?}",
+        s.max_abs_energy_error
+    );
 }

@@ -89,10 +89,15 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
     let constraints = if file.flags.constraints {
         constraints
     } else {
-        if !constraints.is_empty() {
-            disabled.push(format!("{} constraints", constraints.len()));
+        // A rigid body's own rows (`QᵀQ = I`) are part of the body, not a constraint a flag
+        // switches off: without them its directors would leave the rotations.
+        let (own, off): (Vec<_>, Vec<_>) = constraints
+            .into_iter()
+            .partition(|(c, _, _)| c.info().kind() == "directors");
+        if !off.is_empty() {
+            disabled.push(format!("{} constraints", off.len()));
         }
-        Vec::new()
+        own
     };
     let fx = assemble_effects(file, &bodies)?;
     disabled.extend(fx.disabled);

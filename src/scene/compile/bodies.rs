@@ -20,6 +20,7 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
         list: Vec::new(),
         groups: HashMap::new(),
         rigid: Vec::new(),
+        positions: std::cell::OnceCell::new(),
     };
     let mut generated = Vec::new();
     let root = FieldPath::root();

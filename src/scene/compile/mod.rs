@@ -253,6 +253,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         }
     }
     let outputs = compile_outputs(&file.outputs, &bodies, dim, model.inputs.as_ref(), &rows)?;
+    super::ports::check_joint_reads(&outputs, &model)?;
     // Compiled here for the checks (and again for a stack state's run).
     let _: SceneEvents<Col<f64>> =
         compile_events(&file.events, &bodies, dim, model.inputs.as_ref(), &model)?;

@@ -66,7 +66,7 @@ pub(super) fn push_rigid(
     for (k, &e) in inertia.director_masses().iter().enumerate() {
         let d = directors.column(k);
         bodies.push(Body {
-            name: format!("{}.d{}", b.name, k + 1),
+            name: format!("{}#d{}", b.name, k + 1),
             mass: e,
             q: d,
             v: cross(omega, d),

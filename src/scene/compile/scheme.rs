@@ -333,6 +333,13 @@ fn scene_kick<V: Vector + 'static>(
     });
     // Hinge dampers likewise: `J(τ/2) ∘ … ∘ J(τ/2)` around the rest of the kick.
     let joints = HingeDamperFlow::new(model.clone());
+    if joints.as_ref().is_some_and(|j| !j.is_consistent()) {
+        return Err(SetupError::InvalidParameter {
+            name: "hinge-damper".to_owned(),
+            value: f64::NAN,
+            requirement: "a constrained scene in f64: the damper's constraint-consistent direction is formed with the scene's f64 Gram matrix (a reference run in another scalar is not supported)",
+        });
+    }
     let dampers: Option<Box<dyn Flow<V>>> = match (dashpots, joints) {
         (Some(d), Some(j)) => Some(Box::new(d.strang(j))),
         (Some(d), None) => Some(Box::new(d)),

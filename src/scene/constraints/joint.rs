@@ -184,7 +184,7 @@ pub(super) fn declare(
     let q0 = bodies.positions();
     let frames = Frames {
         entries: &entries,
-        q0: &q0,
+        q0,
     };
     let rows = joint
         .rows(&frames)

@@ -37,11 +37,10 @@ impl Rows<f64> {
         for row in &source {
             rows.push(row);
         }
-        let mut slots = Vec::new();
-        let q = vec![0.0; positions];
-        for r in 0..rows.count() {
-            rows.for_each_partial(&q, r, |i, _| slots.push(i / 3));
-        }
+        let mut slots: Vec<usize> = source
+            .iter()
+            .flat_map(|r| r.columns().map(|i| i / 3))
+            .collect();
         slots.sort_unstable();
         slots.dedup();
         Self {

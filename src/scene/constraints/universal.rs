@@ -43,6 +43,13 @@ impl Declare for UniversalSpec {
     ) -> Result<()> {
         let ends = joint::ends(&self.bodies, bodies, path, "universal")?;
         let [anchor_a, anchor_b] = joint::anchors(&self.anchor, &self.anchors, ends, bodies, path)?;
+        if self.arms.is_some() && self.axes.is_some() {
+            return Err(crate::scene::validate::err(
+                crate::scene::error::SceneErrorKind::Value,
+                path.clone(),
+                "give `arms` (in the world, at the start) or `axes` (one per end, in its frame), not both",
+            ));
+        }
         let [axis_a, axis_b] = match (&self.arms, &self.axes) {
             (Some(arms), None) => {
                 // Each world arm in its own body's frame.

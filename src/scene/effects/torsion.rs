@@ -83,20 +83,31 @@ impl Torsion<f64> {
     }
 }
 
+impl<T: Real> Torsion<T> {
+    /// `θ − θ₀` taken in `(−π, π]`: the angle is measured modulo a turn, so the spring's
+    /// potential is continuous everywhere and its one cusp is half a turn from its rest (a
+    /// spring wound past half a turn is not what it models).
+    fn stretch(&self, q: &[T]) -> T {
+        let s = self.angle.value(q) - self.rest;
+        let turn = T::lit(2.0 * core::f64::consts::PI);
+        s - turn * (s / turn).round()
+    }
+}
+
 impl<T: Real> PotentialOps<T> for Torsion<T> {
     fn energy(&self, q: &[T], _d: usize) -> T {
-        let s = self.angle.value(q) - self.rest;
+        let s = self.stretch(q);
         T::lit(0.5) * self.stiffness * s * s
     }
     fn gradient_add(&self, q: &[T], _d: usize, alpha: T, out: &mut [T]) {
-        let s = self.angle.value(q) - self.rest;
+        let s = self.stretch(q);
         self.angle.gradient_add(q, alpha * self.stiffness * s, out);
     }
     /// `k (∇θ·v) ∇θ + k (θ − θ₀) ∇²θ v`.
     fn hessian_apply_add(&self, q: &[T], _d: usize, v: &[T], out: &mut [T]) {
         let gv = self.angle.derivative(q, v);
         self.angle.gradient_add(q, self.stiffness * gv, out);
-        let s = self.angle.value(q) - self.rest;
+        let s = self.stretch(q);
         self.angle.hessian_apply_add(q, v, self.stiffness * s, out);
     }
     fn is_quadratic(&self) -> bool {

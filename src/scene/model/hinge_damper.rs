@@ -21,7 +21,8 @@
 //! A projection's impulse `Gᵀλ` has no part along `w̃`, so nothing is booked for it. Several
 //! dampers run one after another over `τ/2` and back (symmetric, order 2), joined to the kick
 //! of the splitting as the dashpots are. The consistent direction is formed in `f64` with the
-//! scene's Gram matrix; in another scalar (a reference run) the flow acts along `w`.
+//! scene's Gram matrix; a constrained scene in another scalar (a double-double reference run)
+//! is refused rather than run along `w`.
 
 use super::SceneModel;
 use super::dashpot::ConsistentMomentum;
@@ -82,6 +83,13 @@ impl<T: Real> HingeDamperFlow<T> {
             w: Vec::new(),
             wc: Vec::new(),
         })
+    }
+
+    /// `true` when the flow acts along the constraint-consistent direction (or the scene has no
+    /// constraint): `false` for a constrained scene in another scalar than `f64`, whose flow
+    /// would act along `∇θ` at order 1 — the scheme refuses it.
+    pub fn is_consistent(&self) -> bool {
+        self.model.m == 0 || self.consistent.is_some()
     }
 
     /// The flow of damper `i` over `tau` on the momenta of `x`; returns the energy removed.

@@ -23,7 +23,7 @@ pub use signal::SignalSpec;
 
 pub(crate) use event::{SceneEvents, compile_events};
 pub(crate) use input::InputTerm;
-pub(crate) use output::{At, CompiledOutput, Scratch, compile_outputs};
+pub(crate) use output::{At, CompiledOutput, Scratch, check_joint_reads, compile_outputs};
 pub(crate) use rows::ConstraintRows;
 
 use crate::port::{Held, InputMap, Signal};
@@ -232,7 +232,7 @@ pub(crate) fn hinge_angle(
     let q0 = bodies.positions();
     let frames = crate::rigid::Frames {
         entries: &entries,
-        q0: &q0,
+        q0,
     };
     // `HingeAngle` measures its second body against its first: the first named body turns
     // against the second (or the world), positive counter-clockwise about the axis.

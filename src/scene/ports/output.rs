@@ -343,6 +343,13 @@ pub(crate) fn compile_read(
             rigid_read(spec, bodies, path)?
         }
         Quantity::JointForce | Quantity::JointTorque => {
+            if spec.constraint.is_none() {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    path.clone(),
+                    "a joint's force or torque names its joint: `constraint = \"<name>\"`",
+                ));
+            }
             // The joint's first row names its term; `component` is the vector's.
             let (row, _) = rows.resolve(spec.constraint.as_ref(), Some(0), path)?;
             let k = spec.component.unwrap_or(0);
@@ -356,7 +363,8 @@ pub(crate) fn compile_read(
             let torque = spec.quantity == Quantity::JointTorque;
             let joint = match spec.constraint.as_ref() {
                 Some(ConstraintRef::Name(n)) => n.clone(),
-                _ => format!("row{row}"),
+                Some(ConstraintRef::Row(r)) => format!("row{r}"),
+                None => String::new(),
             };
             let what = if torque { "torque" } else { "force" };
             (
@@ -425,6 +433,41 @@ fn rigid_read(spec: &OutputSpec, bodies: &Bodies, path: &FieldPath) -> Result<(R
         what,
     });
     Ok((read, format!("{}.{}", bodies.list[r.centre].name, name[k])))
+}
+
+/// Refuses a joint's force or torque output on a term that is not a joint between bodies, or a
+/// torque on a joint whose first body is a point (read in the compiled model, which knows the
+/// terms' kinds).
+pub(crate) fn check_joint_reads(outputs: &[CompiledOutput], model: &SceneModel) -> Result<()> {
+    let root = FieldPath::root().key("outputs");
+    for (i, o) in outputs.iter().enumerate() {
+        let Read::Joint(j) = o.read else {
+            continue;
+        };
+        let first = match &model.constraints[j.term].kind {
+            crate::scene::constraints::Constraint::Rows(r) => r.first_body(),
+            _ => None,
+        };
+        let at = root.index(i).key("constraint");
+        match first {
+            None => {
+                return Err(err(
+                    SceneErrorKind::Reference,
+                    at,
+                    "not a joint between bodies (ball, hinge, universal, slider): a rod's, a pin's, a sphere's or a plane's force is `constraint-force`",
+                ));
+            }
+            Some((_, false)) if j.torque => {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    at,
+                    "the joint's first body is a point mass: it takes no torque (name the rigid body first)",
+                ));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
 }
 
 /// Compiles `[[outputs]]`.
