@@ -360,3 +360,37 @@ t_end = 1.0
     });
     assert!(s.error.is_none() && samples == 100, "{:?}", s.error);
 }
+
+#[test]
+fn a_torsion_spring_rests_away_from_its_half_turn_cusp() {
+    // The disc from rest, its spring's rest 170° away: it swings through θ = ±180° (where the
+    // hinge angle wraps) to 340° and back; the stretch θ − θ₀ is taken within half a turn of
+    // the rest, so the energy stays continuous and the splitting keeps it to O(h²).
+    let text = oscillator(1e-3, 3.0, "")
+        .replace(
+            "angular_velocity = [0, 0, 1]",
+            "angular_velocity = [0, 0, 0]",
+        )
+        .replace(
+            "stiffness = 0.5\n",
+            "stiffness = 0.5\nrest_angle_deg = 170\n",
+        );
+    assert!(text.contains("rest_angle_deg"), "{text}");
+    let mut c = Scene::from_toml(&text, "wrap.toml")
+        .unwrap()
+        .compile()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+    assert!(s.error.is_none(), "{:?}", s.error);
+    let h0 = s.energy_initial.unwrap();
+    // H₀ = ½ k (170°)².
+    assert!(
+        (h0 - 0.25 * 170f64.to_radians().powi(2)).abs() < 1e-12,
+        "{h0}"
+    );
+    assert!(
+        s.max_abs_energy_error.unwrap() < 1e-4 * h0,
+        "{:?}",
+        s.max_abs_energy_error
+    );
+}

@@ -88,19 +88,9 @@ pub(crate) trait ConstraintOps<T: Real> {
     }
     /// `out_row += vᵀ ∇²g_row v`, the term of `d²g/dt²` that does not depend on the
     /// acceleration.
-    fn velocity_curvature_add(&self, v: &[T], d: usize, out: &mut [T]) {
-        let mut h = [T::zero(); 1];
-        if self.rows(d) == 1 {
-            self.hessian_form(v, v, d, &mut h);
-            out[0] = out[0] + h[0];
-        } else {
-            let mut h = vec![T::zero(); self.rows(d)];
-            self.hessian_form(v, v, d, &mut h);
-            for (o, x) in out.iter_mut().zip(h) {
-                *o = *o + x;
-            }
-        }
-    }
+    /// Every kind writes it in closed form (no scratch: it runs once per step in the peers'
+    /// right-hand sides).
+    fn velocity_curvature_add(&self, v: &[T], d: usize, out: &mut [T]);
 }
 
 /// What the compiler and the outputs read from a term, in `f64`.
