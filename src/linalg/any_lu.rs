@@ -28,13 +28,15 @@ pub enum SolverChoice {
 /// A linear solver that picks its backend by size and sparsity, overridable.
 ///
 /// With [`SolverChoice::Auto`]:
-/// - `k ≤ STACK_MAX` (8): [`StackLu`] — for a handful of unknowns the cost is overhead, not flops;
+/// - `k ≤ STACK_ALWAYS` (8): [`StackLu`] — for a handful of unknowns the cost is overhead, not flops;
 /// - a diagonal structure (independent unknowns, such as particles each on its own sphere):
 ///   [`BandedLu`] with no off-diagonal, `k` divisions;
 /// - a banded structure with at most [`BANDED_MAX`] (8) diagonals on either side and
 ///   `k > SPARSE_MIN_DIM` (64), or a band at most a quarter as wide as `k`: [`BandedLu`] —
 ///   `O(k)` work with no symbolic phase and no indirection, the cheapest for chains, for
 ///   block-diagonal systems of a few unknowns a block, and other topologies of small bandwidth;
+/// - otherwise `k ≤ STACK_MAX` (16): [`StackLu`] — at a rigid body's six to fifteen rows faer's
+///   dense LU is still mostly overhead;
 /// - a sparse (or wider banded) structure with `k > SPARSE_MIN_DIM` and at most `k²/10`
 ///   entries: [`SparseLu`] — dense LU costs `2k³/3` flops, a tree-like sparse LU `O(nnz)`;
 /// - otherwise [`DenseLu`].
@@ -65,7 +67,10 @@ pub enum AutoLu<T: Real + faer::traits::RealField + nalgebra::Scalar> {
 }
 
 /// Largest system [`AutoLu`] solves on the stack.
-pub const STACK_MAX: usize = 8;
+pub const STACK_MAX: usize = 16;
+/// Largest system [`AutoLu`] solves on the stack whatever its structure (above it a diagonal
+/// or a narrow band takes the band solver).
+pub const STACK_ALWAYS: usize = 8;
 /// Smallest system [`AutoLu`] solves with the sparse or banded backend.
 pub const SPARSE_MIN_DIM: usize = 64;
 /// Widest band (diagonals below or above the main one) [`AutoLu`] solves with [`BandedLu`].
@@ -75,7 +80,7 @@ impl<T: Real + faer::traits::RealField + nalgebra::Scalar> AutoLu<T> {
     /// The backend [`SolverChoice::Auto`] picks for a `k × k` matrix of this structure.
     pub fn auto_kind(k: usize, structure: Structure) -> SolverKind {
         match structure {
-            _ if k <= STACK_MAX => SolverKind::Stack,
+            _ if k <= STACK_ALWAYS => SolverKind::Stack,
             // A diagonal: k divisions, whatever k (dense LU would cost 2k³/3 and its overhead).
             Structure::Banded {
                 lower: 0, upper: 0, ..
@@ -89,6 +94,7 @@ impl<T: Real + faer::traits::RealField + nalgebra::Scalar> AutoLu<T> {
             {
                 SolverKind::Banded
             }
+            _ if k <= STACK_MAX => SolverKind::Stack,
             Structure::Sparse { nnz } | Structure::Banded { nnz, .. }
                 if k > SPARSE_MIN_DIM && nnz.saturating_mul(10) <= k * k =>
             {

@@ -40,8 +40,9 @@ use crate::real::Real;
 /// a model's or a solver's code fills dense and sparse storage alike.
 ///
 /// Entries at the same position are summed. A sparse receiver records the sequence of positions
-/// of its first assembly as its pattern; later assemblies must add the same positions in the
-/// same order (values may change, including to zero).
+/// of its first assembly as its pattern; later assemblies add positions of that pattern (values
+/// may change, including to zero) — in the same order they cost one comparison an entry, in
+/// another a search in the entry's column.
 pub trait Sink<T> {
     /// Adds `value` at `(row, col)`.
     fn add(&mut self, row: usize, col: usize, value: T);
@@ -58,6 +59,32 @@ pub struct Triplets<T> {
 impl<T> Sink<T> for Triplets<T> {
     fn add(&mut self, row: usize, col: usize, value: T) {
         self.entries.push((row, col, value));
+    }
+}
+
+/// A [`Sink`] that writes the values of a known pattern in order (`rows`, `cols` as first
+/// listed) into `vals`, and notes any entry that is not the one expected: the numeric half of a
+/// symbolic/numeric split over a constraint's listed Jacobian entries.
+pub(crate) struct PatternFill<'a, T> {
+    pub(crate) rows: &'a [usize],
+    pub(crate) cols: &'a [usize],
+    pub(crate) vals: &'a mut [T],
+    /// The entries added so far.
+    pub(crate) next: usize,
+    /// Every entry so far was the one expected.
+    pub(crate) same: bool,
+}
+
+impl<T> Sink<T> for PatternFill<'_, T> {
+    #[inline]
+    fn add(&mut self, row: usize, col: usize, value: T) {
+        let e = self.next;
+        if e < self.vals.len() && self.rows[e] == row && self.cols[e] == col {
+            self.vals[e] = value;
+        } else {
+            self.same = false;
+        }
+        self.next += 1;
     }
 }
 

@@ -43,6 +43,9 @@ pub struct SparseLu<T: Real + faer::traits::RealField> {
     cursor: usize,
     /// First assembly mismatch: (entry, expected, got).
     mismatch: Option<LinearSolveError>,
+    /// This assembly added an entry of the pattern out of the recorded order (found by
+    /// search): its count is not checked against the recording.
+    unordered: bool,
     /// Compressed-column pattern, after the first factorization.
     pattern: Option<SymbolicSparseColMat<usize>>,
     values: Vec<T>,
@@ -72,6 +75,15 @@ impl<T: Real + faer::traits::RealField> SparseLu<T> {
         self.values.clear();
         self.symbolic = None;
         self.factored = false;
+    }
+
+    /// The index into `values` of the pattern's entry `(row, col)`, if it has one.
+    fn find(&self, row: usize, col: usize) -> Option<usize> {
+        let pattern = self.pattern.as_ref()?;
+        let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+        let range = *col_ptr.get(col)?..*col_ptr.get(col + 1)?;
+        let rows = &row_idx[range.clone()];
+        rows.binary_search(&row).ok().map(|i| range.start + i)
     }
 
     /// Fixes the pattern from the recorded sequence: sorted, duplicate-free compressed columns,
@@ -148,7 +160,14 @@ impl<T: Real + faer::traits::RealField> Sink<T> for SparseLu<T> {
                 let s = self.slot[e];
                 self.values[s] += value;
             }
+            // Another order of the same pattern (a Jacobian summed by its problem one time,
+            // grouped by colours another): the entry found by search in its column.
             expected => {
+                if let Some(s) = self.find(row, col) {
+                    self.values[s] += value;
+                    self.unordered = true;
+                    return;
+                }
                 debug_assert!(
                     false,
                     "sparse assembly changed its pattern at entry {e}: expected {expected:?}, got {:?}",
@@ -175,6 +194,7 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for SparseLu<T> {
             slot: Vec::new(),
             cursor: 0,
             mismatch: None,
+            unordered: false,
             pattern: None,
             values: Vec::new(),
             symbolic: None,
@@ -197,6 +217,7 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for SparseLu<T> {
     fn clear(&mut self) {
         self.factored = false;
         self.mismatch = None;
+        self.unordered = false;
         if self.pattern.is_none() {
             self.seq.clear();
             self.rec_values.clear();
@@ -217,7 +238,7 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for SparseLu<T> {
         }
         if self.pattern.is_none() {
             self.finalize_pattern()?;
-        } else if self.cursor != self.seq.len() {
+        } else if self.cursor != self.seq.len() && !self.unordered {
             return Err(LinearSolveError::PatternChanged {
                 entry: self.cursor,
                 expected: self.seq.get(self.cursor).copied(),

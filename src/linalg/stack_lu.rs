@@ -56,7 +56,11 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
     fn clear(&mut self) {
         self.factored = false;
         self.out_of_bounds = None;
-        self.a.fill(T::zero());
+        // The k × k block only: entries outside it are never written (`add` refuses them).
+        let k = self.k;
+        for col in self.a.as_mut_slice().chunks_exact_mut(N).take(k) {
+            col[..k].iter_mut().for_each(|v| *v = T::zero());
+        }
     }
 
     fn kind(&self) -> SolverKind {
@@ -79,12 +83,15 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
                 self.lu[(i, j)] = v;
             }
         }
-        let a = &mut self.lu;
+        // Right-looking elimination by columns: the storage is column-major, so every inner
+        // loop runs down a contiguous column.
+        let a = self.lu.as_mut_slice();
         for c in 0..k {
+            let col = c * N;
             let mut p = c;
-            let mut best = a[(c, c)].abs();
+            let mut best = a[col + c].abs();
             for r in c + 1..k {
-                let v = a[(r, c)].abs();
+                let v = a[col + r].abs();
                 if v > best {
                     best = v;
                     p = r;
@@ -93,18 +100,22 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
             self.piv[c] = p;
             if p != c {
                 for j in 0..k {
-                    a.swap((c, j), (p, j));
+                    a.swap(j * N + c, j * N + p);
                 }
             }
-            let d = a[(c, c)];
+            let d = a[col + c];
             if d == T::zero() {
                 continue;
             }
             for r in c + 1..k {
-                let f = a[(r, c)] / d;
-                a[(r, c)] = f;
-                for j in c + 1..k {
-                    a[(r, j)] = a[(r, j)] - f * a[(c, j)];
+                a[col + r] = a[col + r] / d;
+            }
+            for j in c + 1..k {
+                let (left, right) = a.split_at_mut(j * N);
+                let multipliers = &left[col + c + 1..col + k];
+                let f = right[c];
+                for (x, &l) in right[c + 1..k].iter_mut().zip(multipliers) {
+                    *x = *x - l * f;
                 }
             }
         }
@@ -141,19 +152,20 @@ fn substitute<T: Real + nalgebra::Scalar, const N: usize>(
     for (i, &p) in piv.iter().enumerate().take(k) {
         b.swap(i, p);
     }
-    for i in 0..k {
-        let mut s = b[i];
-        for j in 0..i {
-            s = s - lu[(i, j)] * b[j];
+    // By columns (contiguous in the column-major storage).
+    let a = lu.as_slice();
+    for j in 0..k {
+        let bj = b[j];
+        for (x, &l) in b[j + 1..k].iter_mut().zip(&a[j * N + j + 1..j * N + k]) {
+            *x = *x - l * bj;
         }
-        b[i] = s;
     }
-    for i in (0..k).rev() {
-        let mut s = b[i];
-        for j in i + 1..k {
-            s = s - lu[(i, j)] * b[j];
+    for j in (0..k).rev() {
+        let bj = b[j] / a[j * N + j];
+        b[j] = bj;
+        for (x, &u) in b[..j].iter_mut().zip(&a[j * N..j * N + j]) {
+            *x = *x - u * bj;
         }
-        b[i] = s / lu[(i, i)];
     }
 }
 

@@ -17,6 +17,7 @@ pub use small::{SMALL_MAX, SmallNewton};
 pub(crate) use stopping::{NOISE_FACTOR, effective_residual};
 
 use crate::error::NewtonError;
+use crate::linalg::Sink;
 use crate::real::Real;
 
 /// A square nonlinear system `F(z) = 0` with `dim()` unknowns.
@@ -75,6 +76,15 @@ pub trait NonlinearProblem<T: Real> {
     /// unless a previous group was differenced). Default `false`.
     fn jacobian_group(&mut self, z: &[T], cols: &[usize], out: &mut [T]) -> bool {
         let _ = (z, cols, out);
+        false
+    }
+    /// Adds every entry of the Jacobian `∂F/∂z` at `z` into `sink` and returns `true`, when the
+    /// problem sums them in closed form; the default returns `false`, and so must a problem
+    /// that cannot — before it adds anything. Newton with a sparsity pattern asks for it before
+    /// the column groups ([`jacobian_group`](Self::jacobian_group)); the entries must lie in the
+    /// pattern. `z` is the current iterate.
+    fn jacobian_assemble(&mut self, z: &[T], sink: &mut dyn Sink<T>) -> bool {
+        let _ = (z, sink);
         false
     }
     /// Writes `D²F(z)[e, e]`, `e = Σ_{j ∈ cols} e_j` — the second derivative of `F` along the

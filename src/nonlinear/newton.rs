@@ -38,6 +38,12 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     /// The last Jacobian came in closed form from the problem: rebuilding it costs no residual
     /// evaluations, so [`JacobianUpdate::Reuse`] rebuilds it at the start of every solve.
     analytic: bool,
+    /// The last Jacobian was summed by the problem ([`NonlinearProblem::jacobian_assemble`]):
+    /// [`JacobianUpdate::Reuse`] rebuilds it at the start of every solve.
+    summed: bool,
+    /// The last solve converged after at most one update: a kept summed Jacobian is still
+    /// good enough to start the next one with.
+    one_update: bool,
     /// Column groups for a sparse Jacobian.
     groups: Option<ColumnGroups>,
     /// Per row, the last group whose pattern covers it (scratch for the pattern check).
@@ -96,6 +102,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             jacobian_scale: V::Real::one(),
             j11: V::Real::zero(),
             analytic: false,
+            summed: false,
+            one_update: false,
             row_scale: Vec::with_capacity(if options.equilibrate { k } else { 0 }),
             diagonal: match pattern {
                 Some(p) if k > 1 && p.iter().all(|&(r, c)| r == c) => vec![V::Real::zero(); k],
@@ -260,6 +268,80 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         }
     }
 
+    /// Solves a system whose residual is affine in `z`, `F(z) = F(0) + J z`: from `z = 0`, one
+    /// evaluation, one Jacobian (summed, grouped or differenced as [`solve`](NonlinearSolver::solve)
+    /// forms it) and one solve. The residual is not evaluated at the solution (it is zero to
+    /// rounding): the caller forms what it needs there. `report.residual` is `‖F(0)‖∞` when
+    /// that already meets the tolerance (`z = 0`), else zero.
+    pub fn solve_affine<P: NonlinearProblem<V::Real>>(
+        &mut self,
+        problem: &mut P,
+        z: &mut [V::Real],
+    ) -> Result<SolveReport<V::Real>, NewtonError<P::Error>> {
+        let k = self.k;
+        let z = &mut z[..k];
+        ops::fill_zero(z);
+        let mut report = SolveReport::default();
+        let f = &mut self.f.as_mut_slice()[..k];
+        problem.residual(z, f).map_err(NewtonError::Residual)?;
+        report.residual_evaluations += 1;
+        let raw = ops::norm_inf(f);
+        if !raw.is_finite() {
+            return Err(NewtonError::NonFinite { iteration: 0 });
+        }
+        report.residual = raw;
+        if effective_residual(problem, f) <= self.options.ftol {
+            return Ok(report);
+        }
+        let scale = problem.jacobian_scale();
+        // A kept summed Jacobian that solved the last system in one update: one update with
+        // it, kept when the residual there meets the tolerance (the system drifts slowly from
+        // step to step); otherwise the fresh one below, from where this update left `z`.
+        let ratio = self.jacobian_scale / scale;
+        if self.have_jacobian && self.summed && self.one_update && ratio.is_finite() {
+            self.newton_step(z, ratio)?;
+            let f = &mut self.f.as_mut_slice()[..k];
+            problem.residual(z, f).map_err(NewtonError::Residual)?;
+            report.residual_evaluations += 1;
+            report.iterations = 1;
+            report.residual = ops::norm_inf(f);
+            if report.residual.is_finite() && effective_residual(problem, f) <= self.options.ftol {
+                return Ok(report);
+            }
+            self.one_update = false;
+        }
+        self.have_jacobian = false;
+        self.jacobian(problem, z, scale, &mut report)?;
+        self.have_jacobian = true;
+        self.jacobian_scale = scale;
+        self.newton_step(z, V::Real::one())?;
+        report.iterations += 1;
+        report.residual = V::Real::zero();
+        // Exact in one update: the next solve may start from this Jacobian.
+        self.one_update = report.iterations == 1;
+        Ok(report)
+    }
+
+    /// `z ← z − ratio · J⁻¹ F(z)` with the kept, factored Jacobian (`self.f = F(z)`); the
+    /// update is left in `dz`.
+    fn newton_step<E>(&mut self, z: &mut [V::Real], ratio: V::Real) -> Result<(), NewtonError<E>> {
+        let k = self.k;
+        let dz = &mut self.dz.as_mut_slice()[..k];
+        for (d, &fi) in dz.iter_mut().zip(&self.f.as_slice()[..k]) {
+            *d = -fi;
+        }
+        if k == 1 {
+            dz[0] = dz[0] / self.j11;
+        } else {
+            for (d, &s) in dz.iter_mut().zip(&self.row_scale) {
+                *d = *d * s;
+            }
+            self.lin.solve_in_place(dz)?;
+        }
+        ops::axpy(z, ratio, dz);
+        Ok(())
+    }
+
     /// The Jacobian at `z` (where `self.f = F(z)`), factored.
     ///
     /// Forward differences `J e_j ≈ (F(z + δ_j e_j) − F(z)) / δ_j` with
@@ -285,10 +367,20 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         let residual = |p: &mut P, zp: &[V::Real], fp: &mut [V::Real]| {
             p.residual(zp, fp).map_err(NewtonError::Residual)
         };
+        self.summed = false;
         if let (Some(groups), true) = (self.groups.as_ref(), k > 1) {
             self.analytic = false;
             self.lin.clear();
             self.diagonal.iter_mut().for_each(|d| *d = V::Real::zero());
+            // Summed in closed form by the problem: every entry at once (a diagonal pattern
+            // keeps its diagonal for the secant update, which the sum does not report).
+            if self.diagonal.is_empty() && problem.jacobian_assemble(z, &mut self.lin) {
+                self.analytic = false;
+                self.summed = true;
+                report.factorizations += 1;
+                self.lin.factor()?;
+                return Ok(());
+            }
             let central = self.options.central_differences;
             for c in 0..groups.groups() {
                 let cols = &groups.cols[groups.col_ptr[c]..groups.col_ptr[c + 1]];
@@ -420,6 +512,19 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
         problem: &mut P,
         z: &mut [V::Real],
     ) -> Result<SolveReport<V::Real>, NewtonError<P::Error>> {
+        let result = self.iterate(problem, z);
+        self.one_update = matches!(&result, Ok(r) if r.iterations <= 1);
+        result
+    }
+}
+
+impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
+    /// Newton's iteration from `z` (see [`NonlinearSolver::solve`]).
+    fn iterate<P: NonlinearProblem<V::Real>>(
+        &mut self,
+        problem: &mut P,
+        z: &mut [V::Real],
+    ) -> Result<SolveReport<V::Real>, NewtonError<P::Error>> {
         let k = self.k;
         debug_assert_eq!(problem.dim(), k, "problem and solver dimensions differ");
         let z = &mut z[..k];
@@ -457,7 +562,11 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
                 || match opts.jacobian {
                     JacobianUpdate::EveryIteration => true,
                     JacobianUpdate::OncePerSolve => it == 0,
-                    JacobianUpdate::Reuse => self.analytic,
+                    // A summed Jacobian costs one pass: fresh at a solve's start unless the
+                    // last solve needed a single update, kept through the solve's iterations.
+                    JacobianUpdate::Reuse => {
+                        self.analytic || (self.summed && it == 0 && !self.one_update)
+                    }
                 };
             if fresh {
                 self.have_jacobian = false;

@@ -33,5 +33,6 @@ mod petrov_galerkin_inputs;
 mod ports;
 mod projected_midpoint;
 mod rigid;
+mod rigid_projection;
 mod small_path;
 mod stepper;

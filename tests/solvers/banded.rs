@@ -171,7 +171,8 @@ fn auto_picks_the_band_solver_for_narrow_bands_and_diagonals() {
     // Below 64 unknowns the band solver takes bands at most a quarter as wide as k.
     assert_eq!(auto(50, band(1, 1)), SolverKind::Banded);
     assert_eq!(auto(12, band(1, 1)), SolverKind::Banded);
-    assert_eq!(auto(11, band(1, 1)), SolverKind::Dense);
+    assert_eq!(auto(11, band(1, 1)), SolverKind::Stack);
+    assert_eq!(auto(17, band(2, 2)), SolverKind::Dense);
     assert_eq!(auto(50, band(8, 8)), SolverKind::Dense);
     // A diagonal at any size above the stack's: k divisions, not a dense LU.
     assert_eq!(auto(10, band(0, 0)), SolverKind::Banded);

@@ -25,7 +25,7 @@
 //! constraint passes each.
 
 use super::Tables;
-use crate::linalg::{Sink, Triplets};
+use crate::linalg::{PatternFill, Sink, Triplets};
 use crate::real::Real;
 use crate::system::HolonomicConstraint;
 use crate::vector::{Vector, ops};
@@ -67,29 +67,6 @@ pub(super) struct ConstraintBlocks<T> {
     usable: bool,
     /// Whether `c` and `g` were filled since construction (or a new quadrature).
     filled: bool,
-}
-
-/// A [`Sink`] that writes the values of a known pattern in order, and notes any entry that
-/// is not the one expected.
-struct Fill<'a, T> {
-    rows: &'a [usize],
-    cols: &'a [usize],
-    vals: &'a mut [T],
-    next: usize,
-    same: bool,
-}
-
-impl<T> Sink<T> for Fill<'_, T> {
-    #[inline]
-    fn add(&mut self, row: usize, col: usize, value: T) {
-        let e = self.next;
-        if e < self.vals.len() && self.rows[e] == row && self.cols[e] == col {
-            self.vals[e] = value;
-        } else {
-            self.same = false;
-        }
-        self.next += 1;
-    }
 }
 
 impl<T: Real> ConstraintBlocks<T> {
@@ -216,7 +193,7 @@ impl<T: Real> ConstraintBlocks<T> {
         let m = self.m;
         for (x, vals) in xs.iter().zip(self.vals.chunks_exact_mut(nnz)) {
             if self.colors.is_empty() {
-                let mut fill = Fill {
+                let mut fill = PatternFill {
                     rows: &self.rows,
                     cols: &self.cols,
                     vals,

@@ -57,6 +57,9 @@ where
             ..
         } = &mut self.w;
         let x = base.resolve(prev);
+        if let (Some(gram), Mode::LambdaK) = (self.gram.as_mut(), mode) {
+            gram.forget_x();
+        }
         let mut problem = Stage {
             mode,
             h,
@@ -80,6 +83,7 @@ where
             fixed_point_tol: self.fixed_point_tol,
             tangent: false,
             inverse_mass: self.inverse_mass.as_deref(),
+            gram: self.gram.as_mut(),
         };
         let z = &mut z.as_mut_slice()[range];
         let active = self.diagonal_active;
@@ -107,6 +111,15 @@ where
                 // and `newton_k1` cost less: from the next solve on.
                 if d.needs_differences() {
                     self.diagonal_active = false;
+                }
+                result
+            }
+            // Mechanical form with the Jacobian summed in closed form: affine, one solve,
+            // `x_{k+1}` formed at the solution.
+            (Mode::LambdaK1, None, Some(n)) if problem.affine_k1() => {
+                let result = n.solve_affine(&mut problem, z);
+                if result.is_ok() {
+                    problem.end_point_explicit(z);
                 }
                 result
             }

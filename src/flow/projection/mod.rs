@@ -25,6 +25,7 @@
 mod decoupled;
 mod entry;
 mod fused;
+mod gram;
 mod hidden;
 mod midpoint;
 mod options;
@@ -45,6 +46,7 @@ use crate::system::{
 use crate::vector::{Vector, ops, take};
 use entry::EntryCheck;
 use fused::StageSizes;
+use gram::Gram;
 pub(crate) use hidden::{Hidden, HiddenSolver};
 use num_traits::{One, Zero};
 use small::SmallPath;
@@ -90,6 +92,10 @@ struct Work<V: Vector> {
     ledger_y: Ledger<V::Real>,
 }
 
+/// Multiplier Jacobians of a model of mechanical form are summed from `G`'s entries
+/// ([`gram`]) when their pattern needs more colour groups than this.
+const GROUPS_SUMMED_ABOVE: usize = 3;
+
 /// The projected flow of Zhang & Deng (2004, §3) around an inner flow `F` (see the module docs).
 ///
 /// Built with [`FlowExt::projected`](super::FlowExt::projected). Order `min(2, order(F))`,
@@ -114,6 +120,9 @@ pub struct Projected<V: Vector, F, Sys, L = <V as Vector>::Solver> {
     /// With `diagonal`, the inverse masses of a model of mechanical form
     /// ([`MechanicalForm`]): the `λ_{k+1}` system is affine and solved by one division.
     inverse_mass: Option<Vec<V::Real>>,
+    /// The multiplier Jacobians summed from `G`'s entries (see [`gram`]), for a model of
+    /// mechanical form whose multipliers couple.
+    gram: Option<Gram<V::Real>>,
     /// `diagonal` is in use: until a solve had to difference its diagonal (then `newton`'s
     /// kept Jacobians cost less).
     diagonal_active: bool,
@@ -202,8 +211,12 @@ where
         // φ(y + (h/2) M Gᵀλ) = φ(y) − (h/2) G W⁻¹ Gᵀ λ for a model of mechanical form whose
         // half-steps keep G (a declaration its evaluations contradict leaves the general
         // solve).
-        let inverse_mass = diagonal
-            .as_ref()
+        // Sums pay where the grouped products are many: at three colour groups or fewer (a
+        // chain's tridiagonal pattern) the grouped products cost as little, and their kept
+        // Jacobians less (`cargo bench --bench rigid_rattle`; `lieflow run scenes/chain1000.toml`).
+        let summable = newton.evaluations_per_jacobian() > GROUPS_SUMMED_ABOVE;
+        let inverse_mass = pattern_m
+            .filter(|_| diagonal.is_some() || summable)
             .filter(|_| half_step_keeps_jacobian(&system, x0))
             .and_then(|_| {
                 MechanicalForm::of(&system, system.hamiltonian(), x0)
@@ -211,6 +224,12 @@ where
                     .flatten()
             })
             .map(|form| form.inverse_mass);
+        // Jacobians summed from G's entries where the pattern couples multipliers (a diagonal
+        // one solves each alone).
+        let gram = inverse_mass
+            .as_ref()
+            .filter(|_| diagonal.is_none())
+            .and_then(|w| Gram::new(system.constraint(), x0, w.len()));
         let small = if grouped || scheme != Scheme::Decoupled {
             None
         } else {
@@ -253,6 +272,7 @@ where
             small,
             diagonal,
             inverse_mass,
+            gram,
             diagonal_active: true,
             quadratic_k: false,
             fixed_point_max_iterations: options.fixed_point_max_iterations,

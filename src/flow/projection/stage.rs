@@ -2,8 +2,10 @@
 //! solved by [`Newton`](crate::nonlinear::Newton) with kept, Broyden-updated, grouped or
 //! closed-form Jacobians — any number of constraints, dense or sparse.
 
+use super::gram::{Gram, Right, lead_drifts_freely};
 use crate::error::StepError;
 use crate::flow::{Flow, Ledger};
+use crate::linalg::Sink;
 use crate::nonlinear::NonlinearProblem;
 use crate::real::Real;
 use crate::system::Model;
@@ -51,6 +53,9 @@ pub(super) struct Stage<'a, V: Vector, F, Sys> {
     /// the `λ_{k+1}` system is then `φ(y) − (h/2) G W⁻¹ Gᵀ λ_{k+1}`, affine, its Jacobian
     /// formed without the Hamiltonian's Hessian.
     pub(super) inverse_mass: Option<&'a [V::Real]>,
+    /// The closed-form multiplier Jacobians of a model of mechanical form (with
+    /// `inverse_mass`), when its constraint lists its entries.
+    pub(super) gram: Option<&'a mut Gram<V::Real>>,
     /// The last `λ_k` group's directions in `hess_v` are the inner flow's exact tangents
     /// `DL_h M Gᵀ e` (not the approximation `(I + h M ∇²H) M Gᵀ e`).
     pub(super) tangent: bool,
@@ -104,6 +109,12 @@ where
         }
         *self.y_valid = true;
         Ok(())
+    }
+
+    /// The `λ_{k+1}` system is affine with its Jacobian summed in closed form: a model of
+    /// mechanical form whose half-steps keep `G` (`inverse_mass`), with a [`Gram`].
+    pub(super) fn affine_k1(&self) -> bool {
+        self.inverse_mass.is_some() && self.gram.as_ref().is_some_and(|g| g.usable())
     }
 
     /// `x' = y + h/2 M(y) G(y)ᵀ b` (decoupled: `M Gᵀ` at `y` equals `M Gᵀ` at `x'`); `x' = y`
@@ -279,6 +290,44 @@ where
                 .jacobian_apply(&*self.x_next, &*self.m_hess_v, out);
         }
         out.iter_mut().for_each(|v| *v = *v * half);
+        true
+    }
+
+    /// The decoupled systems' Jacobians of a model of mechanical form, summed from `G`'s
+    /// entries ([`Gram`]): `−(h/2) G(y) W⁻¹ G(y)ᵀ` for `λ_{k+1}` (exact: the system is affine),
+    /// `−(h²/2) G(y) W⁻¹ G(x)ᵀ` for `λ_k` when the lead drifts freely from a momentum change
+    /// (exact then; the grouped products otherwise).
+    fn jacobian_assemble(&mut self, z: &[V::Real], sink: &mut dyn Sink<V::Real>) -> bool {
+        let (Some(w), true) = (self.inverse_mass, self.gram.is_some()) else {
+            return false;
+        };
+        let (h, half) = (self.h, self.h * V::Real::lit(0.5));
+        let constraint = self.system.constraint();
+        let right = match self.mode {
+            Mode::LambdaK => {
+                if self.compute_y(z).is_err()
+                    || !lead_drifts_freely(&mut *self.inner, h, w, self.hess_v, self.m_hess_v)
+                {
+                    return false;
+                }
+                Right::AtX
+            }
+            Mode::LambdaK1 => Right::AtY,
+            Mode::Coupled | Mode::Symmetric => return false,
+        };
+        let Some(gram) = self.gram.as_deref_mut() else {
+            return false;
+        };
+        if !gram.fill(constraint, &*self.y, true, w)
+            || (right == Right::AtX && !gram.fill(constraint, self.x, false, w))
+        {
+            return false;
+        }
+        let scale = match right {
+            Right::AtX => -(half * h),
+            Right::AtY => -half,
+        };
+        gram.add_to(w, scale, right, sink);
         true
     }
 

@@ -1,0 +1,95 @@
+//! The sums of [`Gram`] against `G(y) W⁻¹ G(x)ᵀ` formed densely from products with `G`, on the
+//! rows of two bodies on a hinge (quadratic rows sharing directors, a centre row, a body's
+//! rows sharing nothing with the other's).
+
+use super::{Gram, Right};
+use crate::linalg::Triplets;
+use crate::rigid::BodyRef;
+use crate::rigid::{Hinge, Inertia, Multibody, RigidBody};
+use crate::system::HolonomicConstraint;
+use faer::Col;
+
+fn model() -> Multibody {
+    let mut model = Multibody::new([0.0, 0.0, -9.81]);
+    let inertia = Inertia::solid_box(1.0, [1.0, 0.1, 0.2]).unwrap();
+    let a = model
+        .add_rigid(RigidBody::at_rest(1.0, inertia, [0.5, 0.0, 0.0]))
+        .unwrap();
+    let b = model
+        .add_rigid(RigidBody::at_rest(2.0, inertia, [1.5, 0.0, 0.0]))
+        .unwrap();
+    model
+        .add_joint(&Hinge {
+            a: BodyRef::Body(b),
+            anchor_a: [-0.5, 0.0, 0.0],
+            axis_a: [0.0, 1.0, 0.0],
+            b: BodyRef::Body(a),
+            anchor_b: [0.5, 0.0, 0.0],
+            axis_b: [0.0, 1.0, 0.0],
+        })
+        .unwrap();
+    model
+}
+
+/// `G(a) diag(w) G(b)ᵀ`, column by column from `G(b)ᵀ e_j` and products with `G(a)`.
+fn dense(
+    c: &impl HolonomicConstraint<Col<f64>>,
+    a: &Col<f64>,
+    b: &Col<f64>,
+    w: &[f64],
+) -> Vec<Vec<f64>> {
+    let (m, n) = (HolonomicConstraint::<Col<f64>>::dim(c), a.nrows());
+    let mut out = vec![vec![0.0; m]; m];
+    for j in 0..m {
+        let mut e = vec![0.0; m];
+        e[j] = 1.0;
+        let mut gt = Col::<f64>::zeros(n);
+        c.jacobian_transpose_apply(b, &e, &mut gt);
+        for (i, wi) in w.iter().enumerate() {
+            gt[i] *= wi;
+        }
+        for i in w.len()..n {
+            gt[i] = 0.0;
+        }
+        let mut col = vec![0.0; m];
+        c.jacobian_apply(a, &gt, &mut col);
+        for i in 0..m {
+            out[i][j] = col[i];
+        }
+    }
+    out
+}
+
+#[test]
+fn the_sums_are_the_products_with_g() {
+    let model = model();
+    let x: Col<f64> = model.initial_state();
+    let n = x.nrows();
+    let nq = n / 2;
+    // Another configuration: every director perturbed (the rows need not hold for the sums).
+    let y = Col::<f64>::from_fn(n, |i| x[i] + 0.01 * ((i * 7 % 11) as f64 - 5.0));
+    let w: Vec<f64> = (0..nq).map(|i| 0.5 + (i % 5) as f64).collect();
+    let c = model.quadratic_rows::<f64>();
+    let mut gram = Gram::new(&c, &x, nq).expect("the rows list their entries");
+    assert!(gram.fill(&c, &y, true, &w) && gram.fill(&c, &x, false, &w));
+    for (right, b) in [(Right::AtX, &x), (Right::AtY, &y)] {
+        let mut sums = Triplets::default();
+        gram.add_to(&w, -0.5, right, &mut sums);
+        let m = HolonomicConstraint::<Col<f64>>::dim(&c);
+        let mut got = vec![vec![0.0; m]; m];
+        for (i, j, v) in sums.entries {
+            got[i][j] += v;
+        }
+        let want = dense(&c, &y, b, &w);
+        let scale = want.iter().flatten().fold(0.0f64, |s, v| s.max(v.abs()));
+        for i in 0..m {
+            for j in 0..m {
+                let d = (got[i][j] + 0.5 * want[i][j]).abs();
+                assert!(
+                    d <= 16.0 * f64::EPSILON * scale,
+                    "{right:?} ({i}, {j}): {d:e}"
+                );
+            }
+        }
+    }
+}
