@@ -226,8 +226,8 @@ pub struct ParameterSpec {
 
 pub use super::constraints::{ConstraintSpec, PinSpec, PlaneSpec, RodSpec, SphereSpec};
 pub use super::effects::{
-    DampingSpec, DashpotSpec, EffectSpec, GravitySpec, MagneticSpec, PairSpec, SpringSpec,
-    TorsionSpringSpec, TrapSpec,
+    DampingSpec, DashpotSpec, EffectSpec, GravitySpec, HingeLimitSpec, MagneticSpec, PairSpec,
+    SpringSpec, TorsionSpringSpec, TrapSpec,
 };
 pub use super::ports::{EventSpec, InputSpec, OutputSpec, SignalSpec};
 

@@ -16,6 +16,7 @@ mod damping;
 mod dashpot;
 mod gravity;
 mod hinge_damper;
+mod hinge_limit;
 mod magnetic;
 mod pair;
 mod radial;
@@ -28,6 +29,7 @@ pub(crate) use damping::dissipated_power;
 pub use dashpot::DashpotSpec;
 pub use gravity::GravitySpec;
 pub use hinge_damper::HingeDamperSpec;
+pub use hinge_limit::HingeLimitSpec;
 pub use magnetic::MagneticSpec;
 pub use pair::{MAX_PAIRS, PairSpec};
 pub use spring::SpringSpec;
@@ -176,6 +178,8 @@ effects! {
     Spring(spring::SpringSpec) = "spring",
     /// A torsion spring about a hinge's axis between rigid bodies, `V = k/2 (θ − θ₀)²`.
     TorsionSpring(torsion::TorsionSpringSpec) = "torsion-spring",
+    /// A hinge's stops as one-sided springs, `V = k/2 (θ − θ_max)²` past the upper one, `k/2 (θ_min − θ)²` past the lower.
+    HingeLimit(hinge_limit::HingeLimitSpec) = "hinge-limit",
     /// A pair potential between every two bodies of a group.
     Pair(pair::PairSpec) = "pair",
     /// A harmonic trap `V = k/2 Σ |q_b − c|²`.
@@ -266,6 +270,8 @@ potentials! {
     Trap(trap::Trap),
     /// `k/2 (θ − θ₀)²` on a hinge's angle.
     Torsion(torsion::Torsion),
+    /// `k/2` times the squared overshoot of a hinge's angle past its stops.
+    HingeLimit(hinge_limit::HingeLimit),
 }
 
 /// A declared term of `V` with its label and counter.
