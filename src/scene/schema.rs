@@ -227,7 +227,7 @@ pub struct ParameterSpec {
 pub use super::constraints::{ConstraintSpec, PinSpec, PlaneSpec, RodSpec, SphereSpec};
 pub use super::effects::{
     DampingSpec, DashpotSpec, EffectSpec, GravitySpec, HingeLimitSpec, MagneticSpec, PairSpec,
-    SpringSpec, TorsionSpringSpec, TrapSpec,
+    SliderSpringSpec, SpringSpec, TorsionSpringSpec, TrapSpec,
 };
 pub use super::ports::{EventSpec, InputSpec, OutputSpec, SignalSpec};
 

@@ -24,5 +24,6 @@ mod scene_joint_elements;
 mod scene_modelling;
 mod scene_ports;
 mod scene_rigid;
+mod scene_slider_spring;
 mod scene_taut_chain;
 mod scene_unconstrained;

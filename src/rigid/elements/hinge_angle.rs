@@ -22,7 +22,7 @@ pub struct HingeAngle {
     u_b: Affine,
 }
 
-fn at<T: Real>(v: &Affine, q: &[T]) -> [T; 3] {
+pub(super) fn at<T: Real>(v: &Affine, q: &[T]) -> [T; 3] {
     let mut out = v.constant.map(T::lit);
     for &(s, c) in &v.terms {
         for (k, o) in out.iter_mut().enumerate() {
@@ -34,7 +34,7 @@ fn at<T: Real>(v: &Affine, q: &[T]) -> [T; 3] {
 
 /// The linear part of `x` (its terms, without the constant) at the displacement `v`, each
 /// slot's part of `v` scaled by `scale[slot]` when given.
-fn along<T: Real>(x: &Affine, v: &[T], scale: Option<&[T]>) -> [T; 3] {
+pub(super) fn along<T: Real>(x: &Affine, v: &[T], scale: Option<&[T]>) -> [T; 3] {
     let mut o = [T::zero(); 3];
     for &(slot, coef) in &x.terms {
         let c = T::lit(coef) * scale.map_or(T::one(), |s| s[slot]);
@@ -53,7 +53,7 @@ fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     ]
 }
 
-fn dot<T: Real>(a: [T; 3], b: [T; 3]) -> T {
+pub(super) fn dot<T: Real>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 

@@ -88,7 +88,7 @@ fn frame(bodies: &Bodies, b: Option<usize>) -> ([f64; 3], Rotation) {
 
 /// The anchor in each end's frame: from `anchor`, a world point at the start, or `anchors`,
 /// one per end in its own frame (a world point for the world).
-pub(super) fn anchors(
+pub(crate) fn anchors(
     anchor: &Option<Vec<f64>>,
     anchors: &Option<Vec<Vec<f64>>>,
     ends: Ends,

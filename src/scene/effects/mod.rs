@@ -20,6 +20,7 @@ mod hinge_limit;
 mod magnetic;
 mod pair;
 mod radial;
+mod slider_spring;
 mod spring;
 mod torsion;
 mod trap;
@@ -32,6 +33,7 @@ pub use hinge_damper::HingeDamperSpec;
 pub use hinge_limit::HingeLimitSpec;
 pub use magnetic::MagneticSpec;
 pub use pair::{MAX_PAIRS, PairSpec};
+pub use slider_spring::SliderSpringSpec;
 pub use spring::SpringSpec;
 pub use torsion::TorsionSpringSpec;
 pub use trap::TrapSpec;
@@ -180,6 +182,8 @@ effects! {
     TorsionSpring(torsion::TorsionSpringSpec) = "torsion-spring",
     /// A hinge's stops as one-sided springs, `V = k/2 (θ − θ_max)²` past the upper one, `k/2 (θ_min − θ)²` past the lower.
     HingeLimit(hinge_limit::HingeLimitSpec) = "hinge-limit",
+    /// A spring along a slider's axis between rigid bodies, `V = k/2 (d − d₀)²`.
+    SliderSpring(slider_spring::SliderSpringSpec) = "slider-spring",
     /// A pair potential between every two bodies of a group.
     Pair(pair::PairSpec) = "pair",
     /// A harmonic trap `V = k/2 Σ |q_b − c|²`.
@@ -272,6 +276,8 @@ potentials! {
     Torsion(torsion::Torsion),
     /// `k/2` times the squared overshoot of a hinge's angle past its stops.
     HingeLimit(hinge_limit::HingeLimit),
+    /// `k/2 (d − d₀)²` on a slider's displacement.
+    SliderSpring(slider_spring::SliderSpring),
 }
 
 /// A declared term of `V` with its label and counter.

@@ -1,0 +1,142 @@
+//! A spring along a slider's axis, `V = k/2 (d − d₀)²`: `d` the displacement of the second body
+//! (or the world) from the first along the sliding axis the first carries, zero at the initial
+//! poses ([`SliderDisplacement`]: quadratic in the slots, its gradient and constant Hessian in
+//! closed form). Put it beside a `slider` on the same axis: `d` is the slider's coordinate only
+//! while the bodies keep to that line.
+
+use super::{Assembler, Effect, Potential, PotentialOps};
+use crate::real::Real;
+use crate::rigid::{Slider, SliderDisplacement};
+use crate::scene::constraints::joint::{self, body_ref};
+use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::names::Flag;
+use crate::scene::validate::{Result, err, finite, non_negative};
+use serde::Deserialize;
+
+/// `type = "slider-spring"`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SliderSpringSpec {
+    /// Label in summaries (default `slider-spring`).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// One rigid body (sliding in the world) or two, the first rigid.
+    pub bodies: Vec<String>,
+    /// A point of the sliding line in the world at the start (default: the first body's
+    /// centre).
+    #[serde(default)]
+    pub anchor: Option<Vec<f64>>,
+    /// Or: that point in each body's frame (a world point for the world).
+    #[serde(default)]
+    pub anchors: Option<Vec<Vec<f64>>>,
+    /// The sliding axis in the world at the start.
+    #[serde(default)]
+    pub axis: Option<Vec<f64>>,
+    /// Or: the sliding axis in each body's frame (the first is used).
+    #[serde(default)]
+    pub axes: Option<Vec<Vec<f64>>>,
+    /// Stiffness `k ≥ 0`, N/m.
+    pub stiffness: f64,
+    /// The rest displacement `d₀` from the initial poses, m (default 0: at rest where it
+    /// starts).
+    #[serde(default)]
+    pub rest: Option<f64>,
+}
+
+/// `k/2 (d − d₀)²` on a slider's displacement.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct SliderSpring<T> {
+    displacement: SliderDisplacement,
+    stiffness: T,
+    rest: T,
+    slots: Vec<usize>,
+}
+
+impl Effect for SliderSpringSpec {
+    const FLAG: Flag = Flag::Springs;
+    fn assemble(
+        &self,
+        cx: &mut Assembler<'_>,
+        path: &FieldPath,
+        _label: &str,
+        _on: bool,
+    ) -> Result<Option<Potential<f64>>> {
+        let bodies = cx.bodies;
+        let ends = joint::ends(&self.bodies, bodies, path, "slider")?;
+        let anchor = match (&self.anchor, &self.anchors) {
+            (None, None) => Some(bodies.list[ends.a].q.to_vec()),
+            (a, _) => a.clone(),
+        };
+        let [anchor_a, anchor_b] = joint::anchors(&anchor, &self.anchors, ends, bodies, path)?;
+        let [axis_a, _] =
+            joint::axes(&self.axis, &self.axes, ("axis", "axes"), ends, bodies, path)?;
+        let slider = Slider {
+            a: body_ref(0, Some(ends.a)),
+            anchor_a,
+            axis_a,
+            b: body_ref(1, ends.b),
+            anchor_b,
+        };
+        let entries = bodies.entries(&ends.list());
+        let frames = crate::rigid::Frames {
+            entries: &entries,
+            q0: bodies.positions(),
+        };
+        let displacement = SliderDisplacement::of(&slider, &frames)
+            .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))?;
+        let k = non_negative(self.stiffness, &path.key("stiffness"), "stiffness")?;
+        let rest = self
+            .rest
+            .map(|r| finite(r, &path.key("rest")))
+            .transpose()?
+            .unwrap_or(0.0);
+        let slots = displacement.slots();
+        Ok(Some(Potential::SliderSpring(SliderSpring {
+            displacement,
+            stiffness: k,
+            rest,
+            slots,
+        })))
+    }
+}
+
+impl SliderSpring<f64> {
+    pub(crate) fn with_scalar<U: Real>(&self) -> SliderSpring<U> {
+        SliderSpring {
+            displacement: self.displacement.clone(),
+            stiffness: U::lit(self.stiffness),
+            rest: U::lit(self.rest),
+            slots: self.slots.clone(),
+        }
+    }
+}
+
+impl<T: Real> PotentialOps<T> for SliderSpring<T> {
+    fn energy(&self, q: &[T], _d: usize) -> T {
+        let s = self.displacement.value(q) - self.rest;
+        T::lit(0.5) * self.stiffness * s * s
+    }
+    fn gradient_add(&self, q: &[T], _d: usize, alpha: T, out: &mut [T]) {
+        let s = self.displacement.value(q) - self.rest;
+        self.displacement
+            .gradient_add(q, alpha * self.stiffness * s, out);
+    }
+    /// `k (∇d·v) ∇d + k (d − d₀) ∇²d v`.
+    fn hessian_apply_add(&self, q: &[T], _d: usize, v: &[T], out: &mut [T]) {
+        let gv = self.displacement.derivative(q, v);
+        self.displacement.gradient_add(q, self.stiffness * gv, out);
+        let s = self.displacement.value(q) - self.rest;
+        self.displacement
+            .hessian_apply_add(v, self.stiffness * s, out);
+    }
+    fn is_quadratic(&self) -> bool {
+        false
+    }
+    fn hessian_bodies(&self, out: &mut Vec<(usize, usize)>) {
+        for &a in &self.slots {
+            for &b in &self.slots {
+                out.push((a, b));
+            }
+        }
+    }
+}
