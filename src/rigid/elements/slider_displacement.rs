@@ -1,7 +1,8 @@
-//! A slider's displacement as a function of the slots: `d = (P_B − P_A)·u_A − d₀`, the gap
-//! between the anchors along the sliding axis `u_A` carried by the first body, zero at the
-//! initial poses. Both factors are affine in the slots (a centre plus directors times body-frame
-//! coordinates), so `d` is quadratic: with `g = P_B − P_A`,
+//! A slider's displacement as a function of the slots: `d = (P_A − P_B)·u_A − d₀`, how far the
+//! first body's anchor has moved from the second's (or the world's) along the sliding axis
+//! `u_A` the first body carries, zero at the initial poses. Both factors are affine in the slots
+//! (a centre plus directors times body-frame coordinates), so `d` is quadratic: with
+//! `g = P_A − P_B`,
 //!
 //! ```text
 //! ∂d/∂x = Σ_{(s, α) ∈ g} α u_A e_s + Σ_{(s, α) ∈ u_A} α g e_s,
@@ -33,9 +34,9 @@ impl SliderDisplacement {
         let axis = frames.axis(slider.a, unit_axis("slider", slider.axis_a)?)?;
         let ra = frames.point(slider.a, slider.anchor_a)?;
         let rb = frames.point(slider.b, slider.anchor_b)?;
-        let mut gap = rb.clone();
-        gap.constant = core::array::from_fn(|k| rb.constant[k] - ra.constant[k]);
-        gap.terms.extend(ra.terms.iter().map(|&(s, c)| (s, -c)));
+        let mut gap = ra.clone();
+        gap.constant = core::array::from_fn(|k| ra.constant[k] - rb.constant[k]);
+        gap.terms.extend(rb.terms.iter().map(|&(s, c)| (s, -c)));
         let q0 = frames.initial_positions();
         let zero = crate::rigid::pose::dot(gap.at(q0), axis.at(q0));
         Ok(Self { gap, axis, zero })

@@ -1,16 +1,15 @@
-//! A spring along a slider's axis, `V = k/2 (d − d₀)²`: `d` the displacement of the second body
-//! (or the world) from the first along the sliding axis the first carries, zero at the initial
+//! A spring along a slider's axis, `V = k/2 (d − d₀)²`: `d` the displacement of the first body
+//! from the second (or the world) along the sliding axis the first carries, zero at the initial
 //! poses ([`SliderDisplacement`]: quadratic in the slots, its gradient and constant Hessian in
 //! closed form). Put it beside a `slider` on the same axis: `d` is the slider's coordinate only
 //! while the bodies keep to that line.
 
 use super::{Assembler, Effect, Potential, PotentialOps};
 use crate::real::Real;
-use crate::rigid::{Slider, SliderDisplacement};
-use crate::scene::constraints::joint::{self, body_ref};
-use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::rigid::SliderDisplacement;
+use crate::scene::error::FieldPath;
 use crate::scene::names::Flag;
-use crate::scene::validate::{Result, err, finite, non_negative};
+use crate::scene::validate::{Result, finite, non_negative};
 use serde::Deserialize;
 
 /// `type = "slider-spring"`.
@@ -61,29 +60,15 @@ impl Effect for SliderSpringSpec {
         _label: &str,
         _on: bool,
     ) -> Result<Option<Potential<f64>>> {
-        let bodies = cx.bodies;
-        let ends = joint::ends(&self.bodies, bodies, path, "slider")?;
-        let anchor = match (&self.anchor, &self.anchors) {
-            (None, None) => Some(bodies.list[ends.a].q.to_vec()),
-            (a, _) => a.clone(),
-        };
-        let [anchor_a, anchor_b] = joint::anchors(&anchor, &self.anchors, ends, bodies, path)?;
-        let [axis_a, _] =
-            joint::axes(&self.axis, &self.axes, ("axis", "axes"), ends, bodies, path)?;
-        let slider = Slider {
-            a: body_ref(0, Some(ends.a)),
-            anchor_a,
-            axis_a,
-            b: body_ref(1, ends.b),
-            anchor_b,
-        };
-        let entries = bodies.entries(&ends.list());
-        let frames = crate::rigid::Frames {
-            entries: &entries,
-            q0: bodies.positions(),
-        };
-        let displacement = SliderDisplacement::of(&slider, &frames)
-            .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))?;
+        let displacement = crate::scene::ports::slider_displacement(
+            &self.bodies,
+            &self.anchor,
+            &self.anchors,
+            &self.axis,
+            &self.axes,
+            cx.bodies,
+            path,
+        )?;
         let k = non_negative(self.stiffness, &path.key("stiffness"), "stiffness")?;
         let rest = self
             .rest

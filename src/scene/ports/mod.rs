@@ -248,6 +248,42 @@ pub(crate) fn hinge_angle(
         .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))
 }
 
+/// The displacement along a slider's axis of the first of `sel`'s bodies (rigid) from the
+/// second (or the world), zero at the initial poses: the anchors and axes as a `slider`
+/// constraint reads them (the anchor defaults to the first body's centre).
+pub(crate) fn slider_displacement(
+    sel: &[String],
+    anchor: &Option<Vec<f64>>,
+    anchors: &Option<Vec<Vec<f64>>>,
+    axis: &Option<Vec<f64>>,
+    axes: &Option<Vec<Vec<f64>>>,
+    bodies: &Bodies,
+    path: &FieldPath,
+) -> Result<crate::rigid::SliderDisplacement> {
+    use crate::scene::constraints::joint;
+    let ends = joint::ends(sel, bodies, path, "slider")?;
+    let anchor = match (anchor, anchors) {
+        (None, None) => Some(bodies.list[ends.a].q.to_vec()),
+        (a, _) => a.clone(),
+    };
+    let [anchor_a, anchor_b] = joint::anchors(&anchor, anchors, ends, bodies, path)?;
+    let [axis_a, _] = joint::axes(axis, axes, ("axis", "axes"), ends, bodies, path)?;
+    let slider = crate::rigid::Slider {
+        a: joint::body_ref(0, Some(ends.a)),
+        anchor_a,
+        axis_a,
+        b: joint::body_ref(1, ends.b),
+        anchor_b,
+    };
+    let entries = bodies.entries(&ends.list());
+    let frames = crate::rigid::Frames {
+        entries: &entries,
+        q0: bodies.positions(),
+    };
+    crate::rigid::SliderDisplacement::of(&slider, &frames)
+        .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))
+}
+
 /// Compiles `[[inputs]]`; `None` when there are none.
 pub(crate) fn compile_inputs(
     specs: &[InputSpec],
