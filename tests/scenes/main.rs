@@ -14,6 +14,7 @@ mod kick_tail;
 mod mechanical_discrete_gradient;
 mod mechanical_form;
 mod scene;
+mod scene_bricard;
 mod scene_damping_account;
 mod scene_errors;
 mod scene_flight;

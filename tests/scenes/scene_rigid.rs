@@ -376,6 +376,7 @@ fn the_rigid_body_scenes_run_with_their_joints_at_round_off() {
             "slider_crank",
             include_str!("../../scenes/slider_crank.toml"),
         ),
+        ("bricard", include_str!("../../scenes/bricard.toml")),
     ];
     for (name, text) in scenes {
         let text: String = text

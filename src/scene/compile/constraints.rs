@@ -8,6 +8,7 @@ use super::{
     initial::row_scales,
 };
 use crate::error::{LinearSolveError, SetupError};
+use crate::scene::constraints::Constraint;
 use crate::scene::error::{FieldPath, SceneError, SceneErrorKind};
 use crate::scene::gram::MassGram;
 use crate::scene::model::{ConstraintTerm, SceneModel};
@@ -50,7 +51,8 @@ pub(super) fn constraint_term(model: &SceneModel, row: usize) -> Option<&Constra
 /// Removes dependent constraints one at a time (`redundant = "drop-dependent"`): factor
 /// `G W⁻¹ Gᵀ` at the initial positions; a pivot that vanishes names a row that depends on the
 /// rows before it in the factorization's order, and its constraint goes. Returns the labels of
-/// the dropped constraints. A dependent row inside a multi-row constraint (a pin) is refused:
+/// the dropped constraints (a joint's dropped row as `'<name>' (…) row k`). A joint loses the
+/// dependent row alone; a dependent row inside another multi-row constraint (a pin) is refused:
 /// dropping the whole pin would remove independent rows too.
 pub(super) fn drop_dependent(model: &mut SceneModel, q: &[f64]) -> Result<Vec<String>> {
     let mut dropped = Vec::new();
@@ -66,6 +68,17 @@ pub(super) fn drop_dependent(model: &mut SceneModel, q: &[f64]) -> Result<Vec<St
             break;
         };
         let term = &model.constraints[index];
+        // A joint's rows go one at a time: a loop of hinges (Bricard's) repeats one row of one
+        // joint, and the joint keeps the others.
+        if let (true, Constraint::Rows(rows)) = (term.rows(model.dim) > 1, &term.kind) {
+            let (kept, gone) = rows.without_row(row - term.row);
+            let label = format!("{} row {gone}", term.label);
+            let term = &mut model.constraints[index];
+            term.kind = Constraint::Rows(kept);
+            dropped.push(label);
+            model.retain_constraints(|_| true);
+            continue;
+        }
         if term.rows(model.dim) != 1 {
             return Err(err(
                 SceneErrorKind::Redundant,

@@ -22,6 +22,8 @@ pub(crate) struct Rows<T = f64> {
     slots: Vec<usize>,
     /// The rows as built, to change the scalar.
     source: Vec<RowBuilder<f64>>,
+    /// Each row's index as declared (rows dropped as dependent leave gaps), for its CSV name.
+    declared: Vec<usize>,
     rows: QuadraticRows<T>,
 }
 
@@ -43,14 +45,36 @@ impl Rows<f64> {
             .collect();
         slots.sort_unstable();
         slots.dedup();
+        let declared = (0..source.len()).collect();
         Self {
             kind,
             ends,
             rigid_first: false,
             slots,
             source,
+            declared,
             rows,
         }
+    }
+
+    /// The same term without its row `r` (dependent on the others: `redundant =
+    /// "drop-dependent"`), and that row's index as declared.
+    pub(crate) fn without_row(&self, r: usize) -> (Self, usize) {
+        let mut source = self.source.clone();
+        source.remove(r);
+        let mut declared = self.declared.clone();
+        let gone = declared.remove(r);
+        let mut rows = QuadraticRows::new(self.rows.positions());
+        for row in &source {
+            rows.push(row);
+        }
+        let term = Self {
+            source,
+            declared,
+            rows,
+            ..self.clone()
+        };
+        (term, gone)
     }
 
     /// The same term, its first body rigid (a joint's torque on it is then read).
@@ -76,6 +100,7 @@ impl Rows<f64> {
             rigid_first: self.rigid_first,
             slots: self.slots.clone(),
             source: self.source.clone(),
+            declared: self.declared.clone(),
             rows,
         }
     }
@@ -178,5 +203,9 @@ impl ConstraintInfo for Rows<f64> {
     /// multipliers of orientation rows are torques about axes that turn with the bodies.
     fn force_per_multiplier(&self, _q: &[f64], _d: usize) -> f64 {
         -1.0
+    }
+    /// The row's index as declared (a row dropped as dependent leaves its number unused).
+    fn row_name(&self, r: usize) -> String {
+        self.declared.get(r).copied().unwrap_or(r).to_string()
     }
 }

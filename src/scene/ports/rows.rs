@@ -113,7 +113,10 @@ impl ConstraintRows {
                         ),
                     ));
                 };
-                let found = self.assembled.iter().find(|t| t.label == d.label);
+                let found = self
+                    .assembled
+                    .iter()
+                    .find(|t| t.label == d.label && self.lost_row(&t.label).is_none());
                 match found {
                     Some(t) => Ok((t.row + d.within, format!("lambda{row}"))),
                     None => Err(err(
@@ -143,6 +146,20 @@ impl ConstraintRows {
                         ),
                     ));
                 };
+                let partial = self
+                    .assembled
+                    .iter()
+                    .filter(|t| t.path == *decl)
+                    .find_map(|t| self.lost_row(&t.label));
+                if let Some(row) = partial {
+                    return Err(err(
+                        SceneErrorKind::Reference,
+                        at,
+                        format!(
+                            "constraint '{name}' lost its {row} as redundant: its rows are not those declared"
+                        ),
+                    ));
+                }
                 let rows: Vec<usize> = self
                     .assembled
                     .iter()
@@ -191,6 +208,15 @@ impl ConstraintRows {
             .expect("a resolved row")
     }
 
+    /// `"row k"` when the term `label` lost that row as dependent (`drop-dependent`).
+    fn lost_row(&self, label: &str) -> Option<&str> {
+        self.dropped.iter().find_map(|d| {
+            d.strip_prefix(label)
+                .and_then(|r| r.strip_prefix(' '))
+                .filter(|r| r.starts_with("row "))
+        })
+    }
+
     /// Why a declared term is not in the model: switched off, dropped, or every constraint off.
     fn why_absent(&self, label: &str, decl: &FieldPath) -> String {
         if self.all_off {
@@ -207,6 +233,9 @@ impl ConstraintRows {
         }
         if self.dropped.iter().any(|d| d == label) {
             return "was dropped as redundant: it has no multiplier".to_owned();
+        }
+        if let Some(row) = self.lost_row(label) {
+            return format!("lost its {row} as redundant: its rows are not those declared");
         }
         "is not in the compiled model".to_owned()
     }
