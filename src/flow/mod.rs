@@ -12,6 +12,7 @@ pub mod coefficients;
 mod compose;
 mod constrained_dg;
 mod contraction;
+mod entry_pairs;
 mod exact;
 mod extrapolated;
 mod flow_enum;

@@ -38,10 +38,11 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     /// The Jacobian when `k = 1` (kept here instead of in the linear solver).
     j11: V::Real,
     /// The last Jacobian came in closed form from the problem: rebuilding it costs no residual
-    /// evaluations, so [`JacobianUpdate::Reuse`] rebuilds it at the start of every solve.
+    /// evaluations, so [`JacobianUpdate::Reuse`] rebuilds it at every iteration.
     analytic: bool,
     /// The last Jacobian was summed by the problem ([`NonlinearProblem::jacobian_assemble`]):
-    /// [`JacobianUpdate::Reuse`] rebuilds it at the start of every solve.
+    /// [`JacobianUpdate::Reuse`] rebuilds it at the start of a solve unless the last solve
+    /// converged in one update with it.
     summed: bool,
     /// The last solve converged after at most one update: a kept summed Jacobian is still
     /// good enough to start the next one with.
@@ -270,6 +271,30 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         }
     }
 
+    /// `z ← z + dz`, `dz = −ratio · J⁻¹ F(z)` with the kept, factored Jacobian (`self.f =
+    /// F(z)`); the update stays in `dz`.
+    fn newton_step<E>(&mut self, z: &mut [V::Real], ratio: V::Real) -> Result<(), NewtonError<E>> {
+        let k = self.k;
+        let dz = &mut self.dz.as_mut_slice()[..k];
+        for (d, &fi) in dz.iter_mut().zip(&self.f.as_slice()[..k]) {
+            *d = -fi;
+        }
+        if k == 1 {
+            // One unknown: the linear solver's machinery costs more than the division.
+            dz[0] = dz[0] / self.j11;
+        } else {
+            for (d, &s) in dz.iter_mut().zip(&self.row_scale) {
+                *d = *d * s;
+            }
+            self.lin.solve_in_place(dz)?;
+        }
+        if ratio != V::Real::one() {
+            dz.iter_mut().for_each(|d| *d = *d * ratio);
+        }
+        ops::axpy(z, V::Real::one(), dz);
+        Ok(())
+    }
+
     /// The Jacobian at `z` (where `self.f = F(z)`), factored.
     ///
     /// Forward differences `J e_j ≈ (F(z + δ_j e_j) − F(z)) / δ_j` with
@@ -303,7 +328,6 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             // Summed in closed form by the problem: every entry at once (a diagonal pattern
             // keeps its diagonal for the secant update, which the sum does not report).
             if self.diagonal.is_empty() && problem.jacobian_assemble(z, &mut self.lin) {
-                self.analytic = false;
                 self.summed = true;
                 report.factorizations += 1;
                 self.lin.factor()?;
@@ -503,23 +527,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
                 self.jacobian_scale = scale;
                 ratio = one;
             }
-            let dz = &mut self.dz.as_mut_slice()[..k];
-            for (d, &fi) in dz.iter_mut().zip(&self.f.as_slice()[..k]) {
-                *d = -fi;
-            }
-            if k == 1 {
-                // One unknown: the linear solver's machinery costs more than the division.
-                dz[0] = dz[0] / self.j11;
-            } else {
-                for (d, &s) in dz.iter_mut().zip(&self.row_scale) {
-                    *d = *d * s;
-                }
-                self.lin.solve_in_place(dz)?;
-            }
-            if ratio != one {
-                dz.iter_mut().for_each(|d| *d = *d * ratio);
-            }
-            ops::axpy(z, one, dz);
+            self.newton_step(z, ratio)?;
             report.iterations += 1;
             let mut r_new;
             (raw, r_new) = eval(problem, z, &mut self.f, &mut report)?;

@@ -25,7 +25,7 @@ mod rows;
 pub use body::RigidBody;
 pub(crate) use body::orthonormality;
 pub use drift::MultibodyDrift;
-pub use elements::{HingeAngle, JointDamper, JointSpring, SliderDisplacement};
+pub use elements::{HingeAngle, JointCoordinate, JointDamper, JointSpring, SliderDisplacement};
 pub(crate) use frames::Entry;
 pub use frames::{Affine, Frames};
 pub use inertia::Inertia;

@@ -25,7 +25,8 @@
 //! constraint passes each.
 
 use super::Tables;
-use crate::linalg::{PatternFill, Sink, Triplets};
+use crate::flow::entry_pairs::EntryPairs;
+use crate::linalg::{PatternFill, Sink};
 use crate::real::Real;
 use crate::system::HolonomicConstraint;
 use crate::vector::{Vector, ops};
@@ -36,14 +37,8 @@ pub(super) struct ConstraintBlocks<T> {
     k: usize,
     /// The number of constraints.
     m: usize,
-    /// The entries' rows and columns, in the order the constraint lists them.
-    rows: Vec<usize>,
-    cols: Vec<usize>,
-    /// The pairs `(e₁, e₂)` of entries in one column, grouped by their rows `(b, a)`: group
-    /// `c` is `pairs[group_ptr[c]..group_ptr[c + 1]]` and adds to the block `group_rows[c]`.
-    pairs: Vec<(usize, usize)>,
-    group_ptr: Vec<usize>,
-    group_rows: Vec<(usize, usize)>,
+    /// The entries and their pairs in a column, grouped by the block `(b, a)` they add to.
+    pattern: EntryPairs,
     /// `t_ri ℓ_j(e_r)` and `t_ri (ℓ(e_r)ᵀÂ)_l` (`s × k × k`).
     wc: Vec<T>,
     wg: Vec<T>,
@@ -77,49 +72,16 @@ impl<T: Real> ConstraintBlocks<T> {
         V: Vector<Real = T>,
         C: HolonomicConstraint<V>,
     {
-        let mut entries = Triplets::default();
         let m = constraint.dim();
-        if !constraint.jacobian_entries(x0, &mut entries)
-            || entries.entries.is_empty()
-            || entries.entries.iter().any(|&(r, c, _)| c >= nq || r >= m)
-        {
-            return None;
-        }
-        let rows: Vec<usize> = entries.entries.iter().map(|e| e.0).collect();
-        let cols: Vec<usize> = entries.entries.iter().map(|e| e.1).collect();
-        let mut of_col: Vec<Vec<usize>> = vec![Vec::new(); nq];
-        for (e, &d) in cols.iter().enumerate() {
-            of_col[d].push(e);
-        }
-        let mut keyed: Vec<((usize, usize), (usize, usize))> = Vec::new();
-        for es in &of_col {
-            for &e1 in es {
-                keyed.extend(es.iter().map(|&e2| ((rows[e1], rows[e2]), (e1, e2))));
-            }
-        }
-        keyed.sort_unstable();
-        let mut group_ptr = vec![0];
-        let mut group_rows = Vec::new();
-        for (i, &(key, _)) in keyed.iter().enumerate() {
-            if group_rows.last() != Some(&key) {
-                if i > 0 {
-                    group_ptr.push(i);
-                }
-                group_rows.push(key);
-            }
-        }
-        group_ptr.push(keyed.len());
+        let pattern = EntryPairs::new(constraint, x0, nq)?;
         let (k, s) = (tables.k, tables.s);
         let kk = k * k;
         let (wc, wg) = weights(tables);
-        let (colors, color_ptr, ones) = color_rows(&rows, &of_col, m);
-        let nnz = rows.len();
+        let (colors, color_ptr, ones) = color_rows(&pattern.rows, &pattern.of_col, m);
+        let nnz = pattern.rows.len();
         Some(Self {
             k,
             m,
-            pairs: keyed.into_iter().map(|(_, p)| p).collect(),
-            group_ptr,
-            group_rows,
             wc,
             wg,
             vals: vec![T::zero(); s * nnz],
@@ -131,8 +93,7 @@ impl<T: Real> ConstraintBlocks<T> {
             fresh: false,
             usable: true,
             filled: false,
-            rows,
-            cols,
+            pattern,
         })
     }
 
@@ -153,7 +114,7 @@ impl<T: Real> ConstraintBlocks<T> {
     pub(super) fn for_quadrature(&mut self, tables: &Tables<T>) {
         debug_assert_eq!(tables.k, self.k, "the stage count is fixed");
         (self.wc, self.wg) = weights(tables);
-        self.vals = vec![T::zero(); tables.s * self.rows.len()];
+        self.vals = vec![T::zero(); tables.s * self.pattern.rows.len()];
         self.fresh = false;
         self.filled = false;
     }
@@ -187,15 +148,15 @@ impl<T: Real> ConstraintBlocks<T> {
         if self.fresh || !self.usable {
             return self.usable;
         }
-        let nnz = self.rows.len();
+        let nnz = self.pattern.rows.len();
         let kk = self.k * self.k;
         debug_assert_eq!(xs.len() * nnz, self.vals.len(), "one point of values per x");
         let m = self.m;
         for (x, vals) in xs.iter().zip(self.vals.chunks_exact_mut(nnz)) {
             if self.colors.is_empty() {
                 let mut fill = PatternFill {
-                    rows: &self.rows,
-                    cols: &self.cols,
+                    rows: &self.pattern.rows,
+                    cols: &self.pattern.cols,
                     vals,
                     next: 0,
                     same: true,
@@ -213,7 +174,7 @@ impl<T: Real> ConstraintBlocks<T> {
                 constraint.jacobian_transpose_apply_add(x, ones, T::one(), scratch);
                 let gq = scratch.as_slice();
                 for &e in &self.colors[self.color_ptr[c]..self.color_ptr[c + 1]] {
-                    vals[e] = gq[self.cols[e]];
+                    vals[e] = gq[self.pattern.cols[e]];
                 }
             }
         }
@@ -236,7 +197,7 @@ impl<T: Real> ConstraintBlocks<T> {
             }
         }
         for g in self.g.chunks_exact_mut(nnz) {
-            for (g, &d) in g.iter_mut().zip(&self.cols) {
+            for (g, &d) in g.iter_mut().zip(&self.pattern.cols) {
                 *g = *g * (h * w[d]);
             }
         }
@@ -247,10 +208,10 @@ impl<T: Real> ConstraintBlocks<T> {
 
     /// `out_(d,·) += Σ_(a,d) C_(a,d) v_(a,·)`: the multiplier columns applied to `v`.
     pub(super) fn columns_add(&self, v: &[T], out: &mut [T]) {
-        let (k, nnz) = (self.k, self.rows.len());
+        let (k, nnz) = (self.k, self.pattern.rows.len());
         for (ij, c) in self.c.chunks_exact(nnz).enumerate() {
             let (i, j) = (ij / k, ij % k);
-            for ((&c, &a), &d) in c.iter().zip(&self.rows).zip(&self.cols) {
+            for ((&c, &a), &d) in c.iter().zip(&self.pattern.rows).zip(&self.pattern.cols) {
                 out[d * k + i] = out[d * k + i] + c * v[a * k + j];
             }
         }
@@ -258,11 +219,11 @@ impl<T: Real> ConstraintBlocks<T> {
 
     /// `out_(a,·) = Σ_(a,d) G_(a,d) v_(d,·)`: the constraint rows applied to momenta `v`.
     pub(super) fn rows_apply(&self, v: &[T], out: &mut [T]) {
-        let (k, nnz) = (self.k, self.rows.len());
+        let (k, nnz) = (self.k, self.pattern.rows.len());
         ops::fill_zero(out);
         for (il, g) in self.g.chunks_exact(nnz).enumerate() {
             let (i, l) = (il / k, il % k);
-            for ((&g, &a), &d) in g.iter().zip(&self.rows).zip(&self.cols) {
+            for ((&g, &a), &d) in g.iter().zip(&self.pattern.rows).zip(&self.pattern.cols) {
                 out[a * k + i] = out[a * k + i] + g * v[d * k + l];
             }
         }
@@ -282,14 +243,14 @@ impl<T: Real> ConstraintBlocks<T> {
 
     /// [`schur_add`](Self::schur_add) with `k = K` known to the compiler.
     fn schur_add_k<const K: usize>(&self, inv_d: &[T], sink: &mut dyn Sink<T>) {
-        let nnz = self.rows.len();
+        let nnz = self.pattern.rows.len();
         let block_of = |m: &[T], e: usize| -> [[T; K]; K] {
             core::array::from_fn(|i| core::array::from_fn(|j| m[(i * K + j) * nnz + e]))
         };
-        for (c, &(b, a)) in self.group_rows.iter().enumerate() {
+        for (c, &(b, a)) in self.pattern.targets.iter().enumerate() {
             let mut block = [[T::zero(); K]; K];
-            for &(e1, e2) in &self.pairs[self.group_ptr[c]..self.group_ptr[c + 1]] {
-                let d = self.cols[e1];
+            for &(e1, e2) in self.pattern.group(c) {
+                let d = self.pattern.cols[e1];
                 let inv = &inv_d[d * K * K..(d + 1) * K * K];
                 let (g, cm) = (block_of(&self.g, e1), block_of(&self.c, e2));
                 // block += G_e1 D_d⁻¹ C_e2.

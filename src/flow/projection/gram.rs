@@ -17,11 +17,15 @@
 //! grouped products. Both are `Σ_d G(a)_{i d} w_d G(b)_{j d}`, a sum over the pairs of entries
 //! that meet in a column `d`: faer's symbolic/numeric split — the pairs are found once from
 //! the pattern at construction, each Jacobian is one or two passes of the constraint's entries
-//! and one pass over the pairs. For a rigid body (six rows of `QᵀQ = I` on nine directors)
-//! that is 81 products where the grouped path took six products with `G` and `Gᵀ`.
+//! and one pass over the pairs ([`EntryPairs`]). For a heavy top (six rows of `QᵀQ = I`
+//! and three of its ball joint, in six colour groups) that is 147 products where the grouped
+//! path took six products with `G` and `Gᵀ`. The projection uses the sums above three colour
+//! groups only: at three or fewer the grouped products cost as little, and their Jacobians
+//! kept across steps less.
 
 use crate::flow::Flow;
-use crate::linalg::{PatternFill, Sink, Triplets};
+use crate::flow::entry_pairs::EntryPairs;
+use crate::linalg::{PatternFill, Sink};
 use crate::real::Real;
 use crate::system::HolonomicConstraint;
 use crate::vector::Vector;
@@ -32,13 +36,7 @@ use num_traits::{One, Zero};
 /// `G` at the step's start `x` and at `y`.
 #[derive(Debug, Clone)]
 pub(super) struct Gram<T> {
-    rows: Vec<usize>,
-    cols: Vec<usize>,
-    /// `(a, b, d)`: entry `a` and entry `b` share the column `d`, grouped by their rows: the
-    /// pairs `pairs[ptr[t]..ptr[t + 1]]` add to the entry `targets[t]` of the product.
-    pairs: Vec<(usize, usize, usize)>,
-    ptr: Vec<usize>,
-    targets: Vec<(usize, usize)>,
+    pattern: EntryPairs,
     at_x: Vec<T>,
     /// `G(y)` times the inverse mass of each entry's column.
     at_y: Vec<T>,
@@ -48,7 +46,7 @@ pub(super) struct Gram<T> {
     usable: bool,
 }
 
-/// Which values of `G` the left factor of a product is taken at.
+/// Which values of `G` the right factor of a product is taken at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Right {
     /// `G(y) W⁻¹ G(x)ᵀ` (the `λ_k` system).
@@ -65,46 +63,10 @@ impl<T: Real> Gram<T> {
         V: Vector<Real = T>,
         C: HolonomicConstraint<V>,
     {
-        let mut entries = Triplets::default();
-        let m = constraint.dim();
-        if !constraint.jacobian_entries(x0, &mut entries)
-            || entries.entries.is_empty()
-            || entries.entries.iter().any(|&(r, c, _)| c >= nq || r >= m)
-        {
-            return None;
-        }
-        let rows: Vec<usize> = entries.entries.iter().map(|e| e.0).collect();
-        let cols: Vec<usize> = entries.entries.iter().map(|e| e.1).collect();
-        let mut of_col: Vec<Vec<usize>> = vec![Vec::new(); nq];
-        for (e, &d) in cols.iter().enumerate() {
-            of_col[d].push(e);
-        }
-        let mut keyed = Vec::new();
-        for (d, es) in of_col.iter().enumerate() {
-            for &a in es {
-                keyed.extend(es.iter().map(|&b| ((rows[a], rows[b]), (a, b, d))));
-            }
-        }
-        // Column-major order of the targets: the order a dense store keeps them in.
-        keyed.sort_unstable_by_key(|&((i, j), p)| ((j, i), p));
-        let (mut pairs, mut ptr, mut targets) = (Vec::new(), vec![0], Vec::new());
-        for (t, &(target, pair)) in keyed.iter().enumerate() {
-            if t > 0 && keyed[t - 1].0 != target {
-                ptr.push(pairs.len());
-            }
-            if targets.last() != Some(&target) {
-                targets.push(target);
-            }
-            pairs.push(pair);
-        }
-        ptr.push(pairs.len());
-        let nnz = rows.len();
+        let pattern = EntryPairs::new(constraint, x0, nq)?;
+        let nnz = pattern.rows.len();
         Some(Self {
-            rows,
-            cols,
-            pairs,
-            ptr,
-            targets,
+            pattern,
             at_x: vec![T::zero(); nnz],
             at_y: vec![T::zero(); nnz],
             x_fresh: false,
@@ -139,15 +101,15 @@ impl<T: Real> Gram<T> {
         let vals = if at_y { &mut self.at_y } else { &mut self.at_x };
         let nnz = vals.len();
         let mut fill = PatternFill {
-            rows: &self.rows,
-            cols: &self.cols,
+            rows: &self.pattern.rows,
+            cols: &self.pattern.cols,
             vals,
             next: 0,
             same: true,
         };
         self.usable = constraint.jacobian_entries(x, &mut fill) && fill.same && fill.next == nnz;
         if at_y {
-            for (v, &d) in self.at_y.iter_mut().zip(&self.cols) {
+            for (v, &d) in self.at_y.iter_mut().zip(&self.pattern.cols) {
                 *v = *v * w[d];
             }
         } else {
@@ -159,22 +121,23 @@ impl<T: Real> Gram<T> {
     /// Adds `scale · G(y) W⁻¹ G(·)ᵀ` (`w` the inverse masses) into `sink`, from the values
     /// last filled.
     pub(super) fn add_to(&self, w: &[T], scale: T, right: Right, sink: &mut dyn Sink<T>) {
-        let pairs = |t: usize| &self.pairs[self.ptr[t]..self.ptr[t + 1]];
+        let p = &self.pattern;
         match right {
             Right::AtX => {
-                for (t, &(i, j)) in self.targets.iter().enumerate() {
-                    let sum = pairs(t)
+                for (t, &(i, j)) in p.targets.iter().enumerate() {
+                    let sum = p
+                        .group(t)
                         .iter()
-                        .fold(T::zero(), |s, &(a, b, _)| s + self.at_y[a] * self.at_x[b]);
+                        .fold(T::zero(), |s, &(a, b)| s + self.at_y[a] * self.at_x[b]);
                     sink.add(i, j, scale * sum);
                 }
             }
             // Symmetric: each entry above the diagonal summed once and added twice. `at_y`
             // carries W⁻¹ already; `G(y)` on the right is `at_y / w`.
             Right::AtY => {
-                for (t, &(i, j)) in self.targets.iter().enumerate().filter(|(_, (i, j))| i <= j) {
-                    let sum = pairs(t).iter().fold(T::zero(), |s, &(a, b, d)| {
-                        s + self.at_y[a] * self.at_y[b] / w[d]
+                for (t, &(i, j)) in p.targets.iter().enumerate().filter(|(_, (i, j))| i <= j) {
+                    let sum = p.group(t).iter().fold(T::zero(), |s, &(a, b)| {
+                        s + self.at_y[a] * self.at_y[b] / w[p.cols[a]]
                     });
                     sink.add(i, j, scale * sum);
                     if i != j {

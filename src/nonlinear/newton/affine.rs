@@ -1,5 +1,5 @@
-//! Newton on an affine system ([`Newton::solve_affine`]) and the update with the kept
-//! Jacobian that it and the iteration share.
+//! Newton on an affine system ([`Newton::solve_affine`]): one evaluation, one Jacobian, one
+//! update.
 
 use super::Newton;
 use crate::error::NewtonError;
@@ -46,10 +46,15 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             report.residual_evaluations += 1;
             report.iterations = 1;
             report.residual = ops::norm_inf(f);
-            if report.residual.is_finite() && effective_residual(problem, f) <= self.options.ftol {
+            if !report.residual.is_finite() {
+                // Back to z = 0, where F was finite, for the fresh Jacobian.
+                ops::axpy(z, -V::Real::one(), &self.dz.as_slice()[..k]);
+                let f = &mut self.f.as_mut_slice()[..k];
+                problem.residual(z, f).map_err(NewtonError::Residual)?;
+                report.residual_evaluations += 1;
+            } else if effective_residual(problem, f) <= self.options.ftol {
                 return Ok(report);
             }
-            self.one_update = false;
         }
         self.have_jacobian = false;
         self.jacobian(problem, z, scale, &mut report)?;
@@ -58,28 +63,9 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         self.newton_step(z, V::Real::one())?;
         report.iterations += 1;
         report.residual = V::Real::zero();
-        // Exact in one update: the next solve may start from this Jacobian.
+        // A kept Jacobian that fell short here is not tried on the next solve (which builds
+        // its own); one built here is.
         self.one_update = report.iterations == 1;
         Ok(report)
-    }
-
-    /// `z ← z − ratio · J⁻¹ F(z)` with the kept, factored Jacobian (`self.f = F(z)`); the
-    /// update is left in `dz`.
-    fn newton_step<E>(&mut self, z: &mut [V::Real], ratio: V::Real) -> Result<(), NewtonError<E>> {
-        let k = self.k;
-        let dz = &mut self.dz.as_mut_slice()[..k];
-        for (d, &fi) in dz.iter_mut().zip(&self.f.as_slice()[..k]) {
-            *d = -fi;
-        }
-        if k == 1 {
-            dz[0] = dz[0] / self.j11;
-        } else {
-            for (d, &s) in dz.iter_mut().zip(&self.row_scale) {
-                *d = *d * s;
-            }
-            self.lin.solve_in_place(dz)?;
-        }
-        ops::axpy(z, ratio, dz);
-        Ok(())
     }
 }

@@ -53,6 +53,16 @@ fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     ]
 }
 
+/// `out += Σ_{(s, α) ∈ x} α d e_s`: a derivative `d` with respect to the vector `x` carried to
+/// the slots `x` combines (the transpose of [`along`]).
+pub(super) fn spread<T: Real>(x: &Affine, d: [T; 3], out: &mut [T]) {
+    for &(slot, coef) in &x.terms {
+        for (k, dk) in d.iter().enumerate() {
+            out[3 * slot + k] = out[3 * slot + k] + T::lit(coef) * *dk;
+        }
+    }
+}
+
 pub(super) fn dot<T: Real>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -101,11 +111,7 @@ impl HingeAngle {
     pub fn gradient_add<T: Real>(&self, q: &[T], scale: T, out: &mut [T]) {
         let d = self.partials(q, scale);
         for (v, d) in [&self.axis, &self.u_a, &self.u_b].into_iter().zip(d) {
-            for &(slot, coef) in &v.terms {
-                for k in 0..3 {
-                    out[3 * slot + k] = out[3 * slot + k] + T::lit(coef) * d[k];
-                }
-            }
+            spread(v, d, out);
         }
     }
 
@@ -165,11 +171,7 @@ impl HingeAngle {
                         - k * (c * gs[i][j] - s * gc[i][j]))
                     / n
             });
-            for &(slot, coef) in &x.terms {
-                for (j, dj) in d.iter().enumerate() {
-                    out[3 * slot + j] = out[3 * slot + j] + T::lit(coef) * *dj;
-                }
-            }
+            spread(x, d, out);
         }
     }
 

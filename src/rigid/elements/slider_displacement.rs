@@ -11,7 +11,7 @@
 //!
 //! (`(x·v)` the linear part of `x` along `v`): constant second derivatives.
 
-use super::hinge_angle::{along, at, dot};
+use super::hinge_angle::{along, at, dot, spread};
 use crate::error::SetupError;
 use crate::real::Real;
 use crate::rigid::frames::{Affine, Frames};
@@ -50,13 +50,8 @@ impl SliderDisplacement {
     /// `out += scale ∇d(q)` (positions only).
     pub fn gradient_add<T: Real>(&self, q: &[T], scale: T, out: &mut [T]) {
         let (g, u) = (at(&self.gap, q), at(&self.axis, q));
-        for (x, other) in [(&self.gap, u), (&self.axis, g)] {
-            for &(slot, coef) in &x.terms {
-                for k in 0..3 {
-                    out[3 * slot + k] = out[3 * slot + k] + scale * T::lit(coef) * other[k];
-                }
-            }
-        }
+        spread(&self.gap, u.map(|x| scale * x), out);
+        spread(&self.axis, g.map(|x| scale * x), out);
     }
 
     /// `∇d(q)·v` (positions only).
@@ -71,16 +66,11 @@ impl SliderDisplacement {
         dot(u, along(&self.gap, p, Some(inv))) + dot(g, along(&self.axis, p, Some(inv)))
     }
 
-    /// `out += scale ∇²d v` (constant in `q`).
-    pub fn hessian_apply_add<T: Real>(&self, v: &[T], scale: T, out: &mut [T]) {
+    /// `out += scale ∇²d v` (constant: `q` is not read).
+    pub fn hessian_apply_add<T: Real>(&self, _q: &[T], v: &[T], scale: T, out: &mut [T]) {
         let (gv, uv) = (along(&self.gap, v, None), along(&self.axis, v, None));
-        for (x, other) in [(&self.gap, uv), (&self.axis, gv)] {
-            for &(slot, coef) in &x.terms {
-                for k in 0..3 {
-                    out[3 * slot + k] = out[3 * slot + k] + scale * T::lit(coef) * other[k];
-                }
-            }
-        }
+        spread(&self.gap, uv.map(|x| scale * x), out);
+        spread(&self.axis, gv.map(|x| scale * x), out);
     }
 
     /// The slots `d` depends on.
@@ -155,7 +145,7 @@ mod tests {
         };
         let (gp, gm) = (grad(h), grad(-h));
         let mut hv = vec![0.0; 24];
-        d.hessian_apply_add(&v, 1.0, &mut hv);
+        d.hessian_apply_add(&q, &v, 1.0, &mut hv);
         for i in 0..24 {
             let fd = (gp[i] - gm[i]) / (2.0 * h);
             assert!((fd - hv[i]).abs() < 1e-12, "{i}: {fd} vs {}", hv[i]);

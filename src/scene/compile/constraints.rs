@@ -76,6 +76,7 @@ pub(super) fn drop_dependent(model: &mut SceneModel, q: &[f64]) -> Result<Vec<St
             let term = &mut model.constraints[index];
             term.kind = Constraint::Rows(kept);
             dropped.push(label);
+            // Every term kept: the rows after this one renumbered.
             model.retain_constraints(|_| true);
             continue;
         }

@@ -12,6 +12,7 @@
 // Per-coordinate loops `for k in 0..d` index several arrays at once (q, p, a 3-vector).
 #![allow(clippy::needless_range_loop)]
 
+mod coordinate;
 mod damping;
 mod dashpot;
 mod gravity;

@@ -4,6 +4,7 @@
 //! closed form). Put it beside a `slider` on the same axis: `d` is the slider's coordinate only
 //! while the bodies keep to that line.
 
+use super::coordinate::{slot_pairs, spring_hessian_add};
 use super::{Assembler, Effect, Potential, PotentialOps};
 use crate::real::Real;
 use crate::rigid::SliderDisplacement;
@@ -108,20 +109,13 @@ impl<T: Real> PotentialOps<T> for SliderSpring<T> {
     }
     /// `k (∇d·v) ∇d + k (d − d₀) ∇²d v`.
     fn hessian_apply_add(&self, q: &[T], _d: usize, v: &[T], out: &mut [T]) {
-        let gv = self.displacement.derivative(q, v);
-        self.displacement.gradient_add(q, self.stiffness * gv, out);
         let s = self.displacement.value(q) - self.rest;
-        self.displacement
-            .hessian_apply_add(v, self.stiffness * s, out);
+        spring_hessian_add(&self.displacement, q, v, self.stiffness, s, out);
     }
     fn is_quadratic(&self) -> bool {
         false
     }
     fn hessian_bodies(&self, out: &mut Vec<(usize, usize)>) {
-        for &a in &self.slots {
-            for &b in &self.slots {
-                out.push((a, b));
-            }
-        }
+        slot_pairs(&self.slots, out);
     }
 }

@@ -4,6 +4,7 @@
 //! Hessian on the directors in closed form). Put it beside a `hinge` about the same axis: the
 //! angle is a hinge's angle only while the bodies keep the axis in common.
 
+use super::coordinate::{slot_pairs, spring_hessian_add};
 use super::{Assembler, Effect, Potential, PotentialOps};
 use crate::real::Real;
 use crate::rigid::HingeAngle;
@@ -105,19 +106,12 @@ impl<T: Real> PotentialOps<T> for Torsion<T> {
     }
     /// `k (∇θ·v) ∇θ + k (θ − θ₀) ∇²θ v`.
     fn hessian_apply_add(&self, q: &[T], _d: usize, v: &[T], out: &mut [T]) {
-        let gv = self.angle.derivative(q, v);
-        self.angle.gradient_add(q, self.stiffness * gv, out);
-        let s = self.stretch(q);
-        self.angle.hessian_apply_add(q, v, self.stiffness * s, out);
+        spring_hessian_add(&self.angle, q, v, self.stiffness, self.stretch(q), out);
     }
     fn is_quadratic(&self) -> bool {
         false
     }
     fn hessian_bodies(&self, out: &mut Vec<(usize, usize)>) {
-        for &a in &self.slots {
-            for &b in &self.slots {
-                out.push((a, b));
-            }
-        }
+        slot_pairs(&self.slots, out);
     }
 }
