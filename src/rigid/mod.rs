@@ -8,7 +8,8 @@
 //! Files: `rows.rs` the rows of degree ≤ 2 ([`QuadraticRows`]), `inertia.rs` principal moments,
 //! axes and shapes ([`Inertia`]), `pose.rs` orientations ([`Rotation`]), `body.rs` a rigid
 //! body's description ([`RigidBody`]), `joints/` one file per joint kind ([`JointKind`]),
-//! `model.rs` the assembled model ([`Multibody`]).
+//! `model.rs` the assembled model ([`Multibody`]), `weld.rs` parts fixed to one another merged
+//! into one body ([`weld`]).
 
 mod body;
 mod drift;
@@ -21,6 +22,7 @@ mod kick;
 mod model;
 mod pose;
 mod rows;
+mod weld;
 
 pub use body::RigidBody;
 pub(crate) use body::orthonormality;
@@ -35,3 +37,4 @@ pub use model::{Multibody, MultibodyEnergy};
 pub use pose::{Rotation, cross, dot};
 pub(crate) use pose::{body_frame, director_spin};
 pub use rows::{QuadraticRows, RowBuilder};
+pub use weld::{Part, Placement, Welded, weld};

@@ -31,6 +31,15 @@ pub(crate) struct RigidEntry {
     pub(crate) axes: crate::rigid::Rotation,
 }
 
+/// A member of a merged body (`type = "weld"`): the merged body's centre and name, and where
+/// the member sits in it.
+#[derive(Debug, Clone)]
+pub(crate) struct Welding {
+    pub(crate) centre: usize,
+    pub(crate) into: String,
+    pub(crate) place: crate::rigid::Placement,
+}
+
 /// Bodies, names and selectors.
 pub(crate) struct Bodies {
     pub(crate) dim: usize,
@@ -38,6 +47,8 @@ pub(crate) struct Bodies {
     pub(crate) groups: HashMap<String, Vec<usize>>,
     /// The rigid bodies, by their centres.
     pub(crate) rigid: Vec<RigidEntry>,
+    /// The members of welded groups, by name (the merged body keeps its frame member's name).
+    pub(crate) welded: HashMap<String, Welding>,
     /// The initial positions of every slot, built once when the joints first ask.
     pub(crate) positions: std::cell::OnceCell<Vec<f64>>,
 }
@@ -58,7 +69,8 @@ impl Bodies {
                 ),
             ));
         }
-        if self.groups.insert(name.to_owned(), members).is_some() {
+        let welded_elsewhere = self.welded.get(name).is_some_and(|w| w.into != name);
+        if welded_elsewhere || self.groups.insert(name.to_owned(), members).is_some() {
             return Err(err(
                 SceneErrorKind::Reference,
                 path.clone(),
@@ -66,6 +78,32 @@ impl Bodies {
             ));
         }
         Ok(())
+    }
+
+    /// Records `name` as a member of a merged body.
+    pub(crate) fn add_welded(&mut self, name: &str, w: Welding, path: &FieldPath) -> Result<()> {
+        let taken = w.into != name && self.groups.contains_key(name);
+        if taken || self.welded.insert(name.to_owned(), w).is_some() {
+            return Err(err(
+                SceneErrorKind::Reference,
+                path.clone(),
+                format!("the name '{name}' is used twice"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A joint's end named `sel`: the body, and where the named body sits in it (itself, or a
+    /// member of a merged body).
+    pub(crate) fn joint_end(
+        &self,
+        sel: &str,
+        path: &FieldPath,
+    ) -> Result<(Vec<usize>, crate::rigid::Placement)> {
+        match self.welded.get(sel) {
+            Some(w) => Ok((vec![w.centre], w.place)),
+            None => Ok((self.select(sel, path)?, crate::rigid::Placement::identity())),
+        }
     }
 
     pub(crate) fn push(&mut self, body: Body) -> usize {
@@ -124,6 +162,18 @@ impl Bodies {
     pub(crate) fn select(&self, sel: &str, path: &FieldPath) -> Result<Vec<usize>> {
         if sel == "*" {
             return Ok(self.all());
+        }
+        if let Some(w) = self.welded.get(sel)
+            && w.into != sel
+        {
+            return Err(err(
+                SceneErrorKind::Reference,
+                path.clone(),
+                format!(
+                    "'{sel}' is welded into '{}' (one body since the scene was compiled): name '{}' here; joints may still name '{sel}' with anchors in its frame",
+                    w.into, w.into
+                ),
+            ));
         }
         if let Some(g) = self.groups.get(sel) {
             return Ok(g.clone());

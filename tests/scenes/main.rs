@@ -28,3 +28,4 @@ mod scene_rigid;
 mod scene_slider_spring;
 mod scene_taut_chain;
 mod scene_unconstrained;
+mod scene_weld;

@@ -20,14 +20,24 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
         list: Vec::new(),
         groups: HashMap::new(),
         rigid: Vec::new(),
+        welded: HashMap::new(),
         positions: std::cell::OnceCell::new(),
     };
     let mut generated = Vec::new();
     let root = FieldPath::root();
+    let welds = super::weld::weld_groups(file)?;
     for (i, b) in file.bodies.iter().enumerate() {
         let path = root.key("bodies").index(i);
-        if b.inertia.is_some() {
-            super::rigid::push_rigid(&mut bodies, b, i, &path, &mut generated)?;
+        if let Some(g) = welds.member_of[i] {
+            let group = &welds.groups[g];
+            if i == group.frame {
+                super::weld::push_welded(&mut bodies, file, group, &mut generated)?;
+            }
+            continue;
+        }
+        if let Some(inertia) = &b.inertia {
+            let body = super::rigid::rigid_body(b, inertia, dim, &path)?;
+            super::rigid::push_rigid(&mut bodies, &b.name, &body, i, &path, &mut generated)?;
             continue;
         }
         for (field, set) in [

@@ -14,6 +14,7 @@ mod raise;
 mod rigid;
 mod scheme;
 mod storage;
+mod weld;
 
 pub(crate) use super::validate::{self, Result, err};
 pub use crate::scene::bodies::MAX_BODIES;

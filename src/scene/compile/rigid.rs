@@ -7,25 +7,20 @@
 
 use super::Result;
 use super::validate::{err, finite, vector, vector_or};
-use crate::rigid::cross;
+use crate::rigid::{RigidBody, cross};
 use crate::scene::bodies::{Bodies, Body, RigidEntry};
 use crate::scene::constraints::{Constraint, Declared, Rows};
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::schema::BodySpec;
 
-/// Appends the rigid body `b` (declared at `bodies[i]`, `path`): its four slots and its
-/// orthonormality rows.
-pub(super) fn push_rigid(
-    bodies: &mut Bodies,
+/// The rigid body `b` declares (at `path`): its mass and inertia, pose and velocities.
+pub(super) fn rigid_body(
     b: &BodySpec,
-    i: usize,
+    inertia: &crate::scene::schema::InertiaSpec,
+    dim: usize,
     path: &FieldPath,
-    generated: &mut Vec<Declared>,
-) -> Result<()> {
-    let Some(inertia) = &b.inertia else {
-        return Ok(());
-    };
-    if bodies.dim != 3 {
+) -> Result<RigidBody> {
+    if dim != 3 {
         return Err(err(
             SceneErrorKind::Dimension,
             path.key("inertia"),
@@ -44,19 +39,44 @@ pub(super) fn push_rigid(
         Some(o) => o.resolve(&path.key("orientation"))?,
         None => crate::rigid::Rotation::identity(),
     };
-    let omega = vector_or(
-        &b.angular_velocity,
-        3,
-        &path.key("angular_velocity"),
-        [0.0; 3],
-    )?;
-    let q = vector(&b.position, 3, &path.key("position"))?;
-    let v = vector_or(&b.velocity, 3, &path.key("velocity"), [0.0; 3])?;
+    Ok(RigidBody {
+        mass,
+        inertia,
+        position: vector(&b.position, 3, &path.key("position"))?,
+        orientation,
+        velocity: vector_or(&b.velocity, 3, &path.key("velocity"), [0.0; 3])?,
+        angular_velocity: vector_or(
+            &b.angular_velocity,
+            3,
+            &path.key("angular_velocity"),
+            [0.0; 3],
+        )?,
+    })
+}
+
+/// Appends the rigid body `body` named `name` (declared at `bodies[i]`, `path`): its four slots
+/// and its orthonormality rows; returns its centre.
+pub(super) fn push_rigid(
+    bodies: &mut Bodies,
+    name: &str,
+    body: &RigidBody,
+    i: usize,
+    path: &FieldPath,
+    generated: &mut Vec<Declared>,
+) -> Result<usize> {
+    let RigidBody {
+        mass,
+        inertia,
+        position: q,
+        orientation,
+        velocity: v,
+        angular_velocity: omega,
+    } = *body;
     bodies.reserve(4, path)?;
     let axes = crate::rigid::Rotation(inertia.axes());
     let directors = orientation.then(&axes);
     let centre = bodies.push(Body {
-        name: b.name.clone(),
+        name: name.to_owned(),
         mass,
         q,
         v,
@@ -66,7 +86,7 @@ pub(super) fn push_rigid(
     for (k, &e) in inertia.director_masses().iter().enumerate() {
         let d = directors.column(k);
         bodies.push(Body {
-            name: format!("{}#d{}", b.name, k + 1),
+            name: format!("{name}#d{}", k + 1),
             mass: e,
             q: d,
             v: cross(omega, d),
@@ -74,7 +94,7 @@ pub(super) fn push_rigid(
             director: true,
         });
     }
-    bodies.add_group(&b.name, vec![centre], &path.key("name"))?;
+    bodies.add_group(name, vec![centre], &path.key("name"))?;
     bodies.rigid.push(RigidEntry {
         centre,
         orientation,
@@ -87,8 +107,8 @@ pub(super) fn push_rigid(
             crate::rigid::orthonormality(centre),
             3 * (centre + 4),
         )),
-        format!("bodies[{i}] '{}' directors", b.name),
+        format!("bodies[{i}] '{name}' directors"),
         path.clone(),
     ));
-    Ok(())
+    Ok(centre)
 }

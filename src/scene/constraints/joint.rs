@@ -4,7 +4,7 @@
 //! scene's slots as one [`Rows`] term.
 
 use super::{Constraint, Declared, rows::Rows};
-use crate::rigid::{BodyRef, Frames, JointKind, Rotation};
+use crate::rigid::{BodyRef, Frames, JointKind, Placement, Rotation};
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::validate::{Result, err, vector};
@@ -14,6 +14,9 @@ use crate::scene::validate::{Result, err, vector};
 pub(crate) struct Ends {
     pub(crate) a: usize,
     pub(crate) b: Option<usize>,
+    /// Where each named body sits in the body the end is (a member of a welded body: its
+    /// placement; otherwise the identity).
+    pub(crate) place: [Placement; 2],
 }
 
 impl Ends {
@@ -35,10 +38,10 @@ pub(crate) fn ends(sel: &[String], bodies: &Bodies, path: &FieldPath, kind: &str
         ));
     }
     let bp = path.key("bodies");
-    let one = |j: usize, s: &String| -> Result<usize> {
-        let v = bodies.select(s, &bp.index(j))?;
+    let one = |j: usize, s: &String| -> Result<(usize, Placement)> {
+        let (v, place) = bodies.joint_end(s, &bp.index(j))?;
         match v.as_slice() {
-            &[b] => Ok(b),
+            &[b] => Ok((b, place)),
             _ => Err(err(
                 SceneErrorKind::Reference,
                 bp.index(j),
@@ -47,20 +50,28 @@ pub(crate) fn ends(sel: &[String], bodies: &Bodies, path: &FieldPath, kind: &str
         }
     };
     match sel {
-        [a] => Ok(Ends {
-            a: one(0, a)?,
-            b: None,
-        }),
+        [a] => {
+            let (a, place) = one(0, a)?;
+            Ok(Ends {
+                a,
+                b: None,
+                place: [place, Placement::identity()],
+            })
+        }
         [a, b] => {
-            let (a, b) = (one(0, a)?, one(1, b)?);
+            let ((a, pa), (b, pb)) = (one(0, a)?, one(1, b)?);
             if a == b {
                 return Err(err(
                     SceneErrorKind::Value,
                     bp,
-                    "a joint joins two different bodies (or one body and the world)",
+                    "a joint joins two different bodies (or one body and the world; welded bodies are one)",
                 ));
             }
-            Ok(Ends { a, b: Some(b) })
+            Ok(Ends {
+                a,
+                b: Some(b),
+                place: [pa, pb],
+            })
         }
         _ => Err(err(
             SceneErrorKind::Value,
@@ -155,9 +166,18 @@ fn per_end(
                     ),
                 ));
             }
+            // A member of a welded body gives its values in its own frame.
+            let carry = |k: usize, x: [f64; 3]| {
+                let place = &ends.place[k];
+                if point {
+                    place.point(x)
+                } else {
+                    place.direction(x)
+                }
+            };
             Ok([
-                vector(&v[0], 3, &p.index(0))?,
-                vector(&v[1], 3, &p.index(1))?,
+                carry(0, vector(&v[0], 3, &p.index(0))?),
+                carry(1, vector(&v[1], 3, &p.index(1))?),
             ])
         }
         _ => Err(err(

@@ -27,6 +27,7 @@ mod rows;
 mod slider;
 mod sphere;
 mod universal;
+mod weld;
 
 pub use ball::BallSpec;
 pub use hinge::HingeSpec;
@@ -39,6 +40,7 @@ pub use slider::SliderSpec;
 pub(crate) use sphere::Sphere;
 pub use sphere::SphereSpec;
 pub use universal::UniversalSpec;
+pub use weld::WeldSpec;
 
 use crate::real::Real;
 use crate::scene::bodies::Bodies;
@@ -262,6 +264,8 @@ constraints! {
     Universal(universal::UniversalSpec) = "universal",
     /// A slider between bodies (3D): relative motion along one axis only.
     Slider(slider::SliderSpec) = "slider",
+    /// Two bodies fixed to one another, merged into one rigid body when the scene is compiled.
+    Weld(weld::WeldSpec) = "weld",
 }
 
 terms! {
