@@ -184,6 +184,20 @@ pub(crate) fn check_pivots<T: Real>(
     k: usize,
     pivot: impl Fn(usize) -> T,
 ) -> Result<(), LinearSolveError> {
+    check_pivots_of(k, k, pivot)
+}
+
+/// [`check_pivots`] for a factorization whose pivots are each formed from at most `terms`
+/// products (a sparse LU's longest column of `U`): the rounding of a pivot is bounded by
+/// `γ_terms` times the sizes it is formed from (Higham, *Accuracy and Stability of Numerical
+/// Algorithms*, 2nd ed., Thm 9.3, with the inner products' lengths those of the nonzeros), so
+/// a pivot below `terms · ε` times the largest is singular to working precision. A dense
+/// factorization's `terms` is `k`.
+pub(crate) fn check_pivots_of<T: Real>(
+    k: usize,
+    terms: usize,
+    pivot: impl Fn(usize) -> T,
+) -> Result<(), LinearSolveError> {
     let mut max = T::zero();
     for i in 0..k {
         let p = pivot(i).abs();
@@ -191,7 +205,7 @@ pub(crate) fn check_pivots<T: Real>(
             max = max.max(p);
         }
     }
-    let tol = T::lit(k.max(1) as f64) * T::epsilon() * max;
+    let tol = T::lit(terms.clamp(1, k.max(1)) as f64) * T::epsilon() * max;
     for i in 0..k {
         let p = pivot(i).abs();
         if !p.is_finite() || p <= tol || max == T::zero() {

@@ -1,4 +1,4 @@
-use super::{LinearSolver, Sink, SolverKind, check_pivots};
+use super::{LinearSolver, Sink, SolverKind, check_pivots_of};
 use crate::error::LinearSolveError;
 use crate::real::Real;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -275,8 +275,11 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for SparseLu<T> {
             },
         })?;
         let u = self.lu.u_factor_unsorted();
-        // U's pivot is the last entry of each (permuted) column.
-        check_pivots(k, |j| u.val_of_col(j).last().copied().unwrap_or(T::zero()))
+        // U's pivot is the last entry of each (permuted) column, formed from the others.
+        let terms = (0..k).map(|j| u.val_of_col(j).len()).max().unwrap_or(1);
+        check_pivots_of(k, terms, |j| {
+            u.val_of_col(j).last().copied().unwrap_or(T::zero())
+        })
             .map_err(|e| e.renumbered(|j| symbolic.col_perm().arrays().0[j]))?;
         self.factored = true;
         Ok(())
