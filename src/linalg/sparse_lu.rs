@@ -280,7 +280,7 @@ impl<T: Real + faer::traits::RealField> LinearSolver<T> for SparseLu<T> {
         check_pivots_of(k, terms, |j| {
             u.val_of_col(j).last().copied().unwrap_or(T::zero())
         })
-            .map_err(|e| e.renumbered(|j| symbolic.col_perm().arrays().0[j]))?;
+        .map_err(|e| e.renumbered(|j| symbolic.col_perm().arrays().0[j]))?;
         self.factored = true;
         Ok(())
     }

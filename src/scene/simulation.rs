@@ -165,6 +165,8 @@ pub struct SimulationCheckpoint {
     identity: Option<(String, u64)>,
     /// Events' values at the save, and how many had happened.
     events: Option<(Vec<f64>, usize)>,
+    /// The joint angles' unwrapping state at the save.
+    joints: Option<Vec<f64>>,
 }
 
 impl std::fmt::Debug for SimulationCheckpoint {
@@ -221,6 +223,17 @@ where
 impl<V: Vector<Real = f64>, Sys> ModelRun<V, Sys> {
     /// A step of `h` (`None`) or of `short` off the grid, watching the events if any.
     fn watched_step(&mut self, short: Option<f64>) -> Result<(), StepError> {
+        self.events_step(short)?;
+        if let Some(w) = &self.watch {
+            // Joint angles unwrap against the last step's (less than half a turn a step).
+            w.joints
+                .advance(&self.stepper.state().as_slice()[..self.stepper.state().len() / 2]);
+        }
+        Ok(())
+    }
+
+    /// A step of `h` (`None`) or of `short`, locating the events if any.
+    fn events_step(&mut self, short: Option<f64>) -> Result<(), StepError> {
         let Some(Watch {
             events: Some(events),
             ..
@@ -312,6 +325,7 @@ where
             state: Box::new(checkpoint),
             identity: self.identity.clone(),
             events,
+            joints: self.watch.as_ref().map(|w| w.joints.save()),
         }
     }
     fn set_identity(&mut self, name: String, fingerprint: u64) {
@@ -335,6 +349,9 @@ where
                 events.set_values(values);
             }
             w.log.truncate(*logged);
+        }
+        if let (Some(w), Some(saved)) = (self.watch.as_ref(), &checkpoint.joints) {
+            w.joints.restore(saved);
         }
         Ok(())
     }

@@ -34,6 +34,9 @@ pub(crate) struct Watch<V: Vector> {
     pub(crate) supplied: bool,
     /// The flow books the energy dissipated (damping in a splitting).
     pub(crate) dissipated: bool,
+    /// The joints' coordinates the outputs and events read, with the run's unwrapping state
+    /// (shared with the events' functions).
+    pub(crate) joints: Arc<crate::scene::ports::JointTable>,
 }
 
 impl<V: Vector<Real = f64>> Watch<V> {
@@ -63,6 +66,7 @@ impl<V: Vector<Real = f64>> Watch<V> {
             x,
             multipliers,
             energies,
+            joints: &self.joints,
         };
         let scratch = &mut self.scratch;
         out.extend(self.outputs.iter().map(|o| o.value(&at, scratch)));

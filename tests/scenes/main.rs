@@ -22,6 +22,7 @@ mod scene_hidden;
 mod scene_hinge_limit;
 mod scene_implicit_inputs;
 mod scene_joint_elements;
+mod scene_joint_position;
 mod scene_modelling;
 mod scene_ports;
 mod scene_rigid;

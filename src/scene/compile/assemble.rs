@@ -174,7 +174,7 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
     };
     model.state_names = columns::state_names(&bodies);
     model.multiplier_names = columns::multiplier_names(&model, &bodies, file);
-    let rows = ConstraintRows::new(
+    let mut rows = ConstraintRows::new(
         declared,
         model
             .constraints
@@ -188,6 +188,7 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
         dropped_constraints.clone(),
         !file.flags.constraints,
     );
+    rows.joints = Arc::new(crate::scene::ports::joint_table(file, &bodies)?);
     let model = Arc::new(model);
     let n = model.state_len();
     let nq = n / 2;

@@ -256,8 +256,14 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
     let outputs = compile_outputs(&file.outputs, &bodies, dim, model.inputs.as_ref(), &rows)?;
     super::ports::check_joint_reads(&outputs, &model)?;
     // Compiled here for the checks (and again for a stack state's run).
-    let _: SceneEvents<Col<f64>> =
-        compile_events(&file.events, &bodies, dim, model.inputs.as_ref(), &model)?;
+    let _: SceneEvents<Col<f64>> = compile_events(
+        &file.events,
+        &bodies,
+        dim,
+        model.inputs.as_ref(),
+        &model,
+        &rows.joints,
+    )?;
     let assembly = Assembly {
         name: file.name.clone().unwrap_or_else(|| "scene".to_owned()),
         dim: Some(dim),
@@ -312,6 +318,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             specs: &file.events,
             bodies: &bodies,
             dim,
+            joints: rows.joints.clone(),
         },
         // The splittings and Petrov–Galerkin book the damping exactly, the discrete gradient
         // its `−h v̄ᵀB v̄` (the midpoint rule does not: its power is integrated).

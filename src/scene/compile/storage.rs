@@ -40,6 +40,8 @@ pub(super) struct EventSource<'a> {
     pub(super) specs: &'a [EventSpec],
     pub(super) bodies: &'a crate::scene::bodies::Bodies,
     pub(super) dim: usize,
+    /// The joints' coordinates the outputs and events read (their unwrapping is the run's).
+    pub(super) joints: Arc<crate::scene::ports::JointTable>,
 }
 
 /// The run of a compiled scene: the splitting `raise`d again on a stack state when `stack` is
@@ -91,6 +93,7 @@ fn run_on<V: Vector<Real = f64> + 'static>(
             parts.events.dim,
             model.inputs.as_ref(),
             model,
+            &parts.events.joints,
         )?
     };
     let system = System::new(model.clone(), model.clone(), model.clone());
@@ -100,6 +103,7 @@ fn run_on<V: Vector<Real = f64> + 'static>(
         || !parts.outputs.is_empty()
         || !events.is_empty()
         || parts.books_dissipation
+        || parts.events.joints.any_read()
     {
         run.watch = Some(Watch {
             model: model.clone(),
@@ -110,6 +114,7 @@ fn run_on<V: Vector<Real = f64> + 'static>(
             log: Vec::new(),
             supplied: model.inputs.is_some(),
             dissipated: parts.books_dissipation,
+            joints: parts.events.joints.clone(),
         });
     }
     Ok(Box::new(run))

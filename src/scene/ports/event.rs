@@ -69,6 +69,9 @@ pub struct EventSpec {
     /// The input of an input's quantity.
     #[serde(default)]
     pub input: Option<String>,
+    /// The joint of a joint's coordinate (`joint-position`, `joint-velocity`): its name.
+    #[serde(default)]
+    pub constraint: Option<String>,
     /// The level crossed (default 0).
     #[serde(default)]
     pub value: f64,
@@ -91,6 +94,7 @@ pub(crate) fn compile_events<V: Vector<Real = f64> + 'static>(
     dim: usize,
     inputs: Option<&SceneInputs<f64>>,
     model: &Arc<SceneModel>,
+    joints: &Arc<super::JointTable>,
 ) -> Result<SceneEvents<V>> {
     let root = FieldPath::root().key("events");
     let mut events = Vec::new();
@@ -156,16 +160,17 @@ pub(crate) fn compile_events<V: Vector<Real = f64> + 'static>(
                         body: spec.body.clone(),
                         component: spec.component,
                         input: spec.input.clone(),
-                        constraint: None,
+                        constraint: spec.constraint.clone().map(super::ConstraintRef::Name),
                     },
                     bodies,
                     dim,
                     inputs,
-                    &super::ConstraintRows::default(),
+                    &super::ConstraintRows::joints_only(joints.clone()),
                     &path,
                     true,
                 )?;
                 let model = model.clone();
+                let joints = joints.clone();
                 let mut scratch =
                     Scratch::new(model.state_len(), inputs.map_or(0, |i| i.names.len()));
                 Event::new(
@@ -176,6 +181,7 @@ pub(crate) fn compile_events<V: Vector<Real = f64> + 'static>(
                             x: x.as_slice(),
                             multipliers: None,
                             energies: (0.0, 0.0),
+                            joints: &joints,
                         };
                         out.value(&at, &mut scratch) - level
                     },

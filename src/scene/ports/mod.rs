@@ -10,6 +10,7 @@
 mod event;
 mod expr;
 mod input;
+mod joint_position;
 mod output;
 mod rigid_reads;
 mod rows;
@@ -23,6 +24,7 @@ pub use signal::SignalSpec;
 
 pub(crate) use event::{SceneEvents, compile_events};
 pub(crate) use input::InputTerm;
+pub(crate) use joint_position::{JointTable, joint_table};
 pub(crate) use output::{At, CompiledOutput, Scratch, check_joint_reads, compile_outputs};
 pub(crate) use rows::ConstraintRows;
 

@@ -50,6 +50,11 @@ pub enum Quantity {
     /// The torque a joint exerts on its first body about that body's centre, world frame, N m:
     /// `Σᵢ dᵢ × (−Σ λ_r ∂g_r/∂dᵢ)` over its directors.
     JointTorque,
+    /// A joint's coordinate (`constraint`: a named hinge or slider): the hinge's angle (rad),
+    /// unwrapped across turns, or the slider's displacement (m), zero at the initial poses.
+    JointPosition,
+    /// Its rate (rad/s, m/s).
+    JointVelocity,
     /// `H`.
     Energy,
     /// The kinetic energy.
@@ -104,6 +109,8 @@ pub(crate) enum Read {
     ConstraintForce(usize, usize),
     Rigid(RigidRead),
     Joint(JointRead),
+    /// A joint's coordinate (its index in the joint table), or its rate.
+    Coordinate(usize, bool),
     Energy,
     Kinetic,
     Supplied,
@@ -119,6 +126,8 @@ pub(crate) struct At<'a> {
     pub(crate) multipliers: Option<(&'a [f64], &'a [f64])>,
     /// `(supplied, dissipated)` so far.
     pub(crate) energies: (f64, f64),
+    /// The joints' coordinates and the run's unwrapping state.
+    pub(crate) joints: &'a super::JointTable,
 }
 
 /// Buffers for the outputs that evaluate `H` or `∇H` (allocated once, per watcher).
@@ -182,6 +191,16 @@ impl CompiledOutput {
             }
             Read::Rigid(r) => r.value(at.x, &model.inv_masses),
             Read::Joint(j) => j.value(model, at.x, at.multipliers),
+            Read::Coordinate(j, false) => at.joints.position(j, &at.x[..nq]),
+            Read::Coordinate(j, true) => {
+                // v = W⁻¹ p, written into the scratch (allocates nothing).
+                let v = scratch.grad.as_mut_slice();
+                let d = model.dim;
+                for (i, vi) in v[..nq].iter_mut().enumerate() {
+                    *vi = at.x[nq + i] * model.inv_masses[i / d];
+                }
+                at.joints.velocity(j, &at.x[..nq], &v[..nq])
+            }
             Read::Energy => model.energy(scratch.state(at.x)),
             Read::Kinetic => model.kinetic_energy(at.x),
             Read::Supplied => at.energies.0,
@@ -324,7 +343,7 @@ pub(crate) fn compile_read(
             return Err(err(
                 SceneErrorKind::Unsupported,
                 path.key("quantity"),
-                "an event watches the state and time: positions, velocities, momenta, inputs, port outputs, powers and energies, not multipliers, constraint forces or the energy ledger",
+                "an event watches the state and time: positions, velocities, momenta, joint coordinates, inputs, port outputs, powers and energies, not multipliers, constraint forces or the energy ledger",
             ));
         }
         Quantity::Multiplier => {
@@ -375,6 +394,42 @@ pub(crate) fn compile_read(
                 }),
                 format!("{what}_{joint}.{}", axis[k]),
             )
+        }
+        Quantity::JointPosition | Quantity::JointVelocity => {
+            let rate = spec.quantity == Quantity::JointVelocity;
+            let at = path.key("constraint");
+            let name = match spec.constraint.as_ref() {
+                Some(ConstraintRef::Name(n)) => n,
+                _ => {
+                    return Err(err(
+                        SceneErrorKind::Value,
+                        at,
+                        "a joint's coordinate names its joint: `constraint = \"<name of a hinge or slider>\"`",
+                    ));
+                }
+            };
+            let j = rows.joints.find(name).ok_or_else(|| {
+                let named = rows.joints.names();
+                err(
+                    SceneErrorKind::Reference,
+                    at.clone(),
+                    format!(
+                        "'{name}' is not a named hinge or slider (named: {})",
+                        if named.is_empty() {
+                            "none".to_owned()
+                        } else {
+                            named.join(", ")
+                        }
+                    ),
+                )
+            })?;
+            let (what, unit) = match (rows.joints.is_angle(j), rate) {
+                (true, false) => ("angle", ""),
+                (true, true) => ("angle", "_rate"),
+                (false, false) => ("displacement", ""),
+                (false, true) => ("displacement", "_rate"),
+            };
+            (Read::Coordinate(j, rate), format!("{what}{unit}_{name}"))
         }
         Quantity::Energy => (Read::Energy, "H".to_owned()),
         Quantity::Kinetic => (Read::Kinetic, "kinetic".to_owned()),

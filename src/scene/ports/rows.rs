@@ -49,6 +49,8 @@ pub(crate) struct ConstraintRows {
     dropped: Vec<String>,
     /// `[flags] constraints = false`.
     all_off: bool,
+    /// The named hinges' and sliders' coordinates (`joint-position`, `joint-velocity`).
+    pub(crate) joints: std::sync::Arc<super::JointTable>,
 }
 
 impl ConstraintRows {
@@ -88,6 +90,15 @@ impl ConstraintRows {
             off,
             dropped,
             all_off,
+            joints: std::sync::Arc::default(),
+        }
+    }
+
+    /// No rows; the joints' coordinates `joints` (what an event may read).
+    pub(crate) fn joints_only(joints: std::sync::Arc<super::JointTable>) -> Self {
+        Self {
+            joints,
+            ..Self::default()
         }
     }
 
