@@ -27,7 +27,9 @@ mod weld;
 pub use body::RigidBody;
 pub(crate) use body::orthonormality;
 pub use drift::MultibodyDrift;
-pub use elements::{HingeAngle, JointCoordinate, JointDamper, JointSpring, SliderDisplacement};
+pub use elements::{
+    Coordinate, HingeAngle, JointCoordinate, JointDamper, JointSpring, SliderDisplacement,
+};
 pub(crate) use frames::Entry;
 pub use frames::{Affine, Frames};
 pub use inertia::Inertia;

@@ -556,7 +556,7 @@ impl SceneModel {
         if let Some(t) = &self.hinge_dampers {
             out.push(EffectReport {
                 name: t.label.clone(),
-                kind: "hinge-damper",
+                kind: t.kind(),
                 evaluations: t.counter.evaluations(),
                 time_share: None,
             });

@@ -1,14 +1,17 @@
 //! Force elements on joint coordinates: a hinge's angle ([`HingeAngle`]), a slider's
 //! displacement ([`SliderDisplacement`]), a spring on the angle
 //! ([`JointSpring`], a potential of the positions: part of the kick), and a damper on its rate
-//! along the constraint-consistent direction ([`JointDamper`], an exact flow of the momenta).
+//! along the constraint-consistent direction ([`JointDamper`], an exact flow of the momenta);
+//! [`Coordinate`] either coordinate.
 
 use crate::real::Real;
 
+mod coordinate;
 mod damper;
 mod hinge_angle;
 mod slider_displacement;
 
+pub use coordinate::Coordinate;
 pub(crate) use damper::DamperScratch;
 pub use damper::JointDamper;
 pub use hinge_angle::HingeAngle;

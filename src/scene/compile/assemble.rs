@@ -135,7 +135,7 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
             .chain(
                 fx.hinge_dampers
                     .iter()
-                    .map(|t| (t.label.clone(), "hinge-damper".to_owned())),
+                    .map(|t| (t.label.clone(), t.kind().to_owned())),
             )
             .chain(
                 fx.magnetic

@@ -54,7 +54,7 @@ pub(super) fn implicit_flow(
             SceneErrorKind::Unsupported,
             FieldPath::root().key("integrator").key("scheme"),
             format!(
-                "'{}' does not take hinge dampers: their exact flow along the constraint-consistent direction joins the splitting's kick, and the implicit schemes' M does not hold them; use scheme = \"auto\" (order 2) or \"extrapolation\" (order 4 and up)",
+                "'{}' does not take hinge or slider dampers: their exact flow along the constraint-consistent direction joins the splitting's kick, and the implicit schemes' M does not hold them; use scheme = \"auto\" (order 2) or \"extrapolation\" (order 4 and up)",
                 file.integrator.scheme
             ),
         )));

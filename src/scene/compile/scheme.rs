@@ -335,7 +335,7 @@ fn scene_kick<V: Vector + 'static>(
     let joints = HingeDamperFlow::new(model.clone());
     if joints.as_ref().is_some_and(|j| !j.is_consistent()) {
         return Err(SetupError::InvalidParameter {
-            name: "hinge-damper".to_owned(),
+            name: "joint damper (hinge-damper, slider-damper)".to_owned(),
             value: f64::NAN,
             requirement: "a constrained scene in f64: the damper's constraint-consistent direction is formed with the scene's f64 Gram matrix (a reference run in another scalar is not supported)",
         });

@@ -50,7 +50,8 @@ impl Effect for HingeDamperSpec {
             "damper coefficient",
         )?;
         if on && c > 0.0 {
-            cx.hinge_dampers.push((angle, c));
+            cx.hinge_dampers
+                .push((crate::rigid::Coordinate::Angle(angle), c));
             cx.hinge_damper_labels.push(label.to_owned());
         }
         Ok(None)

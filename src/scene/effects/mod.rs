@@ -21,6 +21,7 @@ mod hinge_limit;
 mod magnetic;
 mod pair;
 mod radial;
+mod slider_damper;
 mod slider_spring;
 mod spring;
 mod torsion;
@@ -34,6 +35,7 @@ pub use hinge_damper::HingeDamperSpec;
 pub use hinge_limit::HingeLimitSpec;
 pub use magnetic::MagneticSpec;
 pub use pair::{MAX_PAIRS, PairSpec};
+pub use slider_damper::SliderDamperSpec;
 pub use slider_spring::SliderSpringSpec;
 pub use spring::SpringSpec;
 pub use torsion::TorsionSpringSpec;
@@ -65,9 +67,9 @@ pub(crate) struct Assembler<'a> {
     pub(crate) dashpots: Vec<(usize, usize, f64)>,
     /// Labels of the dashpots that are on.
     pub(crate) dashpot_labels: Vec<String>,
-    /// `(θ, c)` per hinge damper that is on with `c > 0`.
-    pub(crate) hinge_dampers: Vec<(crate::rigid::HingeAngle, f64)>,
-    /// Labels of the hinge dampers that are on.
+    /// `(coordinate, c)` per hinge or slider damper that is on with `c > 0`.
+    pub(crate) hinge_dampers: Vec<(crate::rigid::Coordinate, f64)>,
+    /// Labels of the hinge and slider dampers that are on.
     pub(crate) hinge_damper_labels: Vec<String>,
 }
 
@@ -195,6 +197,8 @@ effects! {
     Dashpot(dashpot::DashpotSpec) = "dashpot",
     /// A damper on a hinge's angle between rigid bodies, the torque `−c θ'`: a term of `R` along the constraint-consistent direction.
     HingeDamper(hinge_damper::HingeDamperSpec) = "hinge-damper",
+    /// A damper on a slider's displacement between rigid bodies, the force `−c d'`: a term of `R` along the constraint-consistent direction.
+    SliderDamper(slider_damper::SliderDamperSpec) = "slider-damper",
     /// A uniform magnetic field on charged bodies, `p_b' = … + e_b v_b × B`: a non-canonical `J`.
     Magnetic(magnetic::MagneticSpec) = "magnetic",
 }

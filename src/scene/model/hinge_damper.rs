@@ -1,5 +1,6 @@
-//! Dampers on hinges' angles: the torque `−c θ'` between two rigid bodies about their common
-//! axis, and its exact flow along the constraint-consistent direction
+//! Dampers on joints' coordinates — a hinge's angle (the torque `−c θ'` between two rigid bodies
+//! about their common axis) or a slider's displacement (the force `−c d'` along its axis) — and
+//! their exact flow along the constraint-consistent direction
 //! (`../shared/docs/METHOD.md` §8, "the trap"; the library's `rigid::JointDamper`).
 //!
 //! The rate is `θ' = wᵀW⁻¹p` with `w = ∇θ(q)`. Along `w` itself the damper's force fights the
@@ -29,17 +30,34 @@ use super::dashpot::ConsistentMomentum;
 use crate::error::StepError;
 use crate::flow::{Flow, Ledger};
 use crate::real::Real;
-use crate::rigid::HingeAngle;
+use crate::rigid::{Coordinate, JointCoordinate};
 use crate::scene::counter::Counter;
 use crate::vector::Vector;
 use std::sync::Arc;
 
-/// The hinge dampers of a scene: `(θ, c)` each, and the label and counter of the term.
+/// The hinge and slider dampers of a scene: `(coordinate, c)` each, and the label and counter
+/// of the term.
 #[derive(Debug)]
 pub(crate) struct HingeDampers<T> {
     pub(crate) label: String,
-    pub(crate) dampers: Vec<(HingeAngle, T)>,
+    pub(crate) dampers: Vec<(Coordinate, T)>,
     pub(crate) counter: Counter,
+}
+
+impl<T> HingeDampers<T> {
+    /// The effect kind in summaries: `hinge-damper`, `slider-damper`, or `joint-damper` for both.
+    pub(crate) fn kind(&self) -> &'static str {
+        let angles = self
+            .dampers
+            .iter()
+            .filter(|(c, _)| matches!(c, Coordinate::Angle(_)))
+            .count();
+        match angles {
+            0 => "slider-damper",
+            n if n == self.dampers.len() => "hinge-damper",
+            _ => "joint-damper",
+        }
+    }
 }
 
 impl<T: Real> HingeDampers<T> {

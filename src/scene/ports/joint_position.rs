@@ -9,18 +9,9 @@
 //! less than half a turn in a step (a step that resolves the motion turns it far less). Events
 //! read the same value, so a level such as `θ = 2π` is crossed once, a turn in.
 
-use crate::rigid::{HingeAngle, JointCoordinate, SliderDisplacement};
+use crate::rigid::{Coordinate, JointCoordinate};
 use std::f64::consts::{PI, TAU};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
-/// A named joint's coordinate.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) enum Coordinate {
-    /// A hinge's angle (rad).
-    Angle(HingeAngle),
-    /// A slider's displacement (m).
-    Displacement(SliderDisplacement),
-}
 
 /// The coordinates of the scene's named hinges and sliders, and a run's unwrapping state: for
 /// each angle, the last unwrapped value, and whether anything reads it.
@@ -84,10 +75,7 @@ impl JointTable {
 
     /// Joint `j`'s rate `∇c(q) · v` at velocities `v`.
     pub(crate) fn velocity(&self, j: usize, q: &[f64], v: &[f64]) -> f64 {
-        match &self.joints[j].1 {
-            Coordinate::Angle(a) => JointCoordinate::derivative(a, q, v),
-            Coordinate::Displacement(d) => JointCoordinate::derivative(d, q, v),
-        }
+        self.joints[j].1.derivative(q, v)
     }
 
     /// After a step to positions `q`: every read angle's reference moves to its unwrapped value.
