@@ -277,7 +277,7 @@ fn the_implicit_schemes_refuse_hinge_dampers_by_name() {
             .expect_err("refused");
         let shown = e.to_string();
         assert!(
-            shown.contains("integrator.scheme") && shown.contains("hinge dampers"),
+            shown.contains("integrator.scheme") && shown.contains("hinge or slider dampers"),
             "{shown}"
         );
     }
