@@ -26,6 +26,7 @@ mod scene_joint_position;
 mod scene_modelling;
 mod scene_ports;
 mod scene_rigid;
+mod scene_slider_limit;
 mod scene_slider_spring;
 mod scene_taut_chain;
 mod scene_unconstrained;

@@ -1,5 +1,5 @@
 //! A hinge's stops as one-sided springs (a penalty contact law): with `θ` the angle about the
-//! hinge's axis from the initial poses ([`HingeAngle`], taken in `(−π, π]`) and the stops
+//! hinge's axis from the initial poses ([`crate::rigid::HingeAngle`], taken in `(−π, π]`) and the stops
 //! `θ_min < θ_max`,
 //!
 //! ```text
@@ -19,7 +19,7 @@
 use super::coordinate::{slot_pairs, spring_hessian_add};
 use super::{Assembler, Effect, Potential, PotentialOps};
 use crate::real::Real;
-use crate::rigid::HingeAngle;
+use crate::rigid::{Coordinate, JointCoordinate};
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::names::Flag;
 use crate::scene::validate::{Result, err, finite, positive};
@@ -50,12 +50,13 @@ pub struct HingeLimitSpec {
     pub max_deg: Option<f64>,
 }
 
-/// The one-sided springs of a hinge's stops.
+/// The one-sided springs of a joint's stops: a hinge's (its angle, radians) or a slider's (its
+/// displacement, metres: `slider_limit.rs`).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct HingeLimit<T> {
-    angle: HingeAngle,
+    coordinate: Coordinate,
     stiffness: T,
-    /// The stops in radians (`−∞`/`+∞` for a side without one).
+    /// The stops in the coordinate's unit (`−∞`/`+∞` for a side without one).
     min: T,
     max: T,
     slots: Vec<usize>,
@@ -114,21 +115,32 @@ impl Effect for HingeLimitSpec {
                 ),
             ));
         }
-        let slots = angle.slots();
-        Ok(Some(Potential::HingeLimit(HingeLimit {
-            angle,
-            stiffness: k,
+        Ok(Some(Potential::HingeLimit(HingeLimit::new(
+            Coordinate::Angle(angle),
+            k,
             min,
             max,
-            slots,
-        })))
+        ))))
     }
 }
 
 impl HingeLimit<f64> {
+    /// Stops `min < max` (either infinite for a side without one) of stiffness `k` on
+    /// `coordinate`.
+    pub(super) fn new(coordinate: Coordinate, k: f64, min: f64, max: f64) -> Self {
+        let slots = coordinate.slots();
+        Self {
+            coordinate,
+            stiffness: k,
+            min,
+            max,
+            slots,
+        }
+    }
+
     pub(crate) fn with_scalar<U: Real>(&self) -> HingeLimit<U> {
         HingeLimit {
-            angle: self.angle.clone(),
+            coordinate: self.coordinate.clone(),
             stiffness: U::lit(self.stiffness),
             min: U::lit(self.min),
             max: U::lit(self.max),
@@ -138,10 +150,10 @@ impl HingeLimit<f64> {
 }
 
 impl<T: Real> HingeLimit<T> {
-    /// How far past a stop the angle is (`θ − θ_max > 0`, `θ − θ_min < 0`), zero between them
-    /// (`θ` in `(−π, π]`, as [`HingeAngle::value`] gives it).
+    /// How far past a stop the coordinate is (`θ − θ_max > 0`, `θ − θ_min < 0`), zero between
+    /// them (an angle in `(−π, π]`, as [`crate::rigid::HingeAngle::value`] gives it).
     fn overshoot(&self, q: &[T]) -> T {
-        let theta = self.angle.value(q);
+        let theta = self.coordinate.value(q);
         if theta > self.max {
             theta - self.max
         } else if theta < self.min {
@@ -160,14 +172,15 @@ impl<T: Real> PotentialOps<T> for HingeLimit<T> {
     fn gradient_add(&self, q: &[T], _d: usize, alpha: T, out: &mut [T]) {
         let o = self.overshoot(q);
         if o != T::zero() {
-            self.angle.gradient_add(q, alpha * self.stiffness * o, out);
+            self.coordinate
+                .gradient_add(q, alpha * self.stiffness * o, out);
         }
     }
     /// `k (∇θ·v) ∇θ + k o ∇²θ v` past a stop, zero between them.
     fn hessian_apply_add(&self, q: &[T], _d: usize, v: &[T], out: &mut [T]) {
         let o = self.overshoot(q);
         if o != T::zero() {
-            spring_hessian_add(&self.angle, q, v, self.stiffness, o, out);
+            spring_hessian_add(&self.coordinate, q, v, self.stiffness, o, out);
         }
     }
     fn is_quadratic(&self) -> bool {

@@ -22,6 +22,7 @@ mod magnetic;
 mod pair;
 mod radial;
 mod slider_damper;
+mod slider_limit;
 mod slider_spring;
 mod spring;
 mod torsion;
@@ -36,6 +37,7 @@ pub use hinge_limit::HingeLimitSpec;
 pub use magnetic::MagneticSpec;
 pub use pair::{MAX_PAIRS, PairSpec};
 pub use slider_damper::SliderDamperSpec;
+pub use slider_limit::SliderLimitSpec;
 pub use slider_spring::SliderSpringSpec;
 pub use spring::SpringSpec;
 pub use torsion::TorsionSpringSpec;
@@ -187,6 +189,8 @@ effects! {
     HingeLimit(hinge_limit::HingeLimitSpec) = "hinge-limit",
     /// A spring along a slider's axis between rigid bodies, `V = k/2 (d − d₀)²`.
     SliderSpring(slider_spring::SliderSpringSpec) = "slider-spring",
+    /// A slider's stops as one-sided springs, `V = k/2 (d − d_max)²` past the upper one, `k/2 (d_min − d)²` past the lower.
+    SliderLimit(slider_limit::SliderLimitSpec) = "slider-limit",
     /// A pair potential between every two bodies of a group.
     Pair(pair::PairSpec) = "pair",
     /// A harmonic trap `V = k/2 Σ |q_b − c|²`.
