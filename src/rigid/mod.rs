@@ -28,7 +28,7 @@ pub use body::RigidBody;
 pub(crate) use body::orthonormality;
 pub use drift::MultibodyDrift;
 pub use elements::{
-    Coordinate, HingeAngle, JointCoordinate, JointDamper, JointSpring, SliderDisplacement,
+    Coordinate, Distance, HingeAngle, JointCoordinate, JointDamper, JointSpring, SliderDisplacement,
 };
 pub(crate) use frames::Entry;
 pub use frames::{Affine, Frames};

@@ -18,6 +18,7 @@ mod scene_bricard;
 mod scene_damping_account;
 mod scene_errors;
 mod scene_flight;
+mod scene_governor;
 mod scene_hidden;
 mod scene_hinge_limit;
 mod scene_implicit_inputs;

@@ -8,12 +8,14 @@ use crate::real::Real;
 
 mod coordinate;
 mod damper;
+mod distance;
 mod hinge_angle;
 mod slider_displacement;
 
 pub use coordinate::Coordinate;
 pub(crate) use damper::DamperScratch;
 pub use damper::JointDamper;
+pub use distance::Distance;
 pub use hinge_angle::HingeAngle;
 pub use slider_displacement::SliderDisplacement;
 
@@ -56,7 +58,7 @@ macro_rules! joint_coordinate {
     )+};
 }
 
-joint_coordinate!(HingeAngle, SliderDisplacement);
+joint_coordinate!(HingeAngle, SliderDisplacement, Distance);
 
 /// A spring `½ k (θ − θ₀)²` on a hinge's angle.
 #[derive(Debug, Clone, PartialEq)]

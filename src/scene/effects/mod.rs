@@ -18,6 +18,7 @@ mod dashpot;
 mod gravity;
 mod hinge_damper;
 mod hinge_limit;
+mod line_damper;
 mod magnetic;
 mod pair;
 mod radial;
@@ -34,6 +35,7 @@ pub use dashpot::DashpotSpec;
 pub use gravity::GravitySpec;
 pub use hinge_damper::HingeDamperSpec;
 pub use hinge_limit::HingeLimitSpec;
+pub use line_damper::LineDamperSpec;
 pub use magnetic::MagneticSpec;
 pub use pair::{MAX_PAIRS, PairSpec};
 pub use slider_damper::SliderDamperSpec;
@@ -203,6 +205,8 @@ effects! {
     HingeDamper(hinge_damper::HingeDamperSpec) = "hinge-damper",
     /// A damper on a slider's displacement between rigid bodies, the force `−c d'`: a term of `R` along the constraint-consistent direction.
     SliderDamper(slider_damper::SliderDamperSpec) = "slider-damper",
+    /// A damper along the line between two bodies' points, the force `−c r'`: a spring-damper element's damper, along the constraint-consistent direction.
+    LineDamper(line_damper::LineDamperSpec) = "line-damper",
     /// A uniform magnetic field on charged bodies, `p_b' = … + e_b v_b × B`: a non-canonical `J`.
     Magnetic(magnetic::MagneticSpec) = "magnetic",
 }

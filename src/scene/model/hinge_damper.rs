@@ -47,15 +47,19 @@ pub(crate) struct HingeDampers<T> {
 impl<T> HingeDampers<T> {
     /// The effect kind in summaries: `hinge-damper`, `slider-damper`, or `joint-damper` for both.
     pub(crate) fn kind(&self) -> &'static str {
-        let angles = self
+        let kind = |c: &Coordinate| match c {
+            Coordinate::Angle(_) => "hinge-damper",
+            Coordinate::Displacement(_) => "slider-damper",
+            Coordinate::Distance(_) => "line-damper",
+        };
+        let first = self
             .dampers
-            .iter()
-            .filter(|(c, _)| matches!(c, Coordinate::Angle(_)))
-            .count();
-        match angles {
-            0 => "slider-damper",
-            n if n == self.dampers.len() => "hinge-damper",
-            _ => "joint-damper",
+            .first()
+            .map_or("hinge-damper", |(c, _)| kind(c));
+        if self.dampers.iter().all(|(c, _)| kind(c) == first) {
+            first
+        } else {
+            "joint-damper"
         }
     }
 }

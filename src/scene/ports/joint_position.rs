@@ -69,7 +69,7 @@ impl JointTable {
                 let r = self.reference(j);
                 r + wrap(a.value(q) - r)
             }
-            Coordinate::Displacement(d) => d.value(q),
+            c => c.value(q),
         }
     }
 
