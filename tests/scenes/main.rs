@@ -27,6 +27,7 @@ mod scene_joint_position;
 mod scene_modelling;
 mod scene_ports;
 mod scene_rigid;
+mod scene_servo;
 mod scene_slider_limit;
 mod scene_slider_spring;
 mod scene_taut_chain;

@@ -65,6 +65,64 @@ fn finite_at_start(
     ))
 }
 
+/// The spring `½ k_p θ²` and damper `k_d` of each `hinge-servo` input, as the effects they are
+/// (labelled `<servo> spring`, `<servo> damper`); its motor torque is the input itself.
+fn servo_parts(file: &SceneFile, cx: &mut Assembler<'_>, fx: &mut Effects) -> Result<()> {
+    use crate::scene::effects::{EffectSpec, HingeDamperSpec, TorsionSpringSpec};
+    use crate::scene::ports::InputSpec;
+    let root = FieldPath::root().key("inputs");
+    for (i, input) in file.inputs.iter().enumerate() {
+        let InputSpec::HingeServo {
+            name,
+            bodies,
+            axis,
+            axes,
+            stiffness,
+            damping,
+            ..
+        } = input
+        else {
+            continue;
+        };
+        let path = root.index(i);
+        let mut parts = vec![(
+            format!("{name} spring"),
+            EffectSpec::TorsionSpring(TorsionSpringSpec {
+                name: None,
+                bodies: bodies.clone(),
+                axis: axis.clone(),
+                axes: axes.clone(),
+                stiffness: *stiffness,
+                rest_angle_deg: None,
+            }),
+        )];
+        crate::scene::validate::non_negative(*damping, &path.key("damping"), "damping")?;
+        if *damping > 0.0 {
+            parts.push((
+                format!("{name} damper"),
+                EffectSpec::HingeDamper(HingeDamperSpec {
+                    name: None,
+                    bodies: bodies.clone(),
+                    axis: axis.clone(),
+                    axes: axes.clone(),
+                    coefficient: *damping,
+                }),
+            ));
+        }
+        for (label, part) in parts {
+            if let Some(potential) = part.assemble(cx, &path, &label, true)? {
+                fx.potentials.push(PotentialTerm {
+                    label,
+                    kind: part.kind(),
+                    potential,
+                    counter: Counter::default(),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
 pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effects> {
     let n = bodies.list.len();
     let mut fx = Effects {
@@ -110,6 +168,7 @@ pub(super) fn assemble_effects(file: &SceneFile, bodies: &Bodies) -> Result<Effe
             });
         }
     }
+    servo_parts(file, &mut cx, &mut fx)?;
     let Assembler {
         damping,
         mut damping_labels,

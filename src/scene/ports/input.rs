@@ -62,6 +62,31 @@ pub enum InputSpec {
         /// `u(t)`, N m.
         signal: SignalSpec,
     },
+    /// A position servo on a hinge: the torque `k_p (θ_ref(t) − θ) − k_d θ'` about the axis (PD
+    /// with the derivative on the measured angle), its reference `θ_ref` the signal (rad, from
+    /// the initial poses, within half a turn of them). It is compiled as what it is: a torsion
+    /// spring `½ k_p θ²` and a hinge damper `k_d` (the run's energy and dissipation) and the
+    /// motor torque `k_p θ_ref(t)` (`B = k_p ∇θ`: its port output is `k_p θ'`, its power the
+    /// servo's work `k_p θ_ref θ'`, booked as supplied).
+    HingeServo {
+        /// Unique name.
+        name: String,
+        /// One rigid body (turned against the world) or two, the first rigid.
+        bodies: Vec<String>,
+        /// The axis in the world at the start.
+        #[serde(default)]
+        axis: Option<Vec<f64>>,
+        /// Or: the axis in each body's frame.
+        #[serde(default)]
+        axes: Option<Vec<Vec<f64>>>,
+        /// `k_p > 0`, N m per radian.
+        stiffness: f64,
+        /// `k_d ≥ 0`, N m s per radian (default 0).
+        #[serde(default)]
+        damping: f64,
+        /// `θ_ref(t)`, rad.
+        signal: SignalSpec,
+    },
 }
 
 impl InputSpec {
@@ -69,7 +94,8 @@ impl InputSpec {
         match self {
             Self::Force { name, .. }
             | Self::Torque { name, .. }
-            | Self::HingeTorque { name, .. } => name,
+            | Self::HingeTorque { name, .. }
+            | Self::HingeServo { name, .. } => name,
         }
     }
     /// `"force on bob"`, `"torque on bob about (0, 0)"`: for `lieflow check`.
@@ -94,6 +120,12 @@ impl InputSpec {
             Self::HingeTorque { bodies, .. } => {
                 format!("torque on the hinge of {}, {kind}", bodies.join(" and "))
             }
+            Self::HingeServo { bodies, .. } => {
+                format!(
+                    "servo on the hinge of {}, {kind} reference",
+                    bodies.join(" and ")
+                )
+            }
         }
     }
     /// The input's signal as the file gives it.
@@ -101,7 +133,8 @@ impl InputSpec {
         match self {
             Self::Force { signal, .. }
             | Self::Torque { signal, .. }
-            | Self::HingeTorque { signal, .. } => signal,
+            | Self::HingeTorque { signal, .. }
+            | Self::HingeServo { signal, .. } => signal,
         }
     }
 }
@@ -118,8 +151,8 @@ pub(crate) enum InputTerm<T> {
         pivot: Pivot<T>,
         axis: [T; 3],
     },
-    /// `B = ∇θ` of a hinge's angle.
-    Hinge(crate::rigid::HingeAngle),
+    /// `B = g ∇θ` of a hinge's angle, `g` the gain (1 for a motor, `k_p` for a servo).
+    Hinge(crate::rigid::HingeAngle, T),
 }
 
 /// A torque's pivot.
@@ -216,7 +249,17 @@ impl InputTerm<f64> {
                 axis,
                 axes,
                 ..
-            } => Self::Hinge(super::hinge_angle(sel, axis, axes, bodies, path)?),
+            } => Self::Hinge(super::hinge_angle(sel, axis, axes, bodies, path)?, 1.0),
+            InputSpec::HingeServo {
+                bodies: sel,
+                axis,
+                axes,
+                stiffness,
+                ..
+            } => Self::Hinge(
+                super::hinge_angle(sel, axis, axes, bodies, path)?,
+                crate::scene::validate::positive(*stiffness, &path.key("stiffness"), "stiffness")?,
+            ),
         })
     }
 }
@@ -238,7 +281,9 @@ impl<S: Real> InputTerm<S> {
                 },
                 axis: c3(*axis),
             },
-            Self::Hinge(angle) => InputTerm::Hinge(angle.clone()),
+            Self::Hinge(angle, gain) => {
+                InputTerm::Hinge(angle.clone(), T::lit(gain.to_f64_lossy()))
+            }
         }
     }
 }
@@ -261,7 +306,7 @@ impl<T: Real> InputTerm<T> {
     pub(crate) fn unit_force(&self, q: &[T], d: usize) -> [T; 3] {
         match self {
             Self::Force { direction, .. } => *direction,
-            Self::Hinge(_) => [T::zero(); 3],
+            Self::Hinge(..) => [T::zero(); 3],
             Self::Torque { body, pivot, axis } => {
                 let from = match pivot {
                     Pivot::Point(p) => *p,

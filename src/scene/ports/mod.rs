@@ -171,7 +171,7 @@ impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
         for (term, yj) in self.terms.iter().zip(y.iter_mut()) {
             let f = term.unit_force(q, d);
             *yj = match term {
-                InputTerm::Hinge(angle) => angle.derivative(q, v),
+                InputTerm::Hinge(angle, gain) => *gain * angle.derivative(q, v),
                 InputTerm::Force { bodies, .. } => {
                     bodies.iter().fold(V::Real::zero(), |s, &b| s + dot(&f, b))
                 }
@@ -193,8 +193,8 @@ impl<T: Real> SceneInputMap<T> {
     fn push(&self, q: &[T], p: &mut [T], w: &[T]) {
         let d = self.dim;
         for (term, &wj) in self.terms.iter().zip(w) {
-            if let InputTerm::Hinge(angle) = term {
-                angle.gradient_add(q, wj, p);
+            if let InputTerm::Hinge(angle, gain) = term {
+                angle.gradient_add(q, *gain * wj, p);
                 continue;
             }
             let f = term.unit_force(q, d);
@@ -204,7 +204,7 @@ impl<T: Real> SceneInputMap<T> {
                 }
             };
             match term {
-                InputTerm::Hinge(_) => {}
+                InputTerm::Hinge(..) => {}
                 InputTerm::Force { bodies, .. } => bodies.iter().for_each(|&b| push(b, T::one())),
                 InputTerm::Torque { body, pivot, .. } => {
                     push(*body, T::one());
