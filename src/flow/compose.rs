@@ -187,6 +187,19 @@ impl<V: Vector, A: Flow<V>, B: Flow<V>> Flow<V> for Strang<V, A, B> {
     fn is_kick(&self) -> bool {
         self.a.is_kick() && self.b.is_kick()
     }
+    /// Of two kicks (the positions frozen through the step): both halves of `a` are the same
+    /// map at the same positions, so `DΦ v = D a · D b · D a v`, each part's tangent of its
+    /// last step; otherwise not formed (`false`).
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        if !(self.a.is_kick() && self.b.is_kick()) {
+            return false;
+        }
+        let scratch = self.tangent.get_or_insert_with(|| v.zeros_like());
+        if !(self.a.tangent_apply(v, out) && self.b.tangent_apply(out, scratch)) {
+            return false;
+        }
+        self.a.tangent_apply(scratch, out)
+    }
     /// With `a` a [kick](Flow::is_kick) the lead is `b(h) ∘ a(h/2)` and the tail the second
     /// `a(h/2)`; otherwise the whole step, as the default.
     #[inline]

@@ -76,7 +76,8 @@ impl<V: Vector, B: InputMap<V>> InputFlow<V, B, ()> {
 
 impl<V: Vector, B, H> InputFlow<V, B, H> {
     /// Declares the inputs forces: `B(x)` moves only momenta (no coordinate a constraint
-    /// reads), so the flow is a kick ([`Flow::is_kick`]) and a projection around a splitting
+    /// reads) and is read at the positions alone (the first half of the state), so the flow is
+    /// a kick ([`Flow::is_kick`]) and a projection around a splitting
     /// that ends with it applies it once per step.
     pub fn kick(mut self) -> Self {
         self.kick = true;
@@ -203,6 +204,17 @@ where
     }
     fn is_kick(&self) -> bool {
         self.kick
+    }
+    /// As a [kick](Self::kick) (`B` read at the positions, the first half of the state, which
+    /// the flow leaves): for a change of the momenta alone the flow's tangent is the identity.
+    /// A change of the positions changes `B`, which is not formed: `false`.
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        let nq = v.len() / 2;
+        if !self.kick || v.as_slice()[..nq].iter().any(|x| *x != V::Real::zero()) {
+            return false;
+        }
+        out.copy_from(v);
+        true
     }
     fn prepare(&mut self, x: &V) {
         if H::ACCOUNTS && self.before.as_ref().is_none_or(|b| b.len() != x.len()) {

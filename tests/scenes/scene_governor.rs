@@ -1,9 +1,9 @@
 //! The stiff flyball governor (`scenes/flyball_governor.toml`, after IFToMM A05: couplers as
 //! spring-dampers of 8e5 N/m and 4e4 N s/m, rods 1 m × 1 cm with 5 kg balls) at a step that
-//! resolves it runs with every row near round-off, keeps its angular momentum about the shaft
+//! resolves it runs with every row at round-off, keeps its angular momentum about the shaft
 //! (nothing turns it: bearing, gravity and the internal elements exert no torque about z),
-//! never gains energy in a step and books what its dampers take; at a step that does not, it
-//! stops at once with a typed error that names the cure, keeping the state it had.
+//! never gains energy in a step and books what its dampers take; at a step far too coarse for
+//! its springs it stops with a typed error that names the cure, keeping what it computed.
 
 use lieflow::scene::{Scene, run};
 
@@ -45,9 +45,20 @@ fn the_stiff_governor_runs_at_a_resolving_step_and_stops_typed_at_a_coarse_one()
     let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
     assert!(s.error.is_none(), "{:?}", s.error);
     assert_eq!(s.steps, 200);
-    // Near round-off: thin rods (director masses 2.5e-6 kg) beside 5 kg balls make the
-    // multiplier systems' condition ~1e6, and the rows' floor rises with it.
-    assert!(s.max_abs_g.unwrap() < 1e-12, "{:?}", s.max_abs_g);
+    // At the projection's level for unit-scale rows, though thin rods (director masses
+    // 2.5e-6 kg) beside 5 kg balls make the multiplier systems' condition ~1e6: Newton's
+    // Jacobian is exact (the dampers act along directions the constraint forces do not reach).
+    assert!(
+        s.max_abs_g.unwrap() <= 64.0 * f64::EPSILON,
+        "{:?}",
+        s.max_abs_g
+    );
+    assert!(
+        s.newton_iterations <= 3 * s.steps as u64,
+        "{} in {}",
+        s.newton_iterations,
+        s.steps
+    );
     let l1 = spin_momentum(&s.x);
     eprintln!(
         "L_z {l0} -> {l1}; dissipated {:?}, balance {:?}",
@@ -63,9 +74,9 @@ fn the_stiff_governor_runs_at_a_resolving_step_and_stops_typed_at_a_coarse_one()
     assert!(dissipated > 0.0);
     assert!(s.max_energy_balance_error.unwrap() < 1e-2 * dissipated);
 
-    // Ten times the step: the multiplier solve fails at the first step, reported as such with
-    // what to try; the run ends there, keeping what it had.
-    let mut c = with("1e-4", "0.01")
+    // A thousand times the step (h √(k/m) far above 2): the multiplier solve fails within a
+    // few steps, reported as such with what to try; the run ends there, keeping what it had.
+    let mut c = with("1e-2", "0.5")
         .compile()
         .unwrap_or_else(|e| panic!("{e}"));
     let x0 = c.simulation.state().to_vec();
@@ -76,6 +87,6 @@ fn the_stiff_governor_runs_at_a_resolving_step_and_stops_typed_at_a_coarse_one()
         shown.contains("Newton") && shown.contains("smaller step"),
         "{shown}"
     );
-    assert!(s.steps <= 1);
+    assert!(s.steps < 50, "{}", s.steps);
     assert_eq!(c.simulation.state().len(), x0.len());
 }

@@ -67,6 +67,29 @@ where
     F: Flow<V>,
     Sys: Model<V>,
 {
+    /// Whether the lead maps a constraint impulse `G(x)ᵀμ` (`μ` quasi-random in `[1, 2)`: no
+    /// two alike, no pattern a physical coupling shares) as a free drift does
+    /// ([`lead_drifts_freely`]).
+    fn impulse_drifts_freely(&mut self, w: &[V::Real]) -> bool {
+        let (m, nq) = (self.m, w.len());
+        if self.indicator.len() < m || self.hess_v.len() < 2 * nq {
+            return false;
+        }
+        let mu = &mut self.indicator.as_mut_slice()[..m];
+        for (i, x) in mu.iter_mut().enumerate() {
+            *x = V::Real::one() + V::Real::lit((0.618_033_988_749_895 * (i + 1) as f64).fract());
+        }
+        self.system.constraint().jacobian_transpose_apply(
+            self.x,
+            &self.indicator.as_slice()[..m],
+            self.m_hess_v,
+        );
+        let (q, p) = self.hess_v.as_mut_slice().split_at_mut(nq);
+        ops::fill_zero(q);
+        p.copy_from_slice(&self.m_hess_v.as_slice()[..nq]);
+        lead_drifts_freely(&mut *self.inner, self.h, w, &*self.hess_v, self.m_hess_v)
+    }
+
     /// `y = Φ_h(x + h/2 M(x) G(x)ᵀ a)`, reusing the last `y` when `a` is unchanged.
     fn compute_y(&mut self, a: &[V::Real]) -> Result<(), StepError> {
         let m = self.m;
@@ -305,9 +328,7 @@ where
         let constraint = self.system.constraint();
         let right = match self.mode {
             Mode::LambdaK => {
-                if self.compute_y(z).is_err()
-                    || !lead_drifts_freely(&mut *self.inner, h, w, self.hess_v, self.m_hess_v)
-                {
+                if self.compute_y(z).is_err() || !self.impulse_drifts_freely(w) {
                     return false;
                 }
                 Right::AtX

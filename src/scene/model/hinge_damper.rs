@@ -83,6 +83,8 @@ pub struct HingeDamperFlow<T> {
     q: Vec<f64>,
     w: Vec<f64>,
     wc: Vec<f64>,
+    /// The last step's `h` (its positions are `q`).
+    last: Option<T>,
 }
 
 impl<T> core::fmt::Debug for HingeDamperFlow<T> {
@@ -104,6 +106,7 @@ impl<T: Real> HingeDamperFlow<T> {
             q: Vec::new(),
             w: Vec::new(),
             wc: Vec::new(),
+            last: None,
         })
     }
 
@@ -162,6 +165,13 @@ impl<T: Real> HingeDamperFlow<T> {
         let nq = x.len() / 2;
         self.q.clear();
         self.q.extend(x[..nq].iter().map(|v| v.to_f64_lossy()));
+        self.last = Some(h);
+        self.sequence(n, h, x)
+    }
+
+    /// The dampers' flows over `h` on the momenta of `x`, at the positions `q` (one, or all
+    /// over `h/2` and back); returns the energy removed.
+    fn sequence(&mut self, n: usize, h: T, x: &mut [T]) -> T {
         if n == 1 {
             return self.flow_one(0, h, x);
         }
@@ -202,6 +212,22 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for HingeDamperFlow<T> {
     }
     /// The dampers move momenta only.
     fn is_kick(&self) -> bool {
+        true
+    }
+    /// For a change of the momenta alone (`v`'s positions zero): the flow is linear in the
+    /// momenta, so `DΦ v` is the last step's flow (its directions at its positions) applied to
+    /// `v`. A change of the positions turns the directions, which is not formed: `false`.
+    fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        let (Some(h), Some(d)) = (self.last, &self.model.hinge_dampers) else {
+            return false;
+        };
+        let n = d.dampers.len();
+        let nq = v.len() / 2;
+        if v.as_slice()[..nq].iter().any(|x| *x != T::zero()) {
+            return false;
+        }
+        out.copy_from(v);
+        self.sequence(n, h, out.as_mut_slice());
         true
     }
 }
