@@ -222,8 +222,8 @@ t_end = 10.0
 def test_a_servo_follows_the_reference_an_embedder_sets():
     # A disc (J = 0.02) under a servo (k_p = 2, k_d = 0.4: critically damped, 10 rad/s): the
     # embedder sets the reference angle by name, and the joint's angle settles on it to the
-    # splitting's second-order error (3.1e-6 at h omega = 0.01, falling as h^2: the spring and
-    # the motor torque are separate sub-flows of the kick).
+    # splitting's second-order error (3.1e-6 at h omega = 0.01, falling as h^2: the kick runs
+    # the damper's flow between the spring's kick and the motor's).
     sim = lieflow.loads(SERVO)
     assert sim.input_names == ["servo"]
     assert sim.output_names == ["angle", "rate"]
