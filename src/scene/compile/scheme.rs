@@ -346,28 +346,33 @@ fn scene_kick<V: Vector + 'static>(
         (None, Some(j)) => Some(Box::new(j)),
         (None, None) => None,
     };
-    let damped: Option<Box<dyn Flow<V>>> = dampers.map(|dampers| {
-        if model.has_kick() {
-            Box::new(dampers.strang(Kick::new(model.clone()))) as Box<dyn Flow<V>>
-        } else {
-            dampers
+    // The inputs are forces on the bodies: a kick, like the potential's, side by side with it
+    // (`K(τ/2) ∘ U(τ) ∘ K(τ/2)`); their sub-flow carries the time and books the energy supplied.
+    let forces: Option<Box<dyn Flow<V>>> = match model.inputs.as_ref() {
+        None => None,
+        Some(inputs) => {
+            let input = InputFlow::try_new(inputs.map.clone(), inputs.signals.clone())?
+                .kick()
+                .supplying(model.clone());
+            Some(if model.has_kick() {
+                Box::new(Kick::new(model.clone()).strang(input))
+            } else {
+                Box::new(input)
+            })
         }
-    });
-    // The inputs are forces on the bodies: a kick, like the potential's; their sub-flow
-    // carries the time and books the energy supplied.
-    let Some(inputs) = model.inputs.as_ref() else {
-        return Ok(match damped {
-            Some(flow) => SceneKick::Composed(flow),
-            None => SceneKick::potential(model.clone()),
-        });
     };
-    let input = InputFlow::try_new(inputs.map.clone(), inputs.signals.clone())?
-        .kick()
-        .supplying(model.clone());
-    Ok(SceneKick::Composed(match damped {
-        Some(flow) => Box::new(flow.strang(input)),
-        None => Box::new(Kick::new(model.clone()).strang(input)),
-    }))
+    // The dampers around the forces, `D(τ/2) ∘ F(τ) ∘ D(τ/2)`: forces that balance at rest (a
+    // servo's spring and motor torque) then leave the momenta at zero, which a damper's flow
+    // between them would not.
+    Ok(match (dampers, forces) {
+        (Some(d), Some(f)) => SceneKick::Composed(Box::new(d.strang(f))),
+        (Some(d), None) if model.has_kick() => {
+            SceneKick::Composed(Box::new(d.strang(Kick::new(model.clone()))))
+        }
+        (Some(d), None) => SceneKick::Composed(d),
+        (None, Some(f)) => SceneKick::Composed(f),
+        (None, None) => SceneKick::potential(model.clone()),
+    })
 }
 
 /// The splitting of a kick (with the inputs, when the model has any) and a drift, projected
