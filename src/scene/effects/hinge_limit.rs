@@ -63,10 +63,7 @@ pub(crate) struct HingeLimit<T> {
 }
 
 /// A stop's angle in radians, checked within (−180°, 180°).
-fn stop(deg: Option<f64>, path: &FieldPath, absent: f64) -> Result<f64> {
-    let Some(d) = deg else {
-        return Ok(absent);
-    };
+fn stop(d: f64, path: &FieldPath) -> Result<f64> {
     let d = finite(d, path)?;
     if d.abs() >= 180.0 {
         return Err(err(
@@ -94,48 +91,70 @@ impl Effect for HingeLimitSpec {
             cx.bodies,
             path,
         )?;
-        let k = positive(self.stiffness, &path.key("stiffness"), "stiffness")?;
-        let min = stop(self.min_deg, &path.key("min_deg"), f64::NEG_INFINITY)?;
-        let max = stop(self.max_deg, &path.key("max_deg"), f64::INFINITY)?;
-        if self.min_deg.is_none() && self.max_deg.is_none() {
-            return Err(err(
-                SceneErrorKind::Value,
-                path.clone(),
-                "a hinge limit needs a stop: min_deg, max_deg or both",
-            ));
-        }
-        if min >= max {
-            return Err(err(
-                SceneErrorKind::Value,
-                path.key("max_deg"),
-                format!(
-                    "the upper stop must lie above the lower one ({} <= {} degrees)",
-                    max.to_degrees(),
-                    min.to_degrees()
-                ),
-            ));
-        }
-        Ok(Some(Potential::HingeLimit(HingeLimit::new(
+        let min = self
+            .min_deg
+            .map(|d| stop(d, &path.key("min_deg")))
+            .transpose()?;
+        let max = self
+            .max_deg
+            .map(|d| stop(d, &path.key("max_deg")))
+            .transpose()?;
+        let limit = HingeLimit::checked(
             Coordinate::Angle(angle),
-            k,
-            min,
-            max,
-        ))))
+            self.stiffness,
+            [min, max],
+            path,
+            ("hinge", ["min_deg", "max_deg"]),
+        )?;
+        Ok(Some(Potential::HingeLimit(limit)))
     }
 }
 
 impl HingeLimit<f64> {
-    /// Stops `min < max` (either infinite for a side without one) of stiffness `k` on
-    /// `coordinate`.
-    pub(super) fn new(coordinate: Coordinate, k: f64, min: f64, max: f64) -> Self {
+    /// The stops `[min, max]` (in the coordinate's unit; `None` for a side without one) of
+    /// stiffness `k` on `coordinate`, checked: `k > 0`, a stop at least, `min < max`. `kind` and
+    /// `keys` name the joint and the stops' fields in the messages, the lower stop as the
+    /// unit's reading given, the upper one likewise.
+    pub(super) fn checked(
+        coordinate: Coordinate,
+        k: f64,
+        [min, max]: [Option<f64>; 2],
+        path: &FieldPath,
+        (kind, keys): (&str, [&str; 2]),
+    ) -> Result<Self> {
+        let k = positive(k, &path.key("stiffness"), "stiffness")?;
+        if min.is_none() && max.is_none() {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.clone(),
+                format!(
+                    "a {kind} limit needs a stop: {}, {} or both",
+                    keys[0], keys[1]
+                ),
+            ));
+        }
+        let (min, max) = (
+            min.unwrap_or(f64::NEG_INFINITY),
+            max.unwrap_or(f64::INFINITY),
+        );
+        if min >= max {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key(keys[1]),
+                format!(
+                    "the upper stop must lie above the lower one ({} <= {})",
+                    keys[1], keys[0]
+                ),
+            ));
+        }
         let slots = coordinate.slots();
-        Self {
+        Ok(Self {
             coordinate,
             stiffness: k,
             min,
             max,
             slots,
-        }
+        })
     }
 
     pub(crate) fn with_scalar<U: Real>(&self) -> HingeLimit<U> {

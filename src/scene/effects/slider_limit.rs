@@ -12,9 +12,9 @@
 use super::hinge_limit::HingeLimit;
 use super::{Assembler, Effect, Potential};
 use crate::rigid::Coordinate;
-use crate::scene::error::{FieldPath, SceneErrorKind};
+use crate::scene::error::FieldPath;
 use crate::scene::names::Flag;
-use crate::scene::validate::{Result, err, finite, positive};
+use crate::scene::validate::{Result, finite};
 use serde::Deserialize;
 
 /// `type = "slider-limit"`.
@@ -66,31 +66,15 @@ impl Effect for SliderLimitSpec {
             cx.bodies,
             path,
         )?;
-        let k = positive(self.stiffness, &path.key("stiffness"), "stiffness")?;
-        let stop = |v: Option<f64>, key: &str, absent: f64| {
-            v.map_or(Ok(absent), |v| finite(v, &path.key(key)))
-        };
-        let min = stop(self.min, "min", f64::NEG_INFINITY)?;
-        let max = stop(self.max, "max", f64::INFINITY)?;
-        if self.min.is_none() && self.max.is_none() {
-            return Err(err(
-                SceneErrorKind::Value,
-                path.clone(),
-                "a slider limit needs a stop: min, max or both",
-            ));
-        }
-        if min >= max {
-            return Err(err(
-                SceneErrorKind::Value,
-                path.key("max"),
-                format!("the upper stop must lie above the lower one ({max} <= {min} m)"),
-            ));
-        }
-        Ok(Some(Potential::HingeLimit(HingeLimit::new(
+        let min = self.min.map(|v| finite(v, &path.key("min"))).transpose()?;
+        let max = self.max.map(|v| finite(v, &path.key("max"))).transpose()?;
+        let limit = HingeLimit::checked(
             Coordinate::Displacement(displacement),
-            k,
-            min,
-            max,
-        ))))
+            self.stiffness,
+            [min, max],
+            path,
+            ("slider", ["min", "max"]),
+        )?;
+        Ok(Some(Potential::HingeLimit(limit)))
     }
 }
