@@ -36,22 +36,25 @@ impl RigidBody {
     }
 }
 
-/// `QᵀQ = I` for a body whose directors are the slots `slot + 1 …` (three positions each):
-/// `(|dᵢ|² − 1)/2` and `dᵢ·dⱼ`, six rows.
-pub(crate) fn orthonormality(slot: usize) -> Vec<super::RowBuilder<f64>> {
-    let col = |i: usize, k: usize| 3 * (slot + 1 + i) + k;
-    let mut rows = Vec::with_capacity(6);
-    for i in 0..3 {
+/// `QᵀQ = I` for a body whose directors are the slots `slot + 1 …` (`dim` positions each, `dim`
+/// directors): `(|dᵢ|² − 1)/2` and `dᵢ·dⱼ`, six rows in 3D, three in the plane.
+pub(crate) fn orthonormality(slot: usize, dim: usize) -> Vec<super::RowBuilder<f64>> {
+    let col = |i: usize, k: usize| dim * (slot + 1 + i) + k;
+    let mut rows = Vec::with_capacity(dim * (dim + 1) / 2);
+    for i in 0..dim {
         let mut row = super::RowBuilder::new();
-        for k in 0..3 {
+        for k in 0..dim {
             row.product(col(i, k), col(i, k), 0.5);
         }
         row.constant(-0.5);
         rows.push(row);
     }
     for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+        if j >= dim {
+            continue;
+        }
         let mut row = super::RowBuilder::new();
-        for k in 0..3 {
+        for k in 0..dim {
             row.product(col(i, k), col(j, k), 1.0);
         }
         rows.push(row);

@@ -9,6 +9,8 @@ use crate::vector::Vector;
 /// `H = Σ_s |p_s|²/(2 m_s) + Σ_s w_s·q_s` (`w_s = −m g` on the centres and point masses).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MultibodyEnergy<T> {
+    /// Positions per slot: 3, or 2 in a planar model.
+    pub(crate) dim: usize,
     pub(crate) inv_masses: Vec<T>,
     pub(crate) weights: Vec<[T; 3]>,
     pub(crate) springs: Vec<JointSpring>,
@@ -16,12 +18,12 @@ pub struct MultibodyEnergy<T> {
 
 impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
     fn energy(&self, x: &V) -> T {
-        let n = 3 * self.inv_masses.len();
+        let (d, n) = (self.dim, self.dim * self.inv_masses.len());
         let (q, p) = x.as_slice().split_at(n);
         let mut e = T::zero();
         for (s, (&w, g)) in self.inv_masses.iter().zip(&self.weights).enumerate() {
-            for k in 0..3 {
-                e = e + T::lit(0.5) * w * p[3 * s + k] * p[3 * s + k] + g[k] * q[3 * s + k];
+            for k in 0..d {
+                e = e + T::lit(0.5) * w * p[d * s + k] * p[d * s + k] + g[k] * q[d * s + k];
             }
         }
         for s in &self.springs {
@@ -31,13 +33,13 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
         e
     }
     fn gradient(&self, x: &V, out: &mut V) {
-        let n = 3 * self.inv_masses.len();
+        let (d, n) = (self.dim, self.dim * self.inv_masses.len());
         let p = &x.as_slice()[n..];
         let (oq, op) = out.as_mut_slice().split_at_mut(n);
         for (s, (&w, g)) in self.inv_masses.iter().zip(&self.weights).enumerate() {
-            for k in 0..3 {
-                oq[3 * s + k] = g[k];
-                op[3 * s + k] = w * p[3 * s + k];
+            for k in 0..d {
+                oq[d * s + k] = g[k];
+                op[d * s + k] = w * p[d * s + k];
             }
         }
         let q = &x.as_slice()[..n];
@@ -53,11 +55,12 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
     fn is_quadratic(&self) -> bool {
         self.springs.is_empty()
     }
-    /// The mechanical form: `½ Σ w p²` with the slots' inverse masses (three per slot), and a
+    /// The mechanical form: `½ Σ w p²` with the slots' inverse masses (`dim` per slot), and a
     /// linear potential — so the implicit schemes eliminate the momenta.
     fn kinetic_inverse_mass(&self, w: &mut [T]) -> bool {
+        let d = self.dim;
         for (s, &wi) in self.inv_masses.iter().enumerate() {
-            w[3 * s..3 * s + 3].fill(wi);
+            w[d * s..d * s + d].fill(wi);
         }
         true
     }
@@ -66,13 +69,13 @@ impl<T: Real, V: Vector<Real = T>> Hamiltonian<V> for MultibodyEnergy<T> {
         if !self.springs.is_empty() {
             return false;
         }
-        let n = 3 * self.inv_masses.len();
+        let (d, n) = (self.dim, self.dim * self.inv_masses.len());
         let vp = &v.as_slice()[n..];
         let (oq, op) = out.as_mut_slice().split_at_mut(n);
         oq.iter_mut().for_each(|o| *o = T::zero());
         for (s, &w) in self.inv_masses.iter().enumerate() {
-            for k in 0..3 {
-                op[3 * s + k] = w * vp[3 * s + k];
+            for k in 0..d {
+                op[d * s + k] = w * vp[d * s + k];
             }
         }
         true

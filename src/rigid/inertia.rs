@@ -143,6 +143,37 @@ impl Inertia {
         self.axes
     }
 
+    /// The same inertia with its third principal axis along the body's `z` axis, as a planar
+    /// body needs (it turns about that axis: its moment there is `E₁ + E₂`): from the tensor
+    /// `T = P diag(J) Pᵀ`, whose `xz` and `yz` entries must vanish, the in-plane axes at
+    /// `φ = ½ atan2(2T_xy, T_xx − T_yy)`.
+    ///
+    /// # Errors
+    /// [`SetupError::InvalidParameter`] when no principal axis lies along `z` (to 1e-12 of the
+    /// largest moment).
+    pub(crate) fn about_normal(&self) -> Result<Self, SetupError> {
+        let (p, j) = (self.axes, self.moments);
+        let t = |r: usize, c: usize| (0..3).map(|k| p[r][k] * j[k] * p[c][k]).sum::<f64>();
+        let scale = j.iter().fold(0.0f64, |a, &b| a.max(b));
+        let off = t(0, 2).abs().max(t(1, 2).abs());
+        if off > 1e-12 * scale {
+            return Err(SetupError::InvalidParameter {
+                name: "inertia of a planar body".to_owned(),
+                value: off,
+                requirement: "a principal axis along the body's z axis (the plane's normal): no xz or yz product of inertia",
+            });
+        }
+        let (xx, yy, xy) = (t(0, 0), t(1, 1), t(0, 1));
+        let phi = 0.5 * (2.0 * xy).atan2(xx - yy);
+        let (c, s) = (phi.cos(), phi.sin());
+        let j1 = c * c * xx + 2.0 * c * s * xy + s * s * yy;
+        let j2 = s * s * xx - 2.0 * c * s * xy + c * c * yy;
+        Self::with_axes(
+            [j1, j2, t(2, 2)],
+            [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]],
+        )
+    }
+
     /// The director masses `Eᵢ = ½(J_j + J_k − J_i)`, all positive.
     pub fn director_masses(&self) -> [f64; 3] {
         let [a, b, c] = self.moments;

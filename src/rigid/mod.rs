@@ -37,6 +37,6 @@ pub use joints::{Ball, BodyRef, Hinge, JointKind, Slider, Universal};
 pub use kick::MultibodyKick;
 pub use model::{Multibody, MultibodyEnergy};
 pub use pose::{Rotation, cross, dot};
-pub(crate) use pose::{body_frame, director_spin};
+pub(crate) use pose::{body_frame, director_spin, planar_rotation};
 pub use rows::{QuadraticRows, RowBuilder};
 pub use weld::{Part, Placement, Welded, weld};

@@ -38,6 +38,8 @@ use crate::vector::Vector;
 /// (McLachlan & Scovel 1995; Leimkuhler & Reich 2004, ch. 8).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Multibody {
+    /// Positions per slot: 3, or 2 for a planar model.
+    dim: usize,
     gravity: [f64; 3],
     masses: Vec<f64>,
     /// Whether a slot carries a body's translation (gravity acts on it).
@@ -62,12 +64,29 @@ impl Multibody {
         Frames {
             entries: &self.entries,
             q0: &self.q0,
+            dim: self.dim,
         }
     }
 
     /// An empty model under the uniform field `gravity` (an acceleration, m/s²).
     pub fn new(gravity: [f64; 3]) -> Self {
+        Self::with_dim(3, gravity)
+    }
+
+    /// An empty planar model (`dim = 2`: slots of two positions) under the field `gravity` in
+    /// the plane. Its rigid bodies turn about the plane's normal `e_z`: two directors each (the
+    /// masses `E₁, E₂`, `E₁ + E₂` the moment about the normal), three rows of `QᵀQ = I`; its
+    /// joints are the 3D kinds with the normal a constant director ([`joint_rows`]) — a hinge
+    /// about `e_z` is the planar pin, a slider along an axis in the plane the planar prism.
+    ///
+    /// [`joint_rows`]: super::joints::joint_rows
+    pub fn planar(gravity: [f64; 2]) -> Self {
+        Self::with_dim(2, [gravity[0], gravity[1], 0.0])
+    }
+
+    fn with_dim(dim: usize, gravity: [f64; 3]) -> Self {
         Self {
+            dim,
             gravity,
             masses: Vec::new(),
             translational: Vec::new(),
@@ -84,8 +103,13 @@ impl Multibody {
     fn push_slot(&mut self, mass: f64, translational: bool, q: [f64; 3], v: [f64; 3]) {
         self.masses.push(mass);
         self.translational.push(translational);
-        self.q0.extend_from_slice(&q);
-        self.p0.extend(v.map(|x| mass * x));
+        self.q0.extend_from_slice(&q[..self.dim]);
+        self.p0.extend(v[..self.dim].iter().map(|x| mass * x));
+    }
+
+    /// The positions per slot: 3, or 2 for a planar model.
+    pub fn dim(&self) -> usize {
+        self.dim
     }
 
     /// Adds a point mass; returns its index.
@@ -102,6 +126,8 @@ impl Multibody {
         check_mass(mass)?;
         check_finite("position", &position)?;
         check_finite("velocity", &velocity)?;
+        self.check_in_plane("position", position)?;
+        self.check_in_plane("velocity", velocity)?;
         let slot = self.masses.len();
         self.push_slot(mass, true, position, velocity);
         self.entries.push(Entry::Point { slot });
@@ -119,17 +145,34 @@ impl Multibody {
         check_finite("velocity", &body.velocity)?;
         check_finite("angular velocity", &body.angular_velocity)?;
         let slot = self.masses.len();
-        let axes = Rotation(body.inertia.axes());
+        let mut inertia = body.inertia;
+        let mut orientation = body.orientation;
+        if self.dim == 2 {
+            self.check_in_plane("position", body.position)?;
+            self.check_in_plane("velocity", body.velocity)?;
+            inertia = inertia.about_normal()?;
+            orientation = super::pose::planar_rotation("orientation", &orientation)?;
+            let w = body.angular_velocity;
+            if w[0] != 0.0 || w[1] != 0.0 {
+                return Err(SetupError::InvalidParameter {
+                    name: "angular velocity".to_owned(),
+                    value: w[0].abs().max(w[1].abs()),
+                    requirement: "along the plane's normal in a planar model",
+                });
+            }
+        }
+        let axes = Rotation(inertia.axes());
         // The principal axes in the world: Q = R P.
-        let q = body.orientation.then(&axes);
+        let q = orientation.then(&axes);
         self.push_slot(body.mass, true, body.position, body.velocity);
-        let e = body.inertia.director_masses();
-        for (i, &ei) in e.iter().enumerate() {
+        let e = inertia.director_masses();
+        for (i, &ei) in e.iter().enumerate().take(self.dim) {
             let d = q.column(i);
             self.push_slot(ei, false, d, cross(body.angular_velocity, d));
         }
         // QᵀQ = I: (|dᵢ|² − 1)/2 and dᵢ·dⱼ.
-        self.rows.extend(super::body::orthonormality(slot));
+        self.rows
+            .extend(super::body::orthonormality(slot, self.dim));
         self.entries.push(Entry::Rigid { slot, axes });
         Ok(self.entries.len() - 1)
     }
@@ -141,7 +184,7 @@ impl Multibody {
     /// initial poses do not satisfy its rows (anchors apart, axes not aligned), naming the joint
     /// and the row.
     pub fn add_joint(&mut self, joint: &dyn JointKind) -> Result<usize, SetupError> {
-        let rows = joint.rows(&self.frames())?;
+        let rows = super::joints::joint_rows(joint, &self.frames())?;
         let mut joint_rows = QuadraticRows::<f64>::new(self.q0.len());
         for row in &rows {
             joint_rows.push(row);
@@ -217,7 +260,7 @@ impl Multibody {
         self.springs[spring].angle.value(&x[..self.q0.len()])
     }
 
-    /// The number of slots (three positions each).
+    /// The number of slots (three positions each; two in a planar model).
     pub fn slots(&self) -> usize {
         self.masses.len()
     }
@@ -244,6 +287,7 @@ impl Multibody {
     /// The Hamiltonian in the scalar `T`.
     pub fn energy<T: Real>(&self) -> MultibodyEnergy<T> {
         MultibodyEnergy {
+            dim: self.dim,
             springs: self.springs.clone(),
             inv_masses: self.masses.iter().map(|&m| T::lit(1.0 / m)).collect(),
             weights: self
@@ -277,13 +321,9 @@ impl Multibody {
             .energy::<V::Real>()
             .weights
             .iter()
-            .flat_map(|w| w.map(|v| -v))
+            .flat_map(|w| w.map(|v| -v).into_iter().take(self.dim))
             .collect();
-        let inv = self
-            .masses
-            .iter()
-            .flat_map(|&m| [<V::Real as Real>::lit(1.0 / m); 3])
-            .collect();
+        let inv = self.inverse_masses();
         MultibodyKick::new(
             force,
             self.springs.clone(),
@@ -295,12 +335,15 @@ impl Multibody {
 
     /// The exact flow of the kinetic energy, `q_s += h p_s/m_s` ([`MultibodyDrift`]).
     pub fn drift<V: Vector>(&self) -> MultibodyDrift<V::Real> {
-        MultibodyDrift::new(
-            self.masses
-                .iter()
-                .flat_map(|&m| [<V::Real as Real>::lit(1.0 / m); 3])
-                .collect(),
-        )
+        MultibodyDrift::new(self.inverse_masses())
+    }
+
+    /// The inverse mass of each position (`dim` per slot).
+    fn inverse_masses<T: Real>(&self) -> Vec<T> {
+        self.masses
+            .iter()
+            .flat_map(|&m| core::iter::repeat_n(T::lit(1.0 / m), self.dim))
+            .collect()
     }
 
     /// The projection options for RATTLE on this model: the degenerate case and decoupled
@@ -323,7 +366,7 @@ impl Multibody {
         let Entry::Rigid { slot, axes } = self.entries[body] else {
             panic!("body {body} is not a rigid body");
         };
-        super::pose::body_frame(x, slot, &axes)
+        super::pose::body_frame(x, slot, &axes, self.dim)
     }
 
     /// Body `body`'s orientation as the unit quaternion `[w, x, y, z]` (`w ≥ 0`) at state `x`.
@@ -352,17 +395,17 @@ impl Multibody {
             panic!("body {body} is not a rigid body");
         };
         let (q, p) = x.split_at(self.q0.len());
-        super::pose::director_spin(q, p, slot, |s| self.masses[s])
+        super::pose::director_spin(q, p, slot, |s| self.masses[s], self.dim)
     }
 
     /// The total angular momentum about the world's origin at state `x`: `Σ c × p_c` over
     /// the centres and point masses plus `Σ dᵢ × p_dᵢ` (`E_i dᵢ × ḋᵢ`) over the directors.
     pub fn angular_momentum(&self, x: &[f64]) -> [f64; 3] {
-        let n = self.q0.len();
+        let (n, d) = (self.q0.len(), self.dim);
         let mut l = [0.0; 3];
         for s in 0..self.slots() {
-            let q: [f64; 3] = core::array::from_fn(|k| x[3 * s + k]);
-            let p: [f64; 3] = core::array::from_fn(|k| x[n + 3 * s + k]);
+            let q: [f64; 3] = core::array::from_fn(|k| if k < d { x[d * s + k] } else { 0.0 });
+            let p: [f64; 3] = core::array::from_fn(|k| if k < d { x[n + d * s + k] } else { 0.0 });
             let c = cross(q, p);
             for k in 0..3 {
                 l[k] += c[k];
@@ -374,12 +417,25 @@ impl Multibody {
     /// `max |QᵀQ − I|` over the rigid bodies at state `x`.
     pub fn orthonormality_error(&self, x: &[f64]) -> f64 {
         let mut worst = 0.0f64;
+        let d = self.dim;
         for e in &self.entries {
             if let Entry::Rigid { slot, .. } = *e {
-                for i in 0..3 {
-                    for j in 0..3 {
-                        let di: [f64; 3] = core::array::from_fn(|k| x[3 * (slot + 1 + i) + k]);
-                        let dj: [f64; 3] = core::array::from_fn(|k| x[3 * (slot + 1 + j) + k]);
+                for i in 0..d {
+                    for j in 0..d {
+                        let di: [f64; 3] = core::array::from_fn(|k| {
+                            if k < d {
+                                x[d * (slot + 1 + i) + k]
+                            } else {
+                                0.0
+                            }
+                        });
+                        let dj: [f64; 3] = core::array::from_fn(|k| {
+                            if k < d {
+                                x[d * (slot + 1 + j) + k]
+                            } else {
+                                0.0
+                            }
+                        });
                         let want = if i == j { 1.0 } else { 0.0 };
                         worst = worst.max((dot(di, dj) - want).abs());
                     }
@@ -399,6 +455,20 @@ fn check_mass(mass: f64) -> Result<(), SetupError> {
             value: mass,
             requirement: "positive and finite",
         })
+    }
+}
+
+impl Multibody {
+    /// In a planar model, `v`'s normal component must be zero.
+    fn check_in_plane(&self, name: &str, v: [f64; 3]) -> Result<(), SetupError> {
+        if self.dim == 2 && v[2] != 0.0 {
+            return Err(SetupError::InvalidParameter {
+                name: name.to_owned(),
+                value: v[2],
+                requirement: "in the plane (z = 0) in a planar model",
+            });
+        }
+        Ok(())
     }
 }
 

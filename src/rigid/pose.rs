@@ -163,6 +163,27 @@ impl Rotation {
     }
 }
 
+/// `r` as a turn about `e_z` (a planar model's rotations): its third column must be `e_z` to
+/// `1e-12`; returned with that column exact and the first two rebuilt from the first's
+/// direction in the plane, so a planar body's normal director is exactly constant.
+pub(crate) fn planar_rotation(what: &str, r: &Rotation) -> Result<Rotation, SetupError> {
+    let off = r.0[0][2]
+        .abs()
+        .max(r.0[1][2].abs())
+        .max((r.0[2][2] - 1.0).abs());
+    let first = [r.0[0][0], r.0[1][0]];
+    let n = first[0].hypot(first[1]);
+    if !(off <= 1e-12 && n > 0.5) {
+        return Err(SetupError::InvalidParameter {
+            name: format!("{what} (a planar body)"),
+            value: off,
+            requirement: "a turn about the plane's normal: the third axis along z",
+        });
+    }
+    let (c, s) = (first[0] / n, first[1] / n);
+    Ok(Rotation([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]))
+}
+
 /// `a × b`.
 pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
@@ -178,27 +199,41 @@ pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 /// The body frame `R = Q Pᵀ` of a body whose directors (the columns of `Q = R P`) are the slots
-/// `slot + 1 …` of the positions `q` (three each), `P` its principal axes.
-pub(crate) fn body_frame(q: &[f64], slot: usize, axes: &Rotation) -> Rotation {
+/// `slot + 1 …` of the positions `q` (`dim` each; in the plane the third is `e_z`), `P` its
+/// principal axes.
+pub(crate) fn body_frame(q: &[f64], slot: usize, axes: &Rotation, dim: usize) -> Rotation {
     let directors = Rotation(core::array::from_fn(|r| {
-        core::array::from_fn(|c| q[3 * (slot + 1 + c) + r])
+        core::array::from_fn(|c| director(q, slot, c, dim)[r])
     }));
     directors.then(&axes.transpose())
 }
 
+/// Director `i` of the body at `slot`: its positions, or in the plane (`dim = 2`) the normal
+/// `e_z` for `i = 2`.
+fn director(x: &[f64], slot: usize, i: usize, dim: usize) -> [f64; 3] {
+    if i >= dim {
+        return [0.0, 0.0, 1.0];
+    }
+    let s = dim * (slot + 1 + i);
+    core::array::from_fn(|k| if k < dim { x[s + k] } else { 0.0 })
+}
+
 /// The angular velocity in the world of the body whose directors are the slots `slot + 1 …`,
-/// `ω = ½ Σ dᵢ × ḋᵢ` (`Q̇ Qᵀ = ω̂` for orthonormal `Q`), with `ḋᵢ = p_dᵢ / mass(s)` of slot `s`.
+/// `ω = ½ Σ dᵢ × ḋᵢ` (`Q̇ Qᵀ = ω̂` for orthonormal `Q`), with `ḋᵢ = p_dᵢ / mass(s)` of slot `s`
+/// (`dim` positions each; in the plane the sum is over the two moving directors, whose halves
+/// give the whole spin about `e_z`, the normal's own rate being zero).
 pub(crate) fn director_spin(
     q: &[f64],
     p: &[f64],
     slot: usize,
     mass: impl Fn(usize) -> f64,
+    dim: usize,
 ) -> [f64; 3] {
     let mut w = [0.0; 3];
     for i in 0..3 {
         let s = slot + 1 + i;
-        let d: [f64; 3] = core::array::from_fn(|k| q[3 * s + k]);
-        let v: [f64; 3] = core::array::from_fn(|k| p[3 * s + k] / mass(s));
+        let d = director(q, slot, i, dim);
+        let v = director(p, slot, i, dim).map(|x| if i < dim { x / mass(s) } else { 0.0 });
         let c = cross(d, v);
         for k in 0..3 {
             w[k] += 0.5 * c[k];

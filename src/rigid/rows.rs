@@ -74,6 +74,16 @@ impl<T: Real> RowBuilder<T> {
     }
 }
 
+impl<T: Real> RowBuilder<T> {
+    /// Whether the row is `0` everywhere: every coefficient and the constant zero.
+    pub fn is_zero(&self) -> bool {
+        let zero = |v: &T| *v == T::zero();
+        self.a.values().all(zero)
+            && self.b.values().all(zero)
+            && self.constant.as_ref().is_none_or(zero)
+    }
+}
+
 impl<T> RowBuilder<T> {
     /// The columns the row touches (linearly or in a product).
     pub(crate) fn columns(&self) -> impl Iterator<Item = usize> + '_ {

@@ -145,10 +145,27 @@ impl Bodies {
             .collect()
     }
 
-    /// The initial positions of every slot, three each (3D scenes).
+    /// The initial positions of every slot, `dim` each.
     pub(crate) fn positions(&self) -> &[f64] {
-        self.positions
-            .get_or_init(|| self.list.iter().flat_map(|b| b.q).collect())
+        self.positions.get_or_init(|| {
+            self.list
+                .iter()
+                .flat_map(|b| b.q.into_iter().take(self.dim))
+                .collect()
+        })
+    }
+
+    /// The library's view ([`Frames`](crate::rigid::Frames)) of the bodies `entries` lists
+    /// ([`entries`](Self::entries)), at the initial positions.
+    pub(crate) fn frames<'a>(
+        &'a self,
+        entries: &'a [crate::rigid::Entry],
+    ) -> crate::rigid::Frames<'a> {
+        crate::rigid::Frames {
+            entries,
+            q0: self.positions(),
+            dim: self.dim,
+        }
     }
 
     /// Every body a selector may name: points and rigid bodies' centres, not their directors.

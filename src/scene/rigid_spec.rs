@@ -17,7 +17,12 @@ use serde::Deserialize;
 /// inertia = { shape = "box", size = [0.1, 0.2, 0.3] }        # with the body's `mass`
 /// inertia = { shape = "cylinder", radius = 0.1, height = 0.5, density = 7800 }
 /// inertia = { shape = "sphere", radius = 0.1 }
+/// inertia = { moment = 0.02 }                       # planar scenes: about the plane's normal
 /// ```
+///
+/// In a planar scene (`dim = 2`) the body turns about the plane's normal `z`: any of these
+/// whose principal axes include `z` (a box, a cylinder along `z`, a sphere, moments along the
+/// body's axes), or `moment`.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InertiaSpec {
@@ -47,6 +52,9 @@ pub struct InertiaSpec {
     /// `density`, not both).
     #[serde(default)]
     pub density: Option<f64>,
+    /// A planar body's moment of inertia about the plane's normal (kg m², `dim = 2` only).
+    #[serde(default)]
+    pub moment: Option<f64>,
 }
 
 /// `orientation = { … }`: exactly one of `quaternion`, `axis` with `angle_deg`, or `matrix`.
@@ -111,18 +119,46 @@ fn matrix(m: &[Vec<f64>], path: &FieldPath) -> Result<[[f64; 3]; 3]> {
 impl InertiaSpec {
     /// The body's mass and inertia; `mass` is the body's own `mass` field, `body` where the
     /// body is declared.
-    pub(crate) fn resolve(&self, mass: Option<f64>, body: &FieldPath) -> Result<(f64, Inertia)> {
+    /// In a planar scene (`dim = 2`) the inertia's third principal axis is the body's `z`
+    /// (refused where none lies along it).
+    pub(crate) fn resolve(
+        &self,
+        mass: Option<f64>,
+        body: &FieldPath,
+        dim: usize,
+    ) -> Result<(f64, Inertia)> {
+        let (mass, inertia) = self.resolve_3d(mass, body, dim)?;
+        if dim != 2 {
+            return Ok((mass, inertia));
+        }
+        let inertia = inertia
+            .about_normal()
+            .map_err(|e| located(&body.key("inertia"), e))?;
+        Ok((mass, inertia))
+    }
+
+    fn resolve_3d(
+        &self,
+        mass: Option<f64>,
+        body: &FieldPath,
+        dim: usize,
+    ) -> Result<(f64, Inertia)> {
         let path = &body.key("inertia");
         let given = [
             self.moments.is_some(),
             self.tensor.is_some(),
             self.shape.is_some(),
+            self.moment.is_some(),
         ];
         if given.iter().filter(|&&g| g).count() != 1 {
             return Err(err(
                 SceneErrorKind::Value,
                 path.clone(),
-                "give exactly one of `moments` (with `axes`), `tensor`, or `shape`",
+                if dim == 2 {
+                    "give exactly one of `moment`, `moments` (with `axes`), `tensor`, or `shape`"
+                } else {
+                    "give exactly one of `moments` (with `axes`), `tensor`, or `shape`"
+                },
             ));
         }
         let mass_path = body.key("mass");
@@ -130,7 +166,7 @@ impl InertiaSpec {
             return Err(err(
                 SceneErrorKind::Value,
                 path.key("axes"),
-                "`axes` go with `moments` (a tensor or a shape has its own)",
+                "`axes` go with `moments` (a tensor, a shape or a planar moment has its own)",
             ));
         }
         if let Some(shape) = &self.shape {
@@ -158,7 +194,19 @@ impl InertiaSpec {
             ));
         };
         let mass = positive(mass, &mass_path, "mass")?;
-        let inertia = if let Some(t) = &self.tensor {
+        let inertia = if let Some(j) = self.moment {
+            let mp = path.key("moment");
+            if dim != 2 {
+                return Err(err(
+                    SceneErrorKind::Value,
+                    mp,
+                    "`moment` is a planar body's (dim = 2); in 3D give `moments`, a `tensor` or a `shape`",
+                ));
+            }
+            // The planar body's directors carry E₁ = E₂ = J/2 (their sum the moment about z);
+            // J₁ = J₂ = J₃ = J is the one tensor with those and a positive E₃.
+            Inertia::principal([positive(j, &mp, "moment")?; 3]).map_err(|e| located(&mp, e))?
+        } else if let Some(t) = &self.tensor {
             let tp = path.key("tensor");
             Inertia::tensor(matrix(t, &tp)?).map_err(|e| located(&tp, e))?
         } else {
@@ -257,8 +305,26 @@ impl InertiaSpec {
 }
 
 impl OrientationSpec {
-    /// The rotation it declares.
-    pub(crate) fn resolve(&self, path: &FieldPath) -> Result<Rotation> {
+    /// The rotation it declares; in a planar scene (`dim = 2`) a turn about `z`, by
+    /// `angle_deg` alone or any form whose third axis is `z`.
+    pub(crate) fn resolve(&self, path: &FieldPath, dim: usize) -> Result<Rotation> {
+        if dim == 2
+            && self.axis.is_none()
+            && self.quaternion.is_none()
+            && self.matrix.is_none()
+            && let Some(angle) = self.angle_deg
+        {
+            return Rotation::from_axis_angle([0.0, 0.0, 1.0], angle.to_radians())
+                .map_err(|e| located(&path.key("angle_deg"), e));
+        }
+        let r = self.resolve_3d(path)?;
+        if dim != 2 {
+            return Ok(r);
+        }
+        crate::rigid::planar_rotation("orientation", &r).map_err(|e| located(path, e))
+    }
+
+    fn resolve_3d(&self, path: &FieldPath) -> Result<Rotation> {
         let given = [
             self.quaternion.is_some(),
             self.axis.is_some() || self.angle_deg.is_some(),

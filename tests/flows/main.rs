@@ -33,6 +33,7 @@ mod petrov_galerkin_inputs;
 mod ports;
 mod projected_midpoint;
 mod rigid;
+mod rigid_planar;
 mod rigid_projection;
 mod small_path;
 mod stepper;

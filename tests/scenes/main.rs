@@ -25,6 +25,7 @@ mod scene_implicit_inputs;
 mod scene_joint_elements;
 mod scene_joint_position;
 mod scene_modelling;
+mod scene_planar;
 mod scene_ports;
 mod scene_rigid;
 mod scene_servo;

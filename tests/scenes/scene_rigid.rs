@@ -295,12 +295,6 @@ fn impossible_bodies_and_misplaced_joints_are_refused_where_they_are_written() {
             "exactly one",
         ),
         (
-            "version = 1\ndim = 2\n[[bodies]]\nname = \"b\"\nmass = 1\nposition = [0, 0]\ninertia = { moments = [1, 2, 2] }\n[integrator]\ndt = 0.01\nt_end = 0.1\n".to_owned(),
-            SceneErrorKind::Dimension,
-            "bodies[0].inertia",
-            "dim = 3",
-        ),
-        (
             with_body(
                 "mass = 1\ninertia = { moments = [1, 2, 2] }",
                 "[[constraints]]\ntype = \"ball\"\nbodies = [\"b\"]\nanchor = [0, 0, 0]\n[[outputs]]\nquantity = \"joint-force\"\ncomponent = 2",
@@ -373,8 +367,16 @@ fn the_rigid_body_scenes_run_with_their_joints_at_round_off() {
         ),
         ("four_bar", include_str!("../../scenes/four_bar.toml")),
         (
+            "four_bar_planar",
+            include_str!("../../scenes/four_bar_planar.toml"),
+        ),
+        (
             "slider_crank",
             include_str!("../../scenes/slider_crank.toml"),
+        ),
+        (
+            "slider_crank_planar",
+            include_str!("../../scenes/slider_crank_planar.toml"),
         ),
         ("bricard", include_str!("../../scenes/bricard.toml")),
     ];

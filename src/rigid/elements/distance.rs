@@ -118,6 +118,7 @@ mod tests {
         let frames = Frames {
             entries: &entries,
             q0: &q0,
+            dim: 3,
         };
         let d = Distance::of(
             BodyRef::Body(0),

@@ -24,9 +24,10 @@ pub struct HingeAngle {
 
 pub(super) fn at<T: Real>(v: &Affine, q: &[T]) -> [T; 3] {
     let mut out = v.constant.map(T::lit);
+    let d = v.dim;
     for &(s, c) in &v.terms {
-        for (k, o) in out.iter_mut().enumerate() {
-            *o = *o + T::lit(c) * q[3 * s + k];
+        for (k, o) in out.iter_mut().take(d).enumerate() {
+            *o = *o + T::lit(c) * q[d * s + k];
         }
     }
     out
@@ -36,10 +37,11 @@ pub(super) fn at<T: Real>(v: &Affine, q: &[T]) -> [T; 3] {
 /// slot's part of `v` scaled by `scale[slot]` when given.
 pub(super) fn along<T: Real>(x: &Affine, v: &[T], scale: Option<&[T]>) -> [T; 3] {
     let mut o = [T::zero(); 3];
+    let d = x.dim;
     for &(slot, coef) in &x.terms {
         let c = T::lit(coef) * scale.map_or(T::one(), |s| s[slot]);
-        for (k, ok) in o.iter_mut().enumerate() {
-            *ok = *ok + c * v[3 * slot + k];
+        for (k, ok) in o.iter_mut().take(d).enumerate() {
+            *ok = *ok + c * v[d * slot + k];
         }
     }
     o
@@ -56,9 +58,10 @@ fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
 /// `out += Σ_{(s, α) ∈ x} α d e_s`: a derivative `d` with respect to the vector `x` carried to
 /// the slots `x` combines (the transpose of [`along`]).
 pub(super) fn spread<T: Real>(x: &Affine, d: [T; 3], out: &mut [T]) {
+    let n = x.dim;
     for &(slot, coef) in &x.terms {
-        for (k, dk) in d.iter().enumerate() {
-            out[3 * slot + k] = out[3 * slot + k] + T::lit(coef) * *dk;
+        for (k, dk) in d.iter().take(n).enumerate() {
+            out[n * slot + k] = out[n * slot + k] + T::lit(coef) * *dk;
         }
     }
 }
@@ -216,6 +219,7 @@ mod tests {
         let frames = Frames {
             entries: &entries,
             q0: &q0,
+            dim: 3,
         };
         let hinge = Hinge {
             a: BodyRef::Body(0),

@@ -114,6 +114,7 @@ mod tests {
         let frames = Frames {
             entries: &entries,
             q0: &q0,
+            dim: 3,
         };
         let slider = Slider {
             a: BodyRef::Body(0),

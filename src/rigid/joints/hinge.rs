@@ -2,7 +2,7 @@
 //! `a_A · u_B = 0`, `a_A · v_B = 0` with `u_B, v_B` perpendicular to the axis in `B` — five
 //! rows, independent (not `a_A × a_B = 0`, three rows of rank two).
 
-use super::{BodyRef, JointKind, coincide, dot_row, perpendiculars, unit_axis};
+use super::{BodyRef, JointKind, coincide, dot_row, perpendiculars, planar_axis, unit_axis};
 use crate::error::SetupError;
 use crate::rigid::frames::Frames;
 use crate::rigid::rows::RowBuilder;
@@ -29,7 +29,10 @@ impl JointKind for Hinge {
     fn name(&self) -> &'static str {
         "hinge"
     }
+    /// In a planar model the axes must be the normal `z`: the pin's two rows remain.
     fn rows(&self, frames: &Frames<'_>) -> Result<Vec<RowBuilder<f64>>, SetupError> {
+        planar_axis(frames, "hinge", self.axis_a, true)?;
+        planar_axis(frames, "hinge", self.axis_b, true)?;
         let mut rows = coincide(
             &frames.point(self.a, self.anchor_a)?,
             &frames.point(self.b, self.anchor_b)?,

@@ -4,7 +4,7 @@
 //! bilinear rows, independent where they hold); translation: `(r_B − r_A)·u_A` and
 //! `(r_B − r_A)·v_A` at their initial values, `u_A, v_A ⟂` the axis in `A` (two rows).
 
-use super::{BodyRef, JointKind, dot_row, perpendiculars, unit_axis};
+use super::{BodyRef, JointKind, dot_row, perpendiculars, planar_axis, unit_axis};
 use crate::error::SetupError;
 use crate::rigid::frames::Frames;
 use crate::rigid::rows::RowBuilder;
@@ -28,7 +28,10 @@ impl JointKind for Slider {
     fn name(&self) -> &'static str {
         "slider"
     }
+    /// In a planar model the axis must lie in the plane: one row of orientation and one across
+    /// the axis remain.
     fn rows(&self, frames: &Frames<'_>) -> Result<Vec<RowBuilder<f64>>, SetupError> {
+        planar_axis(frames, "slider", self.axis_a, false)?;
         let q0 = frames.initial_positions();
         // Orientation: A's directors against where they would be turning with B.
         let da = frames.directors(self.a)?;

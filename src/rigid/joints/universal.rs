@@ -28,7 +28,14 @@ impl JointKind for Universal {
     fn name(&self) -> &'static str {
         "universal"
     }
+    /// Refused in a planar model (its cross axes leave the plane).
     fn rows(&self, frames: &Frames<'_>) -> Result<Vec<RowBuilder<f64>>, SetupError> {
+        if frames.dim() == 2 {
+            return Err(SetupError::Dimension {
+                what: "a universal joint needs a 3D model (in the plane its axes would leave it)"
+                    .to_owned(),
+            });
+        }
         let mut rows = coincide(
             &frames.point(self.a, self.anchor_a)?,
             &frames.point(self.b, self.anchor_b)?,

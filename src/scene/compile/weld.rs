@@ -197,10 +197,14 @@ pub(crate) fn push_welded(
                 })?;
                 Part::Point {
                     mass: super::validate::positive(mass, &path.key("mass"), "mass")?,
-                    position: super::validate::vector(&b.position, 3, &path.key("position"))?,
+                    position: super::validate::vector(
+                        &b.position,
+                        bodies.dim,
+                        &path.key("position"),
+                    )?,
                     velocity: super::validate::vector_or(
                         &b.velocity,
-                        3,
+                        bodies.dim,
                         &path.key("velocity"),
                         [0.0; 3],
                     )?,

@@ -9,7 +9,8 @@ use crate::scene::error::FieldPath;
 use crate::scene::validate::Result;
 use serde::Deserialize;
 
-/// A hinge between two bodies, or a body and the world (3D).
+/// A hinge between two bodies, or a body and the world (in a planar scene: a pin, about the
+/// plane's normal).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct HingeSpec {
@@ -43,8 +44,7 @@ impl Declare for HingeSpec {
     ) -> Result<()> {
         let ends = joint::ends(&self.bodies, bodies, path, "hinge")?;
         let [anchor_a, anchor_b] = joint::anchors(&self.anchor, &self.anchors, ends, bodies, path)?;
-        let [axis_a, axis_b] =
-            joint::axes(&self.axis, &self.axes, ("axis", "axes"), ends, bodies, path)?;
+        let [axis_a, axis_b] = joint::hinge_axes(&self.axis, &self.axes, ends, bodies, path)?;
         let hinge = Hinge {
             a: body_ref(0, Some(ends.a)),
             anchor_a,

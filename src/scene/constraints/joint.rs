@@ -4,7 +4,7 @@
 //! scene's slots as one [`Rows`] term.
 
 use super::{Constraint, Declared, rows::Rows};
-use crate::rigid::{BodyRef, Frames, JointKind, Placement, Rotation};
+use crate::rigid::{BodyRef, JointKind, Placement, Rotation};
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::validate::{Result, err, vector};
@@ -28,14 +28,18 @@ impl Ends {
     }
 }
 
-/// The one or two bodies `sel` names, each one body, different; 3D scenes only.
+/// The one or two bodies `sel` names, each one body, different; ball and universal joints in 3D
+/// scenes only.
 pub(crate) fn ends(sel: &[String], bodies: &Bodies, path: &FieldPath, kind: &str) -> Result<Ends> {
     if bodies.dim != 3 {
-        return Err(err(
-            SceneErrorKind::Dimension,
-            path.clone(),
-            format!("a {kind} joint needs dim = 3 (planar bodies are not supported yet)"),
-        ));
+        let why = match kind {
+            "ball" => Some("in the plane a ball joint is a pin: use `type = \"hinge\"`"),
+            "universal" => Some("a universal joint needs dim = 3"),
+            _ => None,
+        };
+        if let Some(why) = why {
+            return Err(err(SceneErrorKind::Dimension, path.clone(), why));
+        }
     }
     let bp = path.key("bodies");
     let one = |j: usize, s: &String| -> Result<(usize, Placement)> {
@@ -130,6 +134,31 @@ pub(crate) fn axes(
     per_end(axis, axes, names, ends, bodies, path, false)
 }
 
+/// A hinge's axis in each end's frame: as [`axes`]; in a planar scene the plane's normal `e_z`,
+/// which the scene may not name otherwise (a planar hinge turns in the plane).
+pub(crate) fn hinge_axes(
+    axis: &Option<Vec<f64>>,
+    axes: &Option<Vec<Vec<f64>>>,
+    ends: Ends,
+    bodies: &Bodies,
+    path: &FieldPath,
+) -> Result<[[f64; 3]; 2]> {
+    if bodies.dim == 2 {
+        if let Some(key) = [("axis", axis.is_some()), ("axes", axes.is_some())]
+            .into_iter()
+            .find_map(|(k, set)| set.then_some(k))
+        {
+            return Err(err(
+                SceneErrorKind::Value,
+                path.key(key),
+                "a planar hinge turns about the plane's normal: give no axis",
+            ));
+        }
+        return Ok([[0.0, 0.0, 1.0]; 2]);
+    }
+    self::axes(axis, axes, ("axis", "axes"), ends, bodies, path)
+}
+
 /// A point (`point`) or direction in both ends' frames, from a world value or per-end values.
 fn per_end(
     world: &Option<Vec<f64>>,
@@ -142,7 +171,7 @@ fn per_end(
 ) -> Result<[[f64; 3]; 2]> {
     match (world, each) {
         (Some(w), None) => {
-            let w = vector(w, 3, &path.key(one))?;
+            let w = vector(w, bodies.dim, &path.key(one))?;
             let local = |b: Option<usize>| {
                 let (c, r) = frame(bodies, b);
                 let rel = if point {
@@ -176,8 +205,8 @@ fn per_end(
                 }
             };
             Ok([
-                carry(0, vector(&v[0], 3, &p.index(0))?),
-                carry(1, vector(&v[1], 3, &p.index(1))?),
+                carry(0, vector(&v[0], bodies.dim, &p.index(0))?),
+                carry(1, vector(&v[1], bodies.dim, &p.index(1))?),
             ])
         }
         _ => Err(err(
@@ -202,12 +231,8 @@ pub(super) fn declare(
 ) -> Result<()> {
     let entries = bodies.entries(&ends.list());
     let q0 = bodies.positions();
-    let frames = Frames {
-        entries: &entries,
-        q0,
-    };
-    let rows = joint
-        .rows(&frames)
+    let frames = bodies.frames(&entries);
+    let rows = crate::rigid::joints::joint_rows(joint, &frames)
         .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))?;
     let name = |b: usize| format!("'{}'", bodies.list[b].name);
     let label = match ends.b {
@@ -221,7 +246,7 @@ pub(super) fn declare(
     };
     out.push((
         Constraint::Rows(
-            Rows::new(joint.name(), (ends.a, ends.b), rows, q0.len())
+            Rows::new(joint.name(), (ends.a, ends.b), rows, q0.len(), bodies.dim)
                 .with_rigid_first(bodies.rigid_at(ends.a).is_some()),
         ),
         label,

@@ -28,12 +28,13 @@ pub(crate) struct Rows<T = f64> {
 }
 
 impl Rows<f64> {
-    /// The term of `rows` (columns `3 s + k` of slot `s`), of `kind`, between `ends`.
+    /// The term of `rows` (columns `dim s + k` of slot `s`), of `kind`, between `ends`.
     pub(crate) fn new(
         kind: &'static str,
         ends: (usize, Option<usize>),
         source: Vec<RowBuilder<f64>>,
         positions: usize,
+        dim: usize,
     ) -> Self {
         let mut rows = QuadraticRows::new(positions);
         for row in &source {
@@ -41,7 +42,7 @@ impl Rows<f64> {
         }
         let mut slots: Vec<usize> = source
             .iter()
-            .flat_map(|r| r.columns().map(|i| i / 3))
+            .flat_map(|r| r.columns().map(|i| i / dim))
             .collect();
         slots.sort_unstable();
         slots.dedup();
@@ -122,7 +123,7 @@ impl<T: Real> ConstraintOps<T> for Rows<T> {
         &self,
         q: &[T],
         v: &[T],
-        _d: usize,
+        d: usize,
         scale: Option<&[T]>,
         mut f: impl FnMut(usize, T),
     ) {
@@ -130,7 +131,7 @@ impl<T: Real> ConstraintOps<T> for Rows<T> {
             let mut s = T::zero();
             self.rows.for_each_partial(q, r, |i, g| {
                 let vi = match scale {
-                    Some(w) => w[i / 3] * v[i],
+                    Some(w) => w[i / d] * v[i],
                     None => v[i],
                 };
                 s = s + g * vi;
@@ -148,21 +149,21 @@ impl<T: Real> ConstraintOps<T> for Rows<T> {
         self.rows.transpose_add_positions(q, &mu[..n], alpha, out);
     }
     /// One call per slot a row touches: the row's columns come in increasing order, so a
-    /// slot's three are consecutive.
+    /// slot's `d` are consecutive.
     #[inline]
-    fn gradients(&self, q: &[T], _d: usize, mut f: impl FnMut(usize, usize, [T; 3])) {
+    fn gradients(&self, q: &[T], d: usize, mut f: impl FnMut(usize, usize, [T; 3])) {
         for r in 0..self.rows.count() {
             let mut slot = usize::MAX;
             let mut g = [T::zero(); 3];
             self.rows.for_each_partial(q, r, |i, c| {
-                if i / 3 != slot {
+                if i / d != slot {
                     if slot != usize::MAX {
                         f(r, slot, g);
                     }
-                    slot = i / 3;
+                    slot = i / d;
                     g = [T::zero(); 3];
                 }
-                g[i % 3] = c;
+                g[i % d] = c;
             });
             if slot != usize::MAX {
                 f(r, slot, g);

@@ -45,7 +45,7 @@ impl Declare for SliderSpec {
     ) -> Result<()> {
         let ends = joint::ends(&self.bodies, bodies, path, "slider")?;
         let anchor = match (&self.anchor, &self.anchors) {
-            (None, None) => Some(bodies.list[ends.a].q.to_vec()),
+            (None, None) => Some(bodies.list[ends.a].q[..bodies.dim].to_vec()),
             (a, _) => a.clone(),
         };
         let [anchor_a, anchor_b] = joint::anchors(&anchor, &self.anchors, ends, bodies, path)?;

@@ -7,7 +7,7 @@
 //! sub-flow of the kick, switched by the `damping` flag.
 
 use super::{Assembler, Effect, Potential};
-use crate::rigid::{BodyRef, Coordinate, Distance, Frames};
+use crate::rigid::{BodyRef, Coordinate, Distance};
 use crate::scene::constraints::joint;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::names::Flag;
@@ -53,10 +53,7 @@ impl Effect for LineDamperSpec {
             }
         };
         let entries = cx.bodies.entries(&ends.list());
-        let frames = Frames {
-            entries: &entries,
-            q0: cx.bodies.positions(),
-        };
+        let frames = cx.bodies.frames(&entries);
         let b = ends.b.map_or(BodyRef::World, |_| BodyRef::Body(1));
         let distance = Distance::of(BodyRef::Body(0), pa, b, pb, &frames)
             .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))?;

@@ -125,7 +125,7 @@ impl<T: Real> HingeDamperFlow<T> {
         };
         let (angle, c) = &dampers.dampers[i];
         let nq = x.len() / 2;
-        let inv = &model.inv_masses;
+        let (inv, d) = (&model.inv_masses, model.dim);
         self.w.clear();
         self.w.resize(nq, 0.0);
         angle.gradient_add(&self.q, 1.0, &mut self.w);
@@ -138,8 +138,8 @@ impl<T: Real> HingeDamperFlow<T> {
         let (mut u, mut a) = (T::zero(), T::zero());
         for (j, &wj) in direction.iter().enumerate() {
             let wj = T::lit(wj);
-            u = u + wj * inv[j / 3] * p[j];
-            a = a + wj * inv[j / 3] * wj;
+            u = u + wj * inv[j / d] * p[j];
+            a = a + wj * inv[j / d] * wj;
         }
         if a <= T::zero() {
             return T::zero();

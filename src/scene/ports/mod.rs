@@ -229,13 +229,9 @@ pub(crate) fn hinge_angle(
 ) -> Result<crate::rigid::HingeAngle> {
     use crate::scene::constraints::joint;
     let ends = joint::ends(sel, bodies, path, "hinge")?;
-    let [axis_a, axis_b] = joint::axes(axis, axes, ("axis", "axes"), ends, bodies, path)?;
+    let [axis_a, axis_b] = joint::hinge_axes(axis, axes, ends, bodies, path)?;
     let entries = bodies.entries(&ends.list());
-    let q0 = bodies.positions();
-    let frames = crate::rigid::Frames {
-        entries: &entries,
-        q0,
-    };
+    let frames = bodies.frames(&entries);
     // `HingeAngle` measures its second body against its first: the first named body turns
     // against the second (or the world), positive counter-clockwise about the axis.
     let hinge = crate::rigid::Hinge {
@@ -265,7 +261,7 @@ pub(crate) fn slider_displacement(
     use crate::scene::constraints::joint;
     let ends = joint::ends(sel, bodies, path, "slider")?;
     let anchor = match (anchor, anchors) {
-        (None, None) => Some(bodies.list[ends.a].q.to_vec()),
+        (None, None) => Some(bodies.list[ends.a].q[..bodies.dim].to_vec()),
         (a, _) => a.clone(),
     };
     let [anchor_a, anchor_b] = joint::anchors(&anchor, anchors, ends, bodies, path)?;
@@ -278,10 +274,7 @@ pub(crate) fn slider_displacement(
         anchor_b,
     };
     let entries = bodies.entries(&ends.list());
-    let frames = crate::rigid::Frames {
-        entries: &entries,
-        q0: bodies.positions(),
-    };
+    let frames = bodies.frames(&entries);
     crate::rigid::SliderDisplacement::of(&slider, &frames)
         .map_err(|e| err(SceneErrorKind::Value, path.clone(), e.to_string()))
 }

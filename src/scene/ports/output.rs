@@ -485,6 +485,7 @@ fn rigid_read(spec: &OutputSpec, bodies: &Bodies, path: &FieldPath) -> Result<(R
     let read = Read::Rigid(RigidRead {
         centre: r.centre,
         axes: r.axes,
+        dim: bodies.dim,
         what,
     });
     Ok((read, format!("{}.{}", bodies.list[r.centre].name, name[k])))

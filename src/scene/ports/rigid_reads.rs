@@ -13,6 +13,8 @@ use crate::scene::model::SceneModel;
 pub(crate) struct RigidRead {
     pub(crate) centre: usize,
     pub(crate) axes: Rotation,
+    /// Positions per slot (2: a planar body, its third director the normal `z`).
+    pub(crate) dim: usize,
     pub(crate) what: RigidQuantity,
 }
 
@@ -31,12 +33,14 @@ impl RigidRead {
     /// The value at the state `x = (q, p)` of a scene with the masses `masses` (one per slot).
     pub(crate) fn value(&self, x: &[f64], inv_masses: &[f64]) -> f64 {
         let (q, p) = x.split_at(x.len() / 2);
-        let spin = || director_spin(q, p, self.centre, |s| 1.0 / inv_masses[s]);
+        let d = self.dim;
+        let spin = || director_spin(q, p, self.centre, |s| 1.0 / inv_masses[s], d);
+        let frame = || body_frame(q, self.centre, &self.axes, d);
         match self.what {
-            RigidQuantity::Orientation(k) => body_frame(q, self.centre, &self.axes).quaternion()[k],
+            RigidQuantity::Orientation(k) => frame().quaternion()[k],
             RigidQuantity::AngularVelocity(k) => spin()[k],
             RigidQuantity::BodyAngularVelocity(k) => {
-                let r = body_frame(q, self.centre, &self.axes);
+                let r = frame();
                 r.transpose().apply(spin())[k]
             }
         }
@@ -76,17 +80,19 @@ impl JointRead {
             return f64::NAN;
         }
         let q = &x[..x.len() / 2];
+        let d = model.dim;
         let (mut force, mut torque) = ([0.0; 3], [0.0; 3]);
-        term.kind.gradients(q, 3, |r, slot, g| {
+        term.kind.gradients(q, d, |r, slot, g| {
             let lambda = 0.5 * (a[term.row + r] + b[term.row + r]);
             let f = g.map(|v| -lambda * v);
             if slot == centre {
                 for k in 0..3 {
                     force[k] += f[k];
                 }
-            } else if rigid && slot > centre && slot <= centre + 3 {
-                let d = [q[3 * slot], q[3 * slot + 1], q[3 * slot + 2]];
-                let m = cross(d, f);
+            } else if rigid && slot > centre && slot <= centre + d {
+                let di: [f64; 3] =
+                    core::array::from_fn(|k| if k < d { q[d * slot + k] } else { 0.0 });
+                let m = cross(di, f);
                 for k in 0..3 {
                     torque[k] += m[k];
                 }
