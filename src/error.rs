@@ -251,6 +251,20 @@ pub enum StepError {
         /// The tolerance.
         tol: f64,
     },
+    /// An adaptive flow could not meet its tolerance: the step it needed fell below its
+    /// smallest step `h_min`.
+    #[error("at t = {t}: the step needed fell to {h:e}, below h_min = {h_min:e} ({cause})")]
+    StepSizeTooSmall {
+        /// The time the failing step started from.
+        t: f64,
+        /// The step the controller asked for last.
+        h: f64,
+        /// The smallest step allowed.
+        h_min: f64,
+        /// Why the step shrank: the error estimate above the tolerance, or the failure of a
+        /// sub-step (a Newton failure, a non-finite state).
+        cause: String,
+    },
     /// The state passed to a flow has a different length than the flow was built for.
     #[error("{flow}: state of length {got}, built for length {expected}")]
     StateLength {

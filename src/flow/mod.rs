@@ -8,6 +8,7 @@
 //! kick.strang(drift).projected(system, &x0, options)?.triple_jump()
 //! ```
 
+mod adaptive;
 pub mod coefficients;
 mod compose;
 mod constrained_dg;
@@ -28,6 +29,7 @@ mod schur;
 mod stage_blocks;
 mod step_end;
 
+pub use adaptive::{AcceptStep, AdaptiveExtrapolation, AdaptiveOptions, AdaptiveStats, Tolerances};
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};
 pub use constrained_dg::{ConstrainedDiscreteGradient, EnergyBalance};
@@ -42,7 +44,8 @@ pub use ledger::Ledger;
 pub use linear::{LINEAR_FLOW_CACHE, LinearFlow};
 pub use petrov_galerkin::{DiscreteDissipation, MAX_STAGES, PetrovGalerkin, exact_quadrature};
 pub use projection::{
-    Coupling, Projected, ProjectedMidpoint, ProjectionOptions, Reprojected, Scheme,
+    Coupling, ManifoldProjection, Projected, ProjectedMidpoint, ProjectionOptions, Reprojected,
+    Scheme,
 };
 
 use crate::error::{SetupError, StepError};
@@ -277,6 +280,23 @@ pub trait Flow<V: Vector> {
     fn restore_memory(&mut self, from: &mut &[V::Real]) {
         let _ = from;
     }
+    /// An adaptive flow's own step ([`AdaptiveExtrapolation`]): advances `x` by a step the
+    /// flow chooses to meet its tolerance, of at most `|max|` in the direction of `max`, and
+    /// returns it (`max` itself when it reached it). `None` for a flow without steps of its
+    /// own: every fixed-step flow (the default).
+    fn step_own(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        max: V::Real,
+        x: &mut V,
+    ) -> Option<Result<V::Real, StepError>> {
+        let _ = (ledger, max, x);
+        None
+    }
+    /// What an adaptive flow's controller did (`None` for a fixed-step flow).
+    fn adaptive_stats(&self) -> Option<AdaptiveStats> {
+        None
+    }
 }
 
 /// `n` calls of [`Flow::step_at`] with step `h`: the default [`Flow::step_repeated`], and the
@@ -360,6 +380,17 @@ macro_rules! forward_flow {
             }
             fn restore_memory(&mut self, from: &mut &[V::Real]) {
                 (**self).restore_memory(from)
+            }
+            fn step_own(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                max: V::Real,
+                x: &mut V,
+            ) -> Option<Result<V::Real, StepError>> {
+                (**self).step_own(ledger, max, x)
+            }
+            fn adaptive_stats(&self) -> Option<AdaptiveStats> {
+                (**self).adaptive_stats()
             }
             fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
                 (**self).tangent_apply(v, out)

@@ -22,6 +22,7 @@
 //! step points, [`step_with_events`](Stepper::step_with_events) (events located on the dense
 //! output) and [`state_mut`](Stepper::state_mut) for external changes of the state.
 
+mod adaptive;
 mod checkpoint;
 mod dense;
 mod event;

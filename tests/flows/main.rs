@@ -7,6 +7,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod adaptive;
 mod brackets;
 mod chain;
 mod check_model;

@@ -55,7 +55,7 @@ use warm::WarmStart;
 
 pub use midpoint::ProjectedMidpoint;
 pub use options::{Coupling, ProjectionOptions, Scheme};
-pub use reprojected::Reprojected;
+pub use reprojected::{ManifoldProjection, Reprojected};
 
 /// Workspace: states of length `n`, multipliers in vectors of at least `2m` entries.
 #[derive(Debug, Clone)]

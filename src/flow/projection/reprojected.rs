@@ -32,11 +32,13 @@ use num_traits::One as _;
 pub struct Reprojected<V: Vector, F, Sys> {
     inner: F,
     /// Everything but the inner flow: compiled once per model and storage, not per flow.
-    projector: Projector<V, Sys>,
+    projector: ManifoldProjection<V, Sys>,
 }
 
-/// The two projections of [`Reprojected`] and their workspace.
-struct Projector<V: Vector, Sys> {
+/// The two projections of [`Reprojected`] and their workspace: onto `g = 0` and, in the
+/// degenerate case, `φ = 0` (see [`Reprojected`]). Also what an adaptive flow runs after each
+/// accepted step ([`AcceptStep`](crate::flow::AcceptStep)).
+pub struct ManifoldProjection<V: Vector, Sys> {
     system: Sys,
     /// Newton for `μ` (positions).
     positions: Newton<V>,
@@ -81,6 +83,34 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
         x0: &V,
         options: ProjectionOptions<V::Real>,
     ) -> Result<Self, SetupError> {
+        let projector = ManifoldProjection::try_new(system, x0, options)?;
+        Ok(Self { inner, projector })
+    }
+
+    /// The wrapped flow.
+    pub fn inner(&self) -> &F {
+        &self.inner
+    }
+
+    /// Steps after which the state had to be moved (a residual above the tolerance).
+    pub fn projections(&self) -> u64 {
+        self.projector.projections
+    }
+}
+
+impl<V: Vector, Sys: Model<V>> ManifoldProjection<V, Sys> {
+    /// The projections for `system`, built for states shaped like `x0`, which must lie on the
+    /// manifold to `options.manifold_tol`; `options.case` names the case or it is decided from
+    /// the brackets at `x0`; `options.newton` drives both solves (its `ftol` is the accepted
+    /// residual).
+    ///
+    /// # Errors
+    /// The initial-state checks of a projection ([`SetupError`]).
+    pub fn try_new(
+        system: Sys,
+        x0: &V,
+        options: ProjectionOptions<V::Real>,
+    ) -> Result<Self, SetupError> {
         let (case, pattern) =
             check_initial_state::<V, Sys, V::Solver>(&system, x0, &options.initial_checks(), true)?;
         let m = system.constraint().dim();
@@ -96,7 +126,7 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
             Case::NonDegenerate => None,
         };
         let zero = <V::Real as num_traits::Zero>::zero();
-        let projector = Projector {
+        Ok(Self {
             system,
             positions,
             hidden,
@@ -110,22 +140,37 @@ impl<V: Vector, F: Flow<V>, Sys: Model<V>> Reprojected<V, F, Sys> {
             ftol: options.newton.ftol,
             stats: FlowStats::default(),
             projections: 0,
-        };
-        Ok(Self { inner, projector })
+        })
     }
 
-    /// The wrapped flow.
-    pub fn inner(&self) -> &F {
-        &self.inner
-    }
-
-    /// Steps after which the state had to be moved (a residual above the tolerance).
+    /// How many times a projection moved the state.
     pub fn projections(&self) -> u64 {
-        self.projector.projections
+        self.projections
     }
 }
 
-impl<V: Vector, Sys: Model<V>> Projector<V, Sys> {
+impl<V: Vector, Sys> core::fmt::Debug for ManifoldProjection<V, Sys> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("ManifoldProjection")
+            .field("hidden_projection", &self.hidden.is_some())
+            .field("projections", &self.projections)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<V: Vector, Sys: Model<V>> crate::flow::AcceptStep<V> for ManifoldProjection<V, Sys> {
+    fn accept(&mut self, x: &mut V) -> Result<(), StepError> {
+        self.project(x)
+    }
+    fn stats(&self) -> FlowStats {
+        self.stats
+    }
+    fn forget(&mut self) {
+        self.invalidate();
+    }
+}
+
+impl<V: Vector, Sys: Model<V>> ManifoldProjection<V, Sys> {
     /// The hidden-constraint projection from `base` into `x` (`K = m` on the small path).
     #[inline(always)]
     fn project_hidden<const K: usize>(
@@ -199,7 +244,7 @@ impl<V: Vector, Sys: Model<V>> Projector<V, Sys> {
     }
 }
 
-impl<V: Vector, Sys: Model<V>> Projector<V, Sys> {
+impl<V: Vector, Sys: Model<V>> ManifoldProjection<V, Sys> {
     /// Projects the inner flow's result `x`; on failure (or a non-finite result) `x` and
     /// `ledger` go back to the step's start and `ledger_start`.
     fn finish(

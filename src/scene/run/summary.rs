@@ -193,5 +193,6 @@ pub(crate) fn step_error_kind(e: &StepError) -> &'static str {
         StepError::CouplingViolated { .. } => "CouplingViolated",
         StepError::StateLength { .. } => "StateLength",
         StepError::OffManifold { .. } => "OffManifold",
+        StepError::StepSizeTooSmall { .. } => "StepSizeTooSmall",
     }
 }

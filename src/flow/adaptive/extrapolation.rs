@@ -1,0 +1,398 @@
+//! Order- and step-size-controlled extrapolation of a symmetric step of order 2: ODEX's
+//! controller around the projected Strang step (RATTLE), every sub-step forward.
+
+use super::{AcceptStep, AdaptiveOptions, AdaptiveStats};
+use crate::error::{SetupError, StepError};
+use crate::flow::{Flow, Ledger, MAX_ROWS};
+use crate::real::Real;
+use crate::vector::{Vector, ops};
+use num_traits::{One as _, Zero as _};
+
+/// Order- and step-size-controlled extrapolation of a symmetric base step `S_h` of order 2
+/// (the projected Strang step, RATTLE): the macro step of size `H` builds the Aitken–Neville
+/// table in `h²` row by row,
+///
+/// ```text
+/// T_{j,1} = S_{H/j}^j(x),   T_{j,k} = T_{j,k−1} + (T_{j,k−1} − T_{j−1,k−1}) / ((j/(j−k+1))² − 1),
+/// ```
+///
+/// (the harmonic sequence `n_j = j`, the base flow's memory restored before each row: every row
+/// starts from the same state and the same warm starts). `T_{j,j}` has order `2j`; the
+/// difference `err_j = ‖T_{j,j} − T_{j,j−1}‖` in the weighted norm ([`Tolerances`]) estimates
+/// the error of `T_{j,j−1}`, `O(H^{2j−1})`, and gives the step that would meet the tolerance
+/// at that column, `H_j = H · 0.94 (0.65/err_j)^{1/(2j−1)}` (clamped to `[0.02, 4] H`). The
+/// column `k` the controller aims at is chosen by the work per unit step `W_j = A_j / H_j`
+/// (`A_j = j(j+1)/2` base steps); a row is tested for convergence at `k − 1`, `k` and `k + 1`
+/// only, and the step is abandoned early when the estimate is too far above 1 to converge
+/// within the window (ODEX: Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.9, and `odex.f`).
+///
+/// An accepted step's result `T_{j,j}` goes through `P` ([`AcceptStep`]: the projection onto
+/// the manifold, so the constraints are at round-off after every accepted step). A rejected
+/// step, or one whose sub-step fails (a Newton failure: the step is halved), restores the state,
+/// the ledger and the base flow's memory exactly. Every sub-step has the sign of the macro
+/// step, so a dissipative sub-flow never runs backwards. The extended coordinates of the
+/// [`Ledger`] (supplied and dissipated energy) are extrapolated with the state.
+///
+/// `step(h, x)` advances by exactly `h`, with as many macro steps as the tolerance needs (the
+/// last clipped to land on `t + h`); the controller's proposal for the next step and its column
+/// carry over from one call to the next and are part of the flow's memory
+/// ([`Flow::save_memory`]), so a checkpoint's continuation is bit-identical.
+#[derive(Debug)]
+pub struct AdaptiveExtrapolation<V: Vector, F, P = ()> {
+    base: F,
+    finish: P,
+    options: AdaptiveOptions<V::Real>,
+    /// The most rows.
+    kmax: usize,
+    /// The column aimed at (2 … kmax).
+    kc: usize,
+    /// The next macro step to try (`None`: none taken yet).
+    h_next: Option<V::Real>,
+    /// Whether the last macro step was rejected (no increase of step or order after one).
+    rejected_last: bool,
+    start: V,
+    whole: V,
+    /// Two rows of the table (the previous one and the one being built).
+    prev: Vec<V>,
+    cur: Vec<V>,
+    /// The ledger's supplied and dissipated increments, tabled like the state.
+    prev_l: [[V::Real; 2]; MAX_ROWS],
+    cur_l: [[V::Real; 2]; MAX_ROWS],
+    memory: Vec<V::Real>,
+    whole_memory: Vec<V::Real>,
+    stats: AdaptiveStats,
+    /// The error estimate of the last rejected step (for the message when the step fails).
+    rejected_error: f64,
+}
+
+/// How a macro step went.
+enum Outcome<T> {
+    Accepted,
+    Rejected(T),
+}
+
+impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
+    /// Extrapolation of `base` under `options`, each accepted step finished by `finish`.
+    ///
+    /// # Errors
+    /// [`SetupError::Scheme`] when `base` is not a symmetric step of order 2 or `max_order` is
+    /// not even in 4 … `2·MAX_ROWS`; [`SetupError::InvalidParameter`] for an `h_min` or
+    /// `h_max` that is negative, not finite or out of order.
+    pub fn try_new(
+        base: F,
+        finish: P,
+        options: AdaptiveOptions<V::Real>,
+    ) -> Result<Self, SetupError> {
+        if !base.is_symmetric() || base.order() != 2 {
+            return Err(SetupError::Scheme {
+                what: format!(
+                    "adaptive extrapolation needs a symmetric step of order 2 (its error expands in h²); this one is {}of order {}",
+                    if base.is_symmetric() {
+                        ""
+                    } else {
+                        "not symmetric and "
+                    },
+                    base.order()
+                ),
+            });
+        }
+        let m = options.max_order;
+        if m % 2 != 0 || m < 4 || m as usize > 2 * MAX_ROWS {
+            return Err(SetupError::Scheme {
+                what: format!(
+                    "max_order {m}: the adaptive extrapolation reaches the even orders 4 to {}",
+                    2 * MAX_ROWS
+                ),
+            });
+        }
+        let h_min = options.h_min.to_f64_lossy();
+        let h_max = options.h_max.map_or(f64::INFINITY, |h| h.to_f64_lossy());
+        if !(h_min >= 0.0 && h_min.is_finite() && h_max > h_min && !h_max.is_nan()) {
+            return Err(SetupError::InvalidParameter {
+                name: "h_min, h_max".to_owned(),
+                value: h_min,
+                requirement: "0 ≤ h_min < h_max, both finite (h_max may be unbounded)",
+            });
+        }
+        let kmax = (m / 2) as usize;
+        // The starting column from the tolerance (ODEX: −0.6 log₁₀ rtol + 1.5).
+        let rtol = options.tolerances.tightest_rtol().to_f64_lossy().max(1e-16);
+        let kc = ((-0.6 * rtol.log10() + 1.5) as usize).clamp(2, kmax - 1);
+        let zero = V::Real::zero();
+        Ok(Self {
+            base,
+            finish,
+            options,
+            kmax,
+            kc,
+            h_next: None,
+            rejected_last: false,
+            start: V::zeros(0),
+            whole: V::zeros(0),
+            prev: Vec::new(),
+            cur: Vec::new(),
+            prev_l: [[zero; 2]; MAX_ROWS],
+            cur_l: [[zero; 2]; MAX_ROWS],
+            memory: Vec::new(),
+            whole_memory: Vec::new(),
+            stats: AdaptiveStats {
+                smallest: f64::INFINITY,
+                ..AdaptiveStats::default()
+            },
+            rejected_error: 0.0,
+        })
+    }
+
+    /// What the controller did so far.
+    pub fn adaptive_stats(&self) -> AdaptiveStats {
+        self.stats
+    }
+
+    /// The base step.
+    pub fn base(&self) -> &F {
+        &self.base
+    }
+
+    /// What runs after each accepted step.
+    pub fn finish(&self) -> &P {
+        &self.finish
+    }
+
+    /// The next macro step the controller will try (`None` before the first).
+    pub fn next_step(&self) -> Option<V::Real> {
+        self.h_next
+    }
+
+    /// The column (order / 2) the controller aims at next.
+    pub fn target_rows(&self) -> usize {
+        self.kc
+    }
+
+    /// The controller's state and the base flow's memory.
+    fn save_all(&mut self, out: &mut Vec<V::Real>) {
+        let one = V::Real::one();
+        out.push(self.h_next.unwrap_or(-one));
+        out.push(V::Real::lit(self.kc as f64));
+        out.push(if self.rejected_last {
+            one
+        } else {
+            V::Real::zero()
+        });
+        self.base.save_memory(out);
+    }
+
+    fn restore_all(&mut self, from: &mut &[V::Real]) {
+        if from.len() >= 3 {
+            let (head, rest) = from.split_at(3);
+            self.h_next = (head[0] >= V::Real::zero()).then_some(head[0]);
+            self.kc = (head[1].to_f64_lossy() as usize).clamp(2, self.kmax);
+            self.rejected_last = head[2] != V::Real::zero();
+            *from = rest;
+        }
+        self.base.restore_memory(from);
+        self.finish.forget();
+    }
+
+    /// One macro step of size `big` from `x`: on acceptance `x` and `ledger` advance and the
+    /// next step is proposed; on rejection or failure both and the base flow's memory are as
+    /// they were.
+    fn attempt(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        big: V::Real,
+        x: &mut V,
+    ) -> Result<Outcome<V::Real>, StepError> {
+        let l0 = *ledger;
+        self.start.copy_from(x);
+        self.memory.clear();
+        self.base.save_memory(&mut self.memory);
+        let jmax = (self.kc + 1).min(self.kmax);
+        let hf = big.to_f64_lossy();
+        // H_j and W_j by row (index j, 1-based).
+        let mut h_opt = [0.0f64; MAX_ROWS + 2];
+        let mut work = [0.0f64; MAX_ROWS + 2];
+        let mut err = 0.0f64;
+        for j in 1..=jmax {
+            if j > 1 {
+                let mut from = self.memory.as_slice();
+                self.base.restore_memory(&mut from);
+            }
+            let mut lj = l0;
+            self.cur[0].copy_from(&self.start);
+            let n = j as u32;
+            let sub = big / V::Real::lit(j as f64);
+            let stepped = self.base.step_repeated(&mut lj, sub, n, &mut self.cur[0]);
+            self.stats.base_steps += u64::from(n);
+            if let Err(e) = stepped {
+                let mut from = self.memory.as_slice();
+                self.base.restore_memory(&mut from);
+                return Err(e);
+            }
+            self.cur_l[0] = [lj.supplied - l0.supplied, lj.dissipated - l0.dissipated];
+            // Neville in h²: column k (0-based) from this row's k − 1 and the last row's.
+            for k in 1..j {
+                let ratio = V::Real::lit(j as f64 / (j - k) as f64);
+                let c = V::Real::one() / (ratio * ratio - V::Real::one());
+                let (done, rest) = self.cur.split_at_mut(k);
+                let (left, prev) = (&done[k - 1], &self.prev[k - 1]);
+                let out = rest[0].as_mut_slice();
+                for ((o, &a), &b) in out.iter_mut().zip(left.as_slice()).zip(prev.as_slice()) {
+                    *o = a + (a - b) * c;
+                }
+                for e in 0..2 {
+                    let a = self.cur_l[k - 1][e];
+                    self.cur_l[k][e] = a + (a - self.prev_l[k - 1][e]) * c;
+                }
+            }
+            core::mem::swap(&mut self.prev, &mut self.cur);
+            core::mem::swap(&mut self.prev_l, &mut self.cur_l);
+            if j < 2 {
+                continue;
+            }
+            let (a, b) = (&self.prev[j - 1], &self.prev[j - 2]);
+            err = self
+                .options
+                .tolerances
+                .error(
+                    a.as_slice(),
+                    b.as_slice(),
+                    self.start.as_slice(),
+                    a.as_slice(),
+                )
+                .to_f64_lossy();
+            let fac = if err > 0.0 {
+                0.94 * (0.65 / err).powf(1.0 / (2 * j - 1) as f64)
+            } else {
+                4.0
+            };
+            // A NaN estimate (a row blew up) shrinks as far as the clamp allows.
+            let fac = if fac.is_nan() {
+                0.02
+            } else {
+                fac.clamp(0.02, 4.0)
+            };
+            h_opt[j] = hf * fac;
+            work[j] = (j * (j + 1) / 2) as f64 / h_opt[j];
+            let kc = self.kc;
+            let verdict = if j + 1 == kc {
+                if err <= 1.0 {
+                    Some(true)
+                } else if err > ((kc * (kc + 1)) as f64).powi(2) {
+                    Some(false)
+                } else {
+                    None
+                }
+            } else if j == kc {
+                if err <= 1.0 {
+                    Some(true)
+                } else if err > ((kc + 1) as f64).powi(2) {
+                    Some(false)
+                } else {
+                    None
+                }
+            } else if j == kc + 1 {
+                Some(err <= 1.0)
+            } else {
+                None
+            };
+            let verdict = match verdict {
+                None if j == jmax => Some(false),
+                v => v,
+            };
+            match verdict {
+                Some(true) => return self.accept(ledger, l0, big, j, &h_opt, &work, err, x),
+                Some(false) => {
+                    let mut from = self.memory.as_slice();
+                    self.base.restore_memory(&mut from);
+                    let mut k = self.kc.min(j);
+                    if k >= 3 && work[k - 1] < 0.8 * work[k] {
+                        k -= 1;
+                    }
+                    self.kc = k.clamp(2, self.kmax);
+                    self.rejected_last = true;
+                    self.rejected_error = err;
+                    self.stats.rejected += 1;
+                    let next = h_opt[k].min(0.9 * hf);
+                    return Ok(Outcome::Rejected(V::Real::lit(next)));
+                }
+                None => {}
+            }
+        }
+        unreachable!("the last row decides (err = {err})")
+    }
+
+    /// Accepts row `j`'s diagonal entry, finishes it, and chooses the next column and step.
+    #[allow(clippy::too_many_arguments)]
+    fn accept(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        l0: Ledger<V::Real>,
+        big: V::Real,
+        j: usize,
+        h_opt: &[f64],
+        work: &[f64],
+        err: f64,
+        x: &mut V,
+    ) -> Result<Outcome<V::Real>, StepError> {
+        x.copy_from(&self.prev[j - 1]);
+        let finished =
+            self.finish
+                .accept(x)
+                .and_then(|()| match ops::first_non_finite(x.as_slice()) {
+                    Some(component) => Err(StepError::NonFinite { component }),
+                    None => Ok(()),
+                });
+        if let Err(e) = finished {
+            x.copy_from(&self.start);
+            let mut from = self.memory.as_slice();
+            self.base.restore_memory(&mut from);
+            self.finish.forget();
+            return Err(e);
+        }
+        ledger.t = l0.t + big;
+        ledger.supplied = l0.supplied + self.prev_l[j - 1][0];
+        ledger.dissipated = l0.dissipated + self.prev_l[j - 1][1];
+        let kc = self.kc;
+        let mut k = j;
+        if j < kc + 1 {
+            if j >= 3 && work[j - 1] < 0.8 * work[j] {
+                k = j - 1;
+            } else if j < self.kmax && work[j] < 0.9 * work[j - 1] {
+                k = j + 1;
+            }
+        } else if work[j] >= 0.9 * work[j - 1] {
+            k = j - 1;
+        }
+        let hf = big.to_f64_lossy();
+        let mut next = if k <= j {
+            h_opt[k]
+        } else {
+            let a = |r: usize| (r * (r + 1) / 2) as f64;
+            h_opt[j] * a(k) / a(j)
+        };
+        if self.rejected_last {
+            k = k.min(j);
+            next = next.min(hf);
+        }
+        if let Some(h_max) = self.options.h_max {
+            next = next.min(h_max.to_f64_lossy());
+        }
+        self.kc = k.clamp(2, self.kmax);
+        self.rejected_last = false;
+        self.h_next = Some(V::Real::lit(next));
+        let s = &mut self.stats;
+        s.accepted += 1;
+        s.orders[j] += 1;
+        s.smallest = s.smallest.min(hf);
+        s.largest = s.largest.max(hf);
+        s.last_error = err;
+        Ok(Outcome::Accepted)
+    }
+}
+
+#[path = "extrapolation_stepping.rs"]
+mod stepping;
+
+#[cfg(test)]
+#[path = "extrapolation_tests.rs"]
+mod tests;

@@ -1,0 +1,28 @@
+//! Tolerance-driven integration: flows that choose their own steps (and orders) to meet a
+//! requested accuracy, and keep the structure of the fixed-step schemes — every sub-step
+//! forward in time, the constraints projected to round-off after every accepted step, a
+//! rejected step restoring the state and the flow's memory exactly (`../shared/docs/METHOD.md`
+//! §9; docs/method.md §17).
+//!
+//! An adaptive flow is a [`Flow`](crate::flow::Flow) like any other: `step(h, x)` advances by
+//! exactly `h` — the communication interval of an embedder, an FMU or a CSV row — taking as many
+//! internal steps as the tolerance needs and landing on `t + h` with a last, shorter one. So
+//! the one [`Stepper`](crate::Stepper) runs it unchanged: `advance_to`, events on dense output,
+//! checkpoints (the controller's state is part of the flow's memory, so a continuation is
+//! bit-identical).
+//!
+//! Files: `tolerances.rs` ([`Tolerances`]: the weighted norm), `options.rs`
+//! ([`AdaptiveOptions`], [`AdaptiveStats`]), `extrapolation.rs`
+//! ([`AdaptiveExtrapolation`]: order- and step-size-controlled extrapolation of a symmetric
+//! base step, ODEX's controller), `accept.rs` ([`AcceptStep`]: what runs after each accepted
+//! step — the projection onto the manifold, or nothing).
+
+mod accept;
+mod extrapolation;
+mod options;
+mod tolerances;
+
+pub use accept::AcceptStep;
+pub use extrapolation::AdaptiveExtrapolation;
+pub use options::{AdaptiveOptions, AdaptiveStats};
+pub use tolerances::Tolerances;

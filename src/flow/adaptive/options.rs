@@ -1,0 +1,59 @@
+//! What an adaptive flow is asked for ([`AdaptiveOptions`]) and what it reports
+//! ([`AdaptiveStats`]).
+
+use super::Tolerances;
+use crate::flow::MAX_ROWS;
+use crate::real::Real;
+
+/// What an adaptive flow is asked for: the tolerances, the first step, the smallest and the
+/// largest step, and the highest order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdaptiveOptions<T> {
+    /// The accuracy asked for, per macro step, in the weighted norm ([`Tolerances`]).
+    pub tolerances: Tolerances<T>,
+    /// The first step to try (default: the first interval asked for, clipped to `h_max`).
+    pub first_step: Option<T>,
+    /// The smallest step: a step that would have to be smaller fails with
+    /// [`StepError::StepSizeTooSmall`] (default `0`: only a step that no longer moves time).
+    pub h_min: T,
+    /// The largest step (default: unbounded).
+    pub h_max: Option<T>,
+    /// The highest order, even, 4 … `2·MAX_ROWS` (default 16): the table has `max_order / 2`
+    /// rows at most.
+    pub max_order: u32,
+}
+
+impl<T: Real> AdaptiveOptions<T> {
+    /// `tolerances` with the defaults above.
+    pub fn new(tolerances: Tolerances<T>) -> Self {
+        Self {
+            tolerances,
+            first_step: None,
+            h_min: T::zero(),
+            h_max: None,
+            max_order: 2 * MAX_ROWS as u32,
+        }
+    }
+}
+
+/// What the controller did (cumulative since construction).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct AdaptiveStats {
+    /// Accepted macro steps.
+    pub accepted: u64,
+    /// Rejected macro steps: the error estimate above the tolerance.
+    pub rejected: u64,
+    /// Macro steps abandoned because a sub-step failed (a Newton failure, a non-finite state,
+    /// the projection's failure): the step was halved.
+    pub failed: u64,
+    /// Base steps taken (accepted, rejected and failed macro steps alike).
+    pub base_steps: u64,
+    /// `orders[k]`: steps accepted at order `2k` (`k` table rows).
+    pub orders: [u64; MAX_ROWS + 1],
+    /// The smallest accepted step (`∞` before the first).
+    pub smallest: f64,
+    /// The largest accepted step.
+    pub largest: f64,
+    /// The error estimate of the last accepted step, in the weighted norm (≤ 1).
+    pub last_error: f64,
+}
