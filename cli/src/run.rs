@@ -397,4 +397,20 @@ pub(crate) fn print_summary(s: &RunSummary) {
     if !counts.is_empty() {
         println!("  evaluations: {}", counts.join(", "));
     }
+    if let Some(a) = &s.adaptive {
+        let orders: Vec<String> = a.orders.iter().map(|[o, n]| format!("{o}: {n}")).collect();
+        println!(
+            "  steps chosen: {} accepted, {} rejected, {} halved after a failed sub-step; {} base steps; orders {}; steps {} … {}; last error estimate {:.2} of the tolerance",
+            a.accepted,
+            a.rejected,
+            a.failed,
+            a.base_steps,
+            orders.join(", "),
+            a.smallest_step
+                .map_or("-".to_owned(), |h| format!("{h:.3e}")),
+            a.largest_step
+                .map_or("-".to_owned(), |h| format!("{h:.3e}")),
+            a.error_estimate
+        );
+    }
 }

@@ -161,6 +161,53 @@ fn lieflow_run(order: u32, dt: f64, t_end: f64, repeat: usize) -> Row {
     }
 }
 
+/// lieflow's adaptive extrapolation of the projected Strang step at `tol` (rtol = atol),
+/// projected after every accepted step: one call `step(t_end)`, the steps and orders chosen
+/// inside it.
+fn adaptive_run(tol: f64, t_end: f64, repeat: usize) -> Row {
+    use lieflow::flow::{AdaptiveExtrapolation, AdaptiveOptions, ManifoldProjection, Tolerances};
+    let model = DampedPendulum::try_new(C).unwrap();
+    let start = x0();
+    let build = || {
+        let projected = model
+            .free_flow()
+            .and_then(|f| f.projected(model.system(), &start, ProjectionOptions::default()))
+            .unwrap_or_else(|e| fatal(&e));
+        let finish =
+            ManifoldProjection::try_new(model.system(), &start, ProjectionOptions::default())
+                .unwrap_or_else(|e| fatal(&e));
+        let options = AdaptiveOptions::new(Tolerances::new(tol, tol).unwrap_or_else(|e| fatal(&e)));
+        AdaptiveExtrapolation::try_new(projected, finish, options).unwrap_or_else(|e| fatal(&e))
+    };
+    let mut flow = build();
+    let mut x = start;
+    flow.step(t_end, &mut x)
+        .unwrap_or_else(|e| fatal(&format!("adaptive at tol {tol:e}: {e}")));
+    let evaluations = flow.stats().residual_evaluations;
+    let s = flow.adaptive_stats();
+    let best = (0..repeat)
+        .map(|_| {
+            let mut flow = build();
+            let mut y = start;
+            let clock = Instant::now();
+            flow.step(std::hint::black_box(t_end), &mut y)
+                .unwrap_or_else(|e| fatal(&e));
+            clock.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min);
+    Row {
+        method: format!(
+            "lieflow adaptive ({} steps, {} base)",
+            s.accepted, s.base_steps
+        ),
+        setting: format!("tol {tol:.0e}"),
+        x: x.into(),
+        max_g: g(x.as_slice()).abs(),
+        ms: best * 1e3,
+        evaluations,
+    }
+}
+
 fn main() {
     let t_end: f64 = flag("t-end", 10.0);
     if !(t_end.is_finite() && t_end > 0.0) {
@@ -187,18 +234,21 @@ fn main() {
             rows.push(lieflow_run(order, dt, t_end, repeat));
         }
     }
+    for tol in [1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12] {
+        rows.push(adaptive_run(tol, t_end, repeat));
+    }
     let error = |r: &Row| {
         (0..4)
             .map(|i| (r.x[i] - reference[i]).abs())
             .fold(0.0, f64::max)
     };
     println!(
-        "{:<32} {:>10} {:>10} {:>10} {:>10} {:>8}",
+        "{:<40} {:>10} {:>10} {:>10} {:>10} {:>8}",
         "method", "setting", "error", "max|g|", "ms", "evals"
     );
     for r in &rows {
         println!(
-            "{:<32} {:>10} {:>10.2e} {:>10.1e} {:>10.4} {:>8}",
+            "{:<40} {:>10} {:>10.2e} {:>10.1e} {:>10.4} {:>8}",
             r.method,
             r.setting,
             error(r),
@@ -216,6 +266,17 @@ fn main() {
                 .fold(f64::INFINITY, f64::min)
         };
         let (ours, theirs) = (fastest(false), fastest(true));
+        // The adaptive runs alone: what a user who asks for a tolerance gets, no step
+        // picked from a grid.
+        let adaptive = rows
+            .iter()
+            .filter(|r| r.method.starts_with("lieflow adaptive") && error(r) <= target)
+            .map(|r| r.ms)
+            .fold(f64::INFINITY, f64::min);
+        println!(
+            "target {key}: lieflow adaptive {adaptive:.4} ms, ratio to DOP853 {:.2}",
+            adaptive / theirs
+        );
         println!(
             "target {key}: lieflow {ours:.4} ms, DOP853 {theirs:.4} ms, ratio {:.2}",
             ours / theirs
@@ -228,10 +289,12 @@ fn main() {
             }
         };
         json.push_str(&format!(
-            ",\"lieflow_ms_{key}\":{},\"dop853_ms_{key}\":{},\"ratio_{key}\":{}",
+            ",\"lieflow_ms_{key}\":{},\"dop853_ms_{key}\":{},\"ratio_{key}\":{},\"adaptive_ms_{key}\":{},\"adaptive_ratio_{key}\":{}",
             num(ours),
             num(theirs),
-            num(ours / theirs)
+            num(ours / theirs),
+            num(adaptive),
+            num(adaptive / theirs)
         ));
     }
     println!("{json}}}");

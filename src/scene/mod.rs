@@ -70,9 +70,9 @@ pub use model::{
     SceneModel, SceneSplitting,
 };
 pub use run::{
-    Advanced, BUDGET_WARNING_FRACTION, EffectReport, RunFailure, RunPlan, RunSummary, Sample,
-    Simulation, SimulationCheckpoint, advance, advance_plan, advance_plan_until, advance_until,
-    run, run_until,
+    AdaptiveSummary, Advanced, BUDGET_WARNING_FRACTION, EffectReport, RunFailure, RunPlan,
+    RunSummary, Sample, Simulation, SimulationCheckpoint, advance, advance_plan,
+    advance_plan_until, advance_until, run, run_until,
 };
 pub use schema::SceneFile;
 pub use watch::EventRecord;

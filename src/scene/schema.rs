@@ -252,8 +252,31 @@ pub struct IntegratorSpec {
     /// even orders 4 to 16, default 4).
     #[serde(default)]
     pub order: Option<u32>,
-    /// Step size, positive.
+    /// Step size, positive; with `tol`, the interval the run reports at (CSV rows, outputs,
+    /// progress, an FMU's communication step), inside which the steps are chosen, and the
+    /// first step tried.
     pub dt: f64,
+    /// A tolerance (`rtol = atol = tol`): the steps and orders are chosen to meet it by the
+    /// adaptive extrapolation of the splitting (`scheme = "auto"` or `"extrapolation"`; every
+    /// sub-step forward, the constraints projected after every accepted step).
+    #[serde(default)]
+    pub tol: Option<f64>,
+    /// The relative tolerance (instead of or beside `tol`).
+    #[serde(default)]
+    pub rtol: Option<f64>,
+    /// The absolute tolerance (instead of or beside `tol`).
+    #[serde(default)]
+    pub atol: Option<f64>,
+    /// With a tolerance: the smallest step (default 0: a run fails only when the step no
+    /// longer moves time), below which the run stops with a typed error naming the time.
+    #[serde(default)]
+    pub h_min: Option<f64>,
+    /// With a tolerance: the largest step (default: `dt`).
+    #[serde(default)]
+    pub h_max: Option<f64>,
+    /// With a tolerance: the highest order the controller may choose (even, 4 … 16; default 16).
+    #[serde(default)]
+    pub max_order: Option<u32>,
     /// Final time, positive (`t_end / dt` steps, rounded to the nearest integer).
     pub t_end: f64,
     /// Diagnostics computed after every step: `"energy"`, `"constraints"` (`|g|`, `|φ|`),

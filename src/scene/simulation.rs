@@ -49,6 +49,10 @@ pub trait Simulation {
     fn effects(&self) -> Vec<EffectReport>;
     /// The scheme's work counters.
     fn stats(&self) -> FlowStats;
+    /// What the step controller did, when the scene gives a tolerance.
+    fn adaptive_stats(&self) -> Option<crate::flow::AdaptiveStats> {
+        None
+    }
     /// `(dimension, bodies)` when the state is `(q, p)` of point bodies (for path plots).
     fn bodies(&self) -> Option<(usize, usize)>;
     /// Zeroes the terms' evaluation counters and clocks (a run starts with it, so that the
@@ -480,6 +484,9 @@ where
     }
     fn stats(&self) -> FlowStats {
         self.stepper.flow().stats()
+    }
+    fn adaptive_stats(&self) -> Option<crate::flow::AdaptiveStats> {
+        self.stepper.flow().adaptive_stats()
     }
     fn bodies(&self) -> Option<(usize, usize)> {
         self.model.as_ref().map(|m| (m.space_dim(), m.bodies()))

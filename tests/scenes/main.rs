@@ -32,5 +32,6 @@ mod scene_servo;
 mod scene_slider_limit;
 mod scene_slider_spring;
 mod scene_taut_chain;
+mod scene_tolerance;
 mod scene_unconstrained;
 mod scene_weld;

@@ -97,7 +97,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             });
         }
         let m = options.max_order;
-        if m % 2 != 0 || m < 4 || m as usize > 2 * MAX_ROWS {
+        if !m.is_multiple_of(2) || m < 4 || m as usize > 2 * MAX_ROWS {
             return Err(SetupError::Scheme {
                 what: format!(
                     "max_order {m}: the adaptive extrapolation reaches the even orders 4 to {}",

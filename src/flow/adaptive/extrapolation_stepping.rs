@@ -79,10 +79,27 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
                 .or(self.options.first_step)
                 .map_or(left, |v| v.abs())
                 .min(h_max);
-            let big = proposal.min(left);
+            // Up to the end of the interval: in one step when the proposal reaches it, in two
+            // equal ones when it falls short by less than itself (not a step and a sliver).
+            let big = if proposal >= left {
+                left
+            } else if proposal + proposal > left {
+                left * V::Real::lit(0.5)
+            } else {
+                proposal
+            };
             let t = ledger.t;
             let cause = match self.attempt(ledger, sign * big, x) {
-                Ok(Outcome::Accepted) => return Ok(big),
+                Ok(Outcome::Accepted) => {
+                    // A step shortened to fit the interval says nothing against the longer one
+                    // proposed before it.
+                    if big < proposal
+                        && let Some(next) = self.h_next
+                    {
+                        self.h_next = Some(next.max(proposal));
+                    }
+                    return Ok(big);
+                }
                 Ok(Outcome::Rejected(next)) => {
                     self.h_next = Some(next.abs());
                     format!(

@@ -2,7 +2,7 @@
 //! requested accuracy, and keep the structure of the fixed-step schemes — every sub-step
 //! forward in time, the constraints projected to round-off after every accepted step, a
 //! rejected step restoring the state and the flow's memory exactly (`../shared/docs/METHOD.md`
-//! §9; docs/method.md §17).
+//! §9; docs/method.md §12d).
 //!
 //! An adaptive flow is a [`Flow`](crate::flow::Flow) like any other: `step(h, x)` advances by
 //! exactly `h` — the communication interval of an embedder, an FMU or a CSV row — taking as many

@@ -63,6 +63,22 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
         );
     }
     let (raise, order) = choose_scheme(&file.integrator, false)?;
+    if let super::Raise::Adaptive(_) = raise {
+        let key = ["tol", "rtol", "atol"]
+            .into_iter()
+            .zip([
+                file.integrator.tol,
+                file.integrator.rtol,
+                file.integrator.atol,
+            ])
+            .find_map(|(k, v)| v.map(|_| k))
+            .unwrap_or("tol");
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            FieldPath::root().key("integrator").key(key),
+            "a tolerance is for scenes of bodies; the built-in models take a fixed `dt`",
+        ));
+    }
     let table = raise.table();
     let scheme = file.integrator.scheme;
     if scheme == Method::DiscreteGradient

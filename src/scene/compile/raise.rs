@@ -2,7 +2,10 @@
 //! (negative sub-steps) or an extrapolation (every sub-step forward, for damped scenes).
 
 use crate::error::SetupError;
-use crate::flow::{CompositionTable, Flow, FlowExt, ProjectionOptions};
+use crate::flow::{
+    AdaptiveExtrapolation, AdaptiveOptions, CompositionTable, Flow, FlowExt, ManifoldProjection,
+    ProjectionOptions, Tolerances,
+};
 use crate::scene::schema::Method;
 use crate::system::Model;
 use crate::vector::Vector;
@@ -19,6 +22,39 @@ pub enum Raise {
     /// forward ([`Extrapolated`](crate::flow::Extrapolated)), re-projected onto the manifold
     /// when constrained ([`Reprojected`](crate::flow::Reprojected)).
     Extrapolate(u32),
+    /// Order- and step-size-controlled extrapolation to a tolerance
+    /// ([`AdaptiveExtrapolation`](crate::flow::AdaptiveExtrapolation)), every sub-step forward,
+    /// projected onto the manifold after every accepted step when constrained.
+    Adaptive(Control),
+}
+
+/// A scene's tolerance and step limits ([`Raise::Adaptive`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Control {
+    /// The relative tolerance.
+    pub rtol: f64,
+    /// The absolute tolerance.
+    pub atol: f64,
+    /// The smallest step.
+    pub h_min: f64,
+    /// The largest step.
+    pub h_max: f64,
+    /// The highest order.
+    pub max_order: u32,
+    /// The first step tried.
+    pub first_step: f64,
+}
+
+impl Control {
+    /// The library's options in the scalar `T`.
+    fn options<T: crate::real::Real>(&self) -> Result<AdaptiveOptions<T>, SetupError> {
+        let mut o = AdaptiveOptions::new(Tolerances::new(T::lit(self.rtol), T::lit(self.atol))?);
+        o.h_min = T::lit(self.h_min);
+        o.h_max = Some(T::lit(self.h_max));
+        o.max_order = self.max_order;
+        o.first_step = Some(T::lit(self.first_step));
+        Ok(o)
+    }
 }
 
 impl Raise {
@@ -49,6 +85,9 @@ impl Raise {
             (Method::Auto, Raise::Base) => {
                 "order 2: the symmetric step of the exact sub-flows itself"
             }
+            (_, Raise::Adaptive(_)) => {
+                "a tolerance asked: the splitting extrapolated with the order and the step chosen to meet it, every sub-step forward"
+            }
             (Method::Extrapolation, _) => {
                 "`scheme = \"extrapolation\"`: Strang extrapolated, every sub-step forward"
             }
@@ -68,6 +107,10 @@ impl Raise {
         match self {
             Raise::Base => base.to_owned(),
             Raise::Compose(t) => format!("{base} composed by {} ({} stages)", t.name, t.stages),
+            Raise::Adaptive(c) => format!(
+                "{base}, extrapolated adaptively (orders 4 to {}, rtol {:e}, atol {:e}), projected after every accepted step",
+                c.max_order, c.rtol, c.atol
+            ),
             Raise::Extrapolate(order) => {
                 let rows = order / 2;
                 format!(
@@ -109,6 +152,16 @@ where
             match onto {
                 Some((system, x0, options)) => Box::new(e.reprojected(system, x0, options)?),
                 None => Box::new(e),
+            }
+        }
+        (Raise::Adaptive(c), _) => {
+            let options = c.options()?;
+            match onto {
+                Some((system, x0, p)) => {
+                    let finish = ManifoldProjection::try_new(system, x0, p)?;
+                    Box::new(AdaptiveExtrapolation::try_new(flow, finish, options)?)
+                }
+                None => Box::new(AdaptiveExtrapolation::try_new(flow, (), options)?),
             }
         }
     })

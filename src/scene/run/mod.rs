@@ -11,7 +11,9 @@ mod summary;
 
 pub(crate) use crate::scene::simulation::ModelRun;
 pub use crate::scene::simulation::{EffectReport, Simulation, SimulationCheckpoint};
-pub use summary::{BUDGET_WARNING_FRACTION, RunFailure, RunPlan, RunSummary, Sample};
+pub use summary::{
+    AdaptiveSummary, BUDGET_WARNING_FRACTION, RunFailure, RunPlan, RunSummary, Sample,
+};
 pub(crate) use summary::{step_error_advice, step_error_kind};
 
 use crate::scene::observe::{EnergyBudget, Residuals, RunObserver, StepClock};
@@ -284,5 +286,6 @@ pub fn run_until(
         },
         error: done.error,
         interrupted: done.interrupted,
+        adaptive: sim.adaptive_stats().map(Into::into),
     }
 }

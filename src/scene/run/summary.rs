@@ -132,6 +132,52 @@ pub struct RunSummary {
     /// The run was interrupted (Ctrl-C) before its last step: the summary covers the steps
     /// taken.
     pub interrupted: bool,
+    /// What the step controller did (a scene with a tolerance; `None` otherwise).
+    pub adaptive: Option<AdaptiveSummary>,
+}
+
+/// What the step controller of a scene with a tolerance did: its accepted, rejected and
+/// failed steps, the orders it chose, its smallest and largest steps, and its last error
+/// estimate (in the weighted norm of the tolerance: ≤ 1).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AdaptiveSummary {
+    /// Accepted steps.
+    pub accepted: u64,
+    /// Steps rejected by the error estimate.
+    pub rejected: u64,
+    /// Steps halved because a sub-step failed (a Newton failure).
+    pub failed: u64,
+    /// Base (Strang) steps taken, rejected ones included.
+    pub base_steps: u64,
+    /// `[order, accepted steps at it]`, for the orders used.
+    pub orders: Vec<[u64; 2]>,
+    /// The smallest accepted step.
+    pub smallest_step: Option<f64>,
+    /// The largest accepted step.
+    pub largest_step: Option<f64>,
+    /// The last accepted step's error estimate, in the tolerance's weighted norm.
+    pub error_estimate: f64,
+}
+
+impl From<crate::flow::AdaptiveStats> for AdaptiveSummary {
+    fn from(s: crate::flow::AdaptiveStats) -> Self {
+        Self {
+            accepted: s.accepted,
+            rejected: s.rejected,
+            failed: s.failed,
+            base_steps: s.base_steps,
+            orders: s
+                .orders
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| **n > 0)
+                .map(|(k, &n)| [2 * k as u64, n])
+                .collect(),
+            smallest_step: (s.accepted > 0).then_some(s.smallest),
+            largest_step: (s.accepted > 0).then_some(s.largest),
+            error_estimate: s.last_error,
+        }
+    }
 }
 
 /// The fraction of the energy exchanged (`dissipated + |supplied|`) above which the budget's

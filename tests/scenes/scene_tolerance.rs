@@ -1,0 +1,170 @@
+//! Scenes with a tolerance (`[integrator] tol`, `rtol`, `atol`, `h_min`, `h_max`,
+//! `max_order`): the adaptive extrapolation of the splitting chooses its steps and orders
+//! inside each report interval `dt`. The damped pendulum's error follows the tolerance, a
+//! heavy top keeps its joint at round-off and precesses as it should, a checkpoint's
+//! continuation is bit-identical, and what a tolerance cannot go with is refused where written.
+
+use crate::scene_text::{parse, run_scene};
+use lieflow::scene::{SceneErrorKind, run};
+
+const PENDULUM: &str = include_str!("../../scenes/damped_pendulum.toml");
+
+/// The damped pendulum reporting every `dt` with `extra` integrator keys.
+fn pendulum(dt: f64, extra: &str) -> String {
+    PENDULUM.replace("dt = 0.01", &format!("dt = {dt}\n{extra}"))
+}
+
+/// The least-squares slope of `log y` against `log x`.
+fn slope(x: &[f64], y: &[f64]) -> f64 {
+    let (lx, ly): (Vec<f64>, Vec<f64>) = x.iter().zip(y).map(|(a, b)| (a.ln(), b.ln())).unzip();
+    let n = lx.len() as f64;
+    let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
+    let sxy: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
+    sxy / lx.iter().map(|a| (a - mx) * (a - mx)).sum::<f64>()
+}
+
+#[test]
+fn the_damped_pendulum_s_error_follows_the_tolerance() {
+    // Reports every 0.5 s over 10 s; the reference is the fixed extrapolation of order 12 at
+    // dt = 2e-3 (its error below 1e-13). The error falls with the tolerance at a log–log slope
+    // within 0.8 … 1.2 and stays within a factor 20 of it either way (each accepted step's
+    // local error is below tol; 20 report intervals); every row at the projection's level;
+    // the orders rise as the tolerance falls.
+    let reference = run_scene(&parse(&pendulum(2e-3, "order = 12")));
+    let tols = [1e-4, 1e-6, 1e-8, 1e-10, 1e-12];
+    let mut errs = Vec::new();
+    let mut top_orders = Vec::new();
+    for &tol in &tols {
+        let s = run_scene(&parse(&pendulum(0.5, &format!("tol = {tol}"))));
+        assert!(s.error.is_none(), "{:?}", s.error);
+        assert!(s.max_abs_g.unwrap() <= 64.0 * f64::EPSILON);
+        let a = s.adaptive.as_ref().expect("the controller's report");
+        let err = (0..4)
+            .map(|k| (s.x[k] - reference.x[k]).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "tol {tol:e}: error {err:.3e} ({:.2} tol), {} accepted, {} rejected, {} failed, {} base steps, orders {:?}",
+            err / tol,
+            a.accepted,
+            a.rejected,
+            a.failed,
+            a.base_steps,
+            a.orders
+        );
+        assert!(
+            err <= 20.0 * tol && err >= tol / 20.0,
+            "tol {tol:e}: error {err:e}"
+        );
+        errs.push(err);
+        top_orders.push(a.orders.iter().map(|o| o[0]).max().unwrap());
+    }
+    let p = slope(&tols, &errs);
+    eprintln!("damped pendulum scene: slope {p:.3}, highest orders {top_orders:?}");
+    assert!((0.8..=1.2).contains(&p), "slope {p}");
+    assert!(
+        top_orders.windows(2).all(|w| w[1] >= w[0]),
+        "{top_orders:?}"
+    );
+}
+
+#[test]
+fn a_heavy_top_under_a_tolerance_keeps_its_joint_and_precesses() {
+    // The spinning top on its steady precession (s from I₁ cos θ s² − I₃ Ω s + m g l = 0),
+    // reporting every 0.05 s over 1 s at tol 1e-9: the joint and QᵀQ = I at round-off after
+    // every report, the centre where the precession puts it to 1e-7.
+    let text = include_str!("../../scenes/spinning_top.toml")
+        .replace("dt = 0.001", "dt = 0.05\ntol = 1e-9")
+        .replace("t_end = 2.0", "t_end = 1.0");
+    let s = run_scene(&parse(&text));
+    assert!(s.error.is_none(), "{:?}", s.error);
+    assert!(
+        s.max_abs_g.unwrap() <= 64.0 * f64::EPSILON,
+        "{:?}",
+        s.max_abs_g
+    );
+    let (m, r, h, l, theta, spin, g): (f64, f64, f64, f64, f64, f64, f64) =
+        (1.0, 0.1, 0.2, 0.1, 0.5, 60.0, 9.81);
+    let i1 = m * (3.0 * r * r + h * h) / 12.0 + m * l * l;
+    let i3 = m * r * r / 2.0;
+    let c = theta.cos();
+    let prec =
+        (i3 * spin - ((i3 * spin).powi(2) - 4.0 * i1 * c * m * g * l).sqrt()) / (2.0 * i1 * c);
+    let want = [
+        l * theta.sin() * prec.cos(),
+        l * theta.sin() * prec.sin(),
+        l * c,
+    ];
+    let err = (0..3).map(|k| (s.x[k] - want[k]).abs()).fold(0.0, f64::max);
+    let a = s.adaptive.as_ref().unwrap();
+    eprintln!("heavy top at tol 1e-9: centre error {err:.3e}, {a:?}");
+    assert!(err <= 1e-7, "{err:e}");
+}
+
+#[test]
+fn a_checkpoint_of_an_adaptive_run_continues_bit_for_bit() {
+    let mut c = parse(&pendulum(0.5, "tol = 1e-8")).compile().unwrap();
+    let sim = c.simulation.as_mut();
+    for _ in 0..5 {
+        sim.step().unwrap();
+    }
+    let saved = sim.save();
+    for _ in 0..6 {
+        sim.step().unwrap();
+    }
+    let a = sim.state().to_vec();
+    sim.restore(&saved).unwrap();
+    for _ in 0..6 {
+        sim.step().unwrap();
+    }
+    assert_eq!(a, sim.state().to_vec());
+    assert_eq!(sim.time(), 5.5);
+}
+
+#[test]
+fn what_a_tolerance_cannot_go_with_is_refused_where_it_is_written() {
+    let cases = [
+        (
+            pendulum(0.1, "tol = 1e-8\nscheme = \"petrov-galerkin\""),
+            SceneErrorKind::Unsupported,
+            "integrator.scheme",
+        ),
+        (
+            pendulum(0.1, "tol = 1e-8\norder = 6"),
+            SceneErrorKind::Value,
+            "integrator.order",
+        ),
+        (pendulum(0.1, "h_min = 1e-6"), SceneErrorKind::Value, "integrator.h_min"),
+        (
+            pendulum(0.1, "tol = 1e-8\nmax_order = 7"),
+            SceneErrorKind::Value,
+            "integrator.max_order",
+        ),
+        (pendulum(0.1, "tol = -1e-8"), SceneErrorKind::Value, "integrator.tol"),
+        (
+            pendulum(0.1, "rtol = 1e-6\natol = 0"),
+            SceneErrorKind::Value,
+            "integrator.atol",
+        ),
+        (
+            "version = 1\n[builtin]\nmodel = \"paper\"\n[integrator]\ndt = 0.01\nt_end = 1.0\ntol = 1e-6\n"
+                .to_owned(),
+            SceneErrorKind::Unsupported,
+            "integrator.tol",
+        ),
+    ];
+    for (text, kind, path) in cases {
+        let e = match parse(&text).compile() {
+            Ok(_) => panic!("accepted: {text}"),
+            Err(e) => e,
+        };
+        assert_eq!((e.kind, e.path.to_string().as_str()), (kind, path), "{e}");
+    }
+    // A smallest step the tolerance cannot live with stops the run with the typed error.
+    let mut c = parse(&pendulum(0.5, "tol = 1e-12\nh_min = 0.4"))
+        .compile()
+        .unwrap();
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+    let e = s.error.expect("stopped");
+    assert_eq!(e.kind, "StepSizeTooSmall");
+    assert!(e.message.contains("h_min"), "{}", e.message);
+}
