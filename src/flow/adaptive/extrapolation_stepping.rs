@@ -74,8 +74,12 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             .h_max
             .map_or_else(V::Real::infinity, |v| v.abs());
         loop {
+            // The controller's proposal taken down to the ladder 2^{k/4}: successive steps then
+            // often share a size, and so do their rows' sub-steps, whose per-size work a base
+            // flow keeps (an exact linear flow's exponentials, a kept Newton matrix).
             let proposal = self
                 .h_next
+                .map(ladder)
                 .or(self.options.first_step)
                 .map_or(left, |v| v.abs())
                 .min(h_max);
@@ -228,5 +232,17 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for AdaptiveExtrapolation<
 
     fn restore_memory(&mut self, from: &mut &[V::Real]) {
         self.restore_all(from);
+    }
+}
+
+/// The largest `2^{k/4}` (k an integer) not above `|h|`.
+fn ladder<T: Real>(h: T) -> T {
+    let h = h.abs();
+    let k = (h.to_f64_lossy().log2() * 4.0).floor();
+    let rung = T::lit((k / 4.0).exp2());
+    if rung > T::zero() && rung <= h && rung.is_finite() {
+        rung
+    } else {
+        h
     }
 }

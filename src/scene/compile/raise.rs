@@ -108,7 +108,7 @@ impl Raise {
             Raise::Base => base.to_owned(),
             Raise::Compose(t) => format!("{base} composed by {} ({} stages)", t.name, t.stages),
             Raise::Adaptive(c) => format!(
-                "{base}, extrapolated adaptively (orders 4 to {}, rtol {:e}, atol {:e}), projected after every accepted step",
+                "{base}, extrapolated adaptively (orders 4 to {}, rtol {:e}, atol {:e}; any constraints projected after every accepted step)",
                 c.max_order, c.rtol, c.atol
             ),
             Raise::Extrapolate(order) => {
