@@ -55,7 +55,15 @@ def command(scene):
 
 
 @pytest.mark.parametrize(
-    "scene", ["paper.toml", "damped_pendulum.toml", "spinning_top.toml", "slider_crank.toml"]
+    "scene",
+    [
+        "paper.toml",
+        "damped_pendulum.toml",
+        "spinning_top.toml",
+        "slider_crank.toml",
+        "slider_crank_planar.toml",
+        "kepler.toml",
+    ],
 )
 def test_a_run_equals_the_command_bit_for_bit(scene):
     mine = lieflow.run(SCENES / scene)
@@ -66,6 +74,11 @@ def test_a_run_equals_the_command_bit_for_bit(scene):
     assert mine["steps"] == theirs["steps"]
     assert mine["dissipated"] == theirs["dissipated"]
     assert mine["max_abs_g"] == theirs["max_abs_g"]
+    # A scene with a tolerance reports its controller's work, the same in both.
+    assert mine["adaptive"] == theirs["adaptive"]
+    if scene == "kepler.toml":
+        assert mine["adaptive"]["accepted"] > mine["steps"]
+        assert mine["adaptive"]["smallest_step"] < mine["adaptive"]["largest_step"] / 10
 
 
 def test_the_paper_example_keeps_its_constraint_and_energy():
