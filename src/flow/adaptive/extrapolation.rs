@@ -207,7 +207,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         self.memory.clear();
         self.base.save_memory(&mut self.memory);
         let jmax = (self.kc + 1).min(self.kmax);
-        let hf = big.to_f64_lossy();
+        let hf = big.to_f64_lossy().abs();
         // H_j and W_j by row (index j, 1-based).
         let mut h_opt = [0.0f64; MAX_ROWS + 2];
         let mut work = [0.0f64; MAX_ROWS + 2];
@@ -363,7 +363,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         } else if work[j] >= 0.9 * work[j - 1] {
             k = j - 1;
         }
-        let hf = big.to_f64_lossy();
+        let hf = big.to_f64_lossy().abs();
         let mut next = if k <= j {
             h_opt[k]
         } else {

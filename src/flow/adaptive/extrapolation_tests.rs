@@ -85,3 +85,21 @@ fn an_accepted_macro_step_is_the_extrapolated_table_s_diagonal() {
     assert_eq!(l.t, h);
     assert_eq!(f.adaptive_stats().orders[2], 1);
 }
+
+#[test]
+fn a_run_backwards_retraces_the_run_forwards() {
+    // The controller works in step lengths: the same tolerance backwards (negative steps, every
+    // sub-step negative) returns to the start to the tolerance's accuracy, and the step sizes it
+    // reports are lengths.
+    let mut f = flow(1e-11);
+    let start = X::new(1.0, 0.0);
+    let mut x = start;
+    f.step(3.0, &mut x).unwrap();
+    let there = x;
+    assert!((there[0] - 3.0f64.cos()).abs() < 1e-9, "{}", there[0]);
+    f.step(-3.0, &mut x).unwrap();
+    assert!((x - start).amax() < 1e-9, "{x:?}");
+    let s = f.adaptive_stats();
+    assert!(s.smallest > 0.0 && s.largest >= s.smallest, "{s:?}");
+    assert!(f.next_step().is_some_and(|h| h > 0.0));
+}
