@@ -184,7 +184,7 @@ fn adaptive_run(tol: f64, t_end: f64, repeat: usize) -> Row {
     flow.step(t_end, &mut x)
         .unwrap_or_else(|e| fatal(&format!("adaptive at tol {tol:e}: {e}")));
     let evaluations = flow.stats().residual_evaluations;
-    let s = flow.adaptive_stats();
+    let s = flow.adaptive_stats().expect("an adaptive flow");
     let best = (0..repeat)
         .map(|_| {
             let mut flow = build();

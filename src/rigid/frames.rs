@@ -4,7 +4,8 @@
 //! In a planar model (`dim = 2`) a slot holds two positions, a body has two directors
 //! `d₁, d₂` in the plane, and its third is the plane's normal `e_z`, constant: every point and
 //! axis is still an [`Affine`] (its `z` part a constant), so the joints' rows are built as in 3D
-//! and the rows that the plane makes identically zero are dropped ([`drop_trivial`]).
+//! and the rows that the plane makes identically zero are dropped
+//! ([`joint_rows`](super::joints::joint_rows)).
 
 use super::pose::{Rotation, dot};
 use crate::error::SetupError;

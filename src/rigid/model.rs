@@ -23,7 +23,7 @@ use crate::vector::Vector;
 ///
 /// **State.** Slots of three positions each: a point mass is one slot; a rigid body is four,
 /// its centre of mass `c` and its directors `d₁, d₂, d₃` (the columns of its rotation along its
-/// principal axes), with the masses `m, E₁, E₂, E₃` ([`Inertia::director_masses`]). The state
+/// principal axes), with the masses `m, E₁, E₂, E₃` ([`Inertia::director_masses`](super::Inertia::director_masses)). The state
 /// is `(q, p)`, `p_s = m_s q̇_s`, so
 ///
 /// ```text

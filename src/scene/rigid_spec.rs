@@ -118,26 +118,9 @@ fn matrix(m: &[Vec<f64>], path: &FieldPath) -> Result<[[f64; 3]; 3]> {
 
 impl InertiaSpec {
     /// The body's mass and inertia; `mass` is the body's own `mass` field, `body` where the
-    /// body is declared.
-    /// In a planar scene (`dim = 2`) the inertia's third principal axis is the body's `z`
-    /// (refused where none lies along it).
+    /// body is declared, `dim` the scene's (`moment` is planar only; a planar body's normal is
+    /// checked where the body is added, `compile::rigid::push_rigid`).
     pub(crate) fn resolve(
-        &self,
-        mass: Option<f64>,
-        body: &FieldPath,
-        dim: usize,
-    ) -> Result<(f64, Inertia)> {
-        let (mass, inertia) = self.resolve_3d(mass, body, dim)?;
-        if dim != 2 {
-            return Ok((mass, inertia));
-        }
-        let inertia = inertia
-            .about_normal()
-            .map_err(|e| located(&body.key("inertia"), e))?;
-        Ok((mass, inertia))
-    }
-
-    fn resolve_3d(
         &self,
         mass: Option<f64>,
         body: &FieldPath,

@@ -160,7 +160,7 @@ fn the_error_follows_the_tolerance_on_the_damped_pendulum() {
         assert_eq!(stepper.time(), t_end);
         let x = *stepper.state();
         let flow = stepper.flow();
-        let s = flow.adaptive_stats();
+        let s = flow.adaptive_stats().expect("an adaptive flow");
         assert_eq!(steps as u64, s.accepted);
         let err = (0..4).map(|k| (x[k] - want[k]).abs()).fold(0.0, f64::max);
         let mean_order = s
@@ -286,7 +286,7 @@ fn a_failing_sub_step_halves_the_step_and_a_step_below_h_min_fails_by_name() {
     let mut flow = AdaptiveExtrapolation::try_new(fussy(0.02), (), options.clone()).unwrap();
     let mut x = x0;
     flow.step(2.0, &mut x).unwrap();
-    let s = flow.adaptive_stats();
+    let s = flow.adaptive_stats().expect("an adaptive flow");
     assert!(s.failed > 0 && s.accepted > 0, "{s:?}");
     assert!(flow.base().longest <= 0.02);
     // With h_min = 0.5 the same limit cannot be met: the call fails, names the time and the

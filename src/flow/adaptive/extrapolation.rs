@@ -18,7 +18,7 @@ use num_traits::{One as _, Zero as _};
 ///
 /// (the harmonic sequence `n_j = j`, the base flow's memory restored before each row: every row
 /// starts from the same state and the same warm starts). `T_{j,j}` has order `2j`; the
-/// difference `err_j = ‖T_{j,j} − T_{j,j−1}‖` in the weighted norm ([`Tolerances`]) estimates
+/// difference `err_j = ‖T_{j,j} − T_{j,j−1}‖` in the weighted norm ([`Tolerances`](super::Tolerances)) estimates
 /// the error of `T_{j,j−1}`, `O(H^{2j−1})`, and gives the step that would meet the tolerance
 /// at that column, `H_j = H · 0.94 (0.65/err_j)^{1/(2j−1)}` (clamped to `[0.02, 4] H`). The
 /// column `k` the controller aims at is chosen by the work per unit step `W_j = A_j / H_j`
@@ -143,11 +143,6 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         })
     }
 
-    /// What the controller did so far.
-    pub fn adaptive_stats(&self) -> AdaptiveStats {
-        self.stats
-    }
-
     /// The base step.
     pub fn base(&self) -> &F {
         &self.base
@@ -214,8 +209,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         let mut err = 0.0f64;
         for j in 1..=jmax {
             if j > 1 {
-                let mut from = self.memory.as_slice();
-                self.base.restore_memory(&mut from);
+                self.restore_base();
             }
             let mut lj = l0;
             self.cur[0].copy_from(&self.start);
@@ -224,8 +218,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             let stepped = self.base.step_repeated(&mut lj, sub, n, &mut self.cur[0]);
             self.stats.base_steps += u64::from(n);
             if let Err(e) = stepped {
-                let mut from = self.memory.as_slice();
-                self.base.restore_memory(&mut from);
+                self.restore_base();
                 return Err(e);
             }
             self.cur_l[0] = [lj.supplied - l0.supplied, lj.dissipated - l0.dissipated];
@@ -273,52 +266,42 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             };
             h_opt[j] = hf * fac;
             work[j] = (j * (j + 1) / 2) as f64 / h_opt[j];
+            // Rows are tested in the window k − 1 … k + 1 only; above `hopeless` the estimate
+            // cannot fall below 1 by the window's last row (ODEX), so the step is rejected now.
             let kc = self.kc;
-            let verdict = if j + 1 == kc {
-                if err <= 1.0 {
-                    Some(true)
-                } else if err > ((kc * (kc + 1)) as f64).powi(2) {
-                    Some(false)
-                } else {
-                    None
-                }
-            } else if j == kc {
-                if err <= 1.0 {
-                    Some(true)
-                } else if err > ((kc + 1) as f64).powi(2) {
-                    Some(false)
-                } else {
-                    None
-                }
-            } else if j == kc + 1 {
-                Some(err <= 1.0)
-            } else {
-                None
+            if j + 1 < kc {
+                continue;
+            }
+            let hopeless = match j + 1 - kc {
+                0 => ((kc * (kc + 1)) as f64).powi(2),
+                1 => ((kc + 1) as f64).powi(2),
+                _ => 1.0,
             };
-            let verdict = match verdict {
-                None if j == jmax => Some(false),
-                v => v,
-            };
-            match verdict {
-                Some(true) => return self.accept(ledger, l0, big, j, &h_opt, &work, err, x),
-                Some(false) => {
-                    let mut from = self.memory.as_slice();
-                    self.base.restore_memory(&mut from);
-                    let mut k = self.kc.min(j);
-                    if k >= 3 && work[k - 1] < 0.8 * work[k] {
-                        k -= 1;
-                    }
-                    self.kc = k.clamp(2, self.kmax);
-                    self.rejected_last = true;
-                    self.rejected_error = err;
-                    self.stats.rejected += 1;
-                    let next = h_opt[k].min(0.9 * hf);
-                    return Ok(Outcome::Rejected(V::Real::lit(next)));
+            if err <= 1.0 {
+                return self.accept(ledger, l0, big, j, &h_opt, &work, err, x);
+            }
+            if err > hopeless || j == jmax {
+                self.restore_base();
+                let mut k = kc.min(j);
+                if k >= 3 && work[k - 1] < 0.8 * work[k] {
+                    k -= 1;
                 }
-                None => {}
+                self.kc = k.clamp(2, self.kmax);
+                self.rejected_last = true;
+                self.rejected_error = err;
+                self.stats.rejected += 1;
+                let next = h_opt[k].min(0.9 * hf);
+                return Ok(Outcome::Rejected(V::Real::lit(next)));
             }
         }
+        // Row `jmax ≥ kc ≥ 2` always decides above.
         unreachable!("the last row decides (err = {err})")
+    }
+
+    /// The base flow's memory as the macro step found it.
+    fn restore_base(&mut self) {
+        let mut from = self.memory.as_slice();
+        self.base.restore_memory(&mut from);
     }
 
     /// Accepts row `j`'s diagonal entry, finishes it, and chooses the next column and step.
@@ -344,8 +327,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
                 });
         if let Err(e) = finished {
             x.copy_from(&self.start);
-            let mut from = self.memory.as_slice();
-            self.base.restore_memory(&mut from);
+            self.restore_base();
             self.finish.forget();
             return Err(e);
         }

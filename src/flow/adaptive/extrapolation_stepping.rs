@@ -19,7 +19,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         if !self.options.tolerances.fits(x.len()) {
             return Err(StepError::StateLength {
                 flow: "adaptive extrapolation (per-component tolerances)",
-                expected: x.len(),
+                expected: self.options.tolerances.components(),
                 got: x.len(),
             });
         }
@@ -125,6 +125,26 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         }
     }
 
+    /// One macro step of its own size, at most `|max|` (see [`Flow::step_own`]).
+    fn own_step(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        max: V::Real,
+        x: &mut V,
+    ) -> Result<V::Real, StepError> {
+        if !self.begin(max, x)? {
+            return Ok(V::Real::zero());
+        }
+        let l_whole = *ledger;
+        let taken = self.until_accepted(ledger, max.signum(), max.abs(), x);
+        let h = match taken {
+            Ok(t) if t < max.abs() => max.signum() * t,
+            _ => max,
+        };
+        self.end(taken.map(|_| ()), ledger, l_whole, h, x)?;
+        Ok(h)
+    }
+
     fn too_small(&self, t: V::Real, h: V::Real, cause: String) -> StepError {
         StepError::StepSizeTooSmall {
             t: t.to_f64_lossy(),
@@ -175,21 +195,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for AdaptiveExtrapolation<
         max: V::Real,
         x: &mut V,
     ) -> Option<Result<V::Real, StepError>> {
-        Some((|| {
-            if !self.begin(max, x)? {
-                return Ok(V::Real::zero());
-            }
-            let l_whole = *ledger;
-            let taken = self.until_accepted(ledger, max.signum(), max.abs(), x);
-            let h = match &taken {
-                Ok(t) if *t >= max.abs() => max,
-                Ok(t) => max.signum() * *t,
-                Err(_) => max,
-            };
-            let result = taken.map(|_| ());
-            self.end(result, ledger, l_whole, h, x)?;
-            Ok(h)
-        })())
+        Some(self.own_step(ledger, max, x))
     }
 
     fn order(&self) -> u32 {

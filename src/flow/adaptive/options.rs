@@ -14,7 +14,7 @@ pub struct AdaptiveOptions<T> {
     /// The first step to try (default: the first interval asked for, clipped to `h_max`).
     pub first_step: Option<T>,
     /// The smallest step: a step that would have to be smaller fails with
-    /// [`StepError::StepSizeTooSmall`] (default `0`: only a step that no longer moves time).
+    /// [`StepError::StepSizeTooSmall`](crate::error::StepError::StepSizeTooSmall) (default `0`: only a step that no longer moves time).
     pub h_min: T,
     /// The largest step (default: unbounded).
     pub h_max: Option<T>,

@@ -75,6 +75,11 @@ impl<T: Real> Tolerances<T> {
         self.rtol.iter().copied().fold(T::infinity(), T::min)
     }
 
+    /// How many components the tolerances name (1: the same for every component).
+    pub fn components(&self) -> usize {
+        self.rtol.len().max(self.atol.len())
+    }
+
     /// Whether the tolerances fit a state of `n` components (scalars fit every length).
     pub fn fits(&self, n: usize) -> bool {
         [self.rtol.len(), self.atol.len()]
