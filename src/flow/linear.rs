@@ -19,7 +19,9 @@ pub const LINEAR_FLOW_CACHE: usize = 8;
 /// IEEE TAC 23, 1978). The exponential is computed by scaling and squaring with a Taylor
 /// polynomial (Moler & Van Loan, SIAM Rev. 45, 2003, method 3): the matrix is scaled by `2^{-s}`
 /// to 1-norm ≤ 1/2, the series is summed until its terms fall below `ε`, and the result is
-/// squared `s` times. Stiff decay is reproduced exactly: with `A = −10⁶`, `h = 0.1` the flow
+/// squared `s` times. The series' matrices `Ĝᵏ/k!` of the normalised generator
+/// `Ĝ = G/‖G‖₁` are formed once, when the flow is built, so a new step size costs the sum
+/// `Σ cᵏ Ĝᵏ/k!` (`c = 2^{-s} h ‖G‖₁`, `(n+1)²` multiply–adds a term) and the squarings only. Stiff decay is reproduced exactly: with `A = −10⁶`, `h = 0.1` the flow
 /// returns `e^{−10⁵} = 0`, where an explicit or a split backward step would overflow.
 ///
 /// Typical uses: a damped kinetic drift `q' = p, p' = −c p − ∇V₀` with constant force, the
@@ -37,8 +39,15 @@ pub struct LinearFlow<T> {
     generator: Vec<T>,
     cache: Vec<CachedExp<T>>,
     clock: u64,
-    /// Workspace for the exponential: term, sum, product (`(n+1)²` each).
-    work: [Vec<T>; 3],
+    /// `‖G‖₁` of the generator.
+    generator_norm: T,
+    /// The Taylor terms `Ĝᵏ/k!` of the normalised generator `Ĝ = G/‖G‖₁`, `k = 0, 1, …`,
+    /// `(n+1)²` entries each, as many as a scaled argument of norm ≤ 1/2 needs.
+    series: Vec<T>,
+    /// `‖Ĝᵏ/k!‖₁` of each term.
+    series_norms: Vec<T>,
+    /// Workspace for the squarings: one product (`(n+1)²`).
+    work: Vec<T>,
     tmp: Vec<T>,
     dissipative: bool,
     /// The cache slot of the last step (its tangent map).
@@ -75,9 +84,12 @@ impl<T: Real> LinearFlow<T> {
             generator[i * n1..i * n1 + n].copy_from_slice(&a[i * n..(i + 1) * n]);
         }
         let trace = (0..n).fold(T::zero(), |s, i| s + a[i * n + i]);
-        Ok(Self {
+        let mut flow = Self {
             n,
             generator,
+            generator_norm: T::zero(),
+            series: Vec::new(),
+            series_norms: Vec::new(),
             cache: (0..LINEAR_FLOW_CACHE)
                 .map(|_| CachedExp {
                     h: T::zero(),
@@ -87,15 +99,54 @@ impl<T: Real> LinearFlow<T> {
                 })
                 .collect(),
             clock: 0,
-            work: [
-                vec![T::zero(); n1 * n1],
-                vec![T::zero(); n1 * n1],
-                vec![T::zero(); n1 * n1],
-            ],
+            work: vec![T::zero(); n1 * n1],
             tmp: vec![T::zero(); n],
             dissipative: trace < T::zero(),
             last: None,
-        })
+        };
+        flow.form_series();
+        Ok(flow)
+    }
+
+    /// Forms the Taylor terms `Ĝᵏ/k!` of the normalised generator, as many as an argument of
+    /// 1-norm ≤ 1/2 needs for its terms to fall below `ε/4` (at most 200).
+    fn form_series(&mut self) {
+        let n1 = self.n + 1;
+        let m = n1 * n1;
+        self.generator_norm = norm1(&self.generator, n1);
+        let mut unit = self.generator.clone();
+        if self.generator_norm > T::zero() {
+            let inv = T::one() / self.generator_norm;
+            for u in &mut unit {
+                *u = *u * inv;
+            }
+        }
+        self.series.clear();
+        self.series.resize(m, T::zero());
+        identity(&mut self.series, n1);
+        self.series_norms.clear();
+        self.series_norms.push(T::one());
+        if self.generator_norm == T::zero() {
+            return;
+        }
+        let (half, eps) = (T::lit(0.5), T::epsilon() * T::lit(0.25));
+        let mut bound = T::one();
+        for k in 1..200 {
+            let previous = self.series.len() - m;
+            self.series.resize(previous + 2 * m, T::zero());
+            let (head, next) = self.series.split_at_mut(previous + m);
+            matmul(&head[previous..], &unit, next, n1);
+            let inv_k = T::one() / T::lit(k as f64);
+            for t in next.iter_mut() {
+                *t = *t * inv_k;
+            }
+            let norm = norm1(next, n1);
+            self.series_norms.push(norm);
+            bound = bound * half;
+            if norm * bound <= eps {
+                break;
+            }
+        }
     }
 
     /// The flow of `x' = A x` with `A[i][j] = f(i, j)`.
@@ -125,6 +176,7 @@ impl<T: Real> LinearFlow<T> {
         for c in &mut self.cache {
             c.valid = false;
         }
+        self.form_series();
         Ok(self)
     }
 
@@ -150,11 +202,8 @@ impl<T: Real> LinearFlow<T> {
             .min_by_key(|&i| (self.cache[i].valid, self.cache[i].used))
             .unwrap_or(0);
         let n1 = self.n + 1;
-        let [term, prod, scaled] = &mut self.work;
-        for (s, &g) in scaled.iter_mut().zip(&self.generator) {
-            *s = h * g;
-        }
-        let norm = norm1(scaled, n1);
+        let m = n1 * n1;
+        let norm = h.abs() * self.generator_norm;
         if !norm.is_finite() {
             return Err(StepError::BadStepSize {
                 h: h.to_f64_lossy(),
@@ -173,31 +222,20 @@ impl<T: Real> LinearFlow<T> {
                 });
             }
         }
-        for s in scaled.iter_mut() {
-            *s = *s * scale;
-        }
-        // Taylor series: sum = I + C + C²/2! + …, summed until the term is below ε.
+        // Taylor series: sum = Σ cᵏ Ĝᵏ/k!, summed until the term is below ε/4.
+        let c = h * self.generator_norm * scale;
+        let eps = T::epsilon() * T::lit(0.25);
         let sum = &mut self.cache[i].exp;
-        identity(sum, n1);
-        identity(term, n1);
-        let eps = T::epsilon();
-        for k in 1..200 {
-            matmul(term, scaled, prod, n1);
-            let inv_k = T::one() / T::lit(k as f64);
-            let mut tnorm = T::zero();
-            for (t, &p) in term.iter_mut().zip(prod.iter()) {
-                *t = p * inv_k;
-            }
-            for (s, &t) in sum.iter_mut().zip(term.iter()) {
-                *s = *s + t;
-            }
-            for j in 0..n1 {
-                tnorm = tnorm.max((0..n1).fold(T::zero(), |a, r| a + term[r * n1 + j].abs()));
-            }
-            if tnorm <= eps * T::lit(0.25) {
+        sum.copy_from_slice(&self.series[..m]);
+        let mut power = T::one();
+        for (term, &tnorm) in self.series.chunks_exact(m).zip(&self.series_norms).skip(1) {
+            power = power * c;
+            ops::axpy(sum, power, term);
+            if tnorm * power.abs() <= eps {
                 break;
             }
         }
+        let prod = &mut self.work;
         for _ in 0..squarings {
             matmul(sum, sum, prod, n1);
             sum.copy_from_slice(prod);
