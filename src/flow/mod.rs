@@ -29,7 +29,10 @@ mod schur;
 mod stage_blocks;
 mod step_end;
 
-pub use adaptive::{AcceptStep, AdaptiveExtrapolation, AdaptiveOptions, AdaptiveStats, Tolerances};
+pub use adaptive::{
+    AcceptStep, AdaptiveExtrapolation, AdaptiveOptions, AdaptiveStats, DensityFn, ReversibleSteps,
+    StepDensity, Tolerances, step_density,
+};
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};
 pub use constrained_dg::{ConstrainedDiscreteGradient, EnergyBalance};

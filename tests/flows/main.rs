@@ -33,6 +33,7 @@ mod petrov_galerkin;
 mod petrov_galerkin_inputs;
 mod ports;
 mod projected_midpoint;
+mod reversible;
 mod rigid;
 mod rigid_planar;
 mod rigid_projection;

@@ -105,15 +105,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
                 ),
             });
         }
-        let h_min = options.h_min.to_f64_lossy();
-        let h_max = options.h_max.map_or(f64::INFINITY, |h| h.to_f64_lossy());
-        if !(h_min >= 0.0 && h_min.is_finite() && h_max > h_min && !h_max.is_nan()) {
-            return Err(SetupError::InvalidParameter {
-                name: "h_min, h_max".to_owned(),
-                value: h_min,
-                requirement: "0 ≤ h_min < h_max, both finite (h_max may be unbounded)",
-            });
-        }
+        options.check()?;
         let kmax = (m / 2) as usize;
         // The starting column from the tolerance (ODEX: −0.6 log₁₀ rtol + 1.5).
         let rtol = options.tolerances.tightest_rtol().to_f64_lossy().max(1e-16);

@@ -14,15 +14,21 @@
 //! Files: `tolerances.rs` ([`Tolerances`]: the weighted norm), `options.rs`
 //! ([`AdaptiveOptions`], [`AdaptiveStats`]), `extrapolation.rs`
 //! ([`AdaptiveExtrapolation`]: order- and step-size-controlled extrapolation of a symmetric
-//! base step, ODEX's controller), `accept.rs` ([`AcceptStep`]: what runs after each accepted
+//! base step, ODEX's controller), `reversible.rs` ([`ReversibleSteps`]: time-reversible
+//! variable steps along a [`StepDensity`] (`step_density.rs`), for conservative symmetric
+//! schemes), `accept.rs` ([`AcceptStep`]: what runs after each accepted
 //! step — the projection onto the manifold, or nothing).
 
 mod accept;
 mod extrapolation;
 mod options;
+mod reversible;
+mod step_density;
 mod tolerances;
 
 pub use accept::AcceptStep;
 pub use extrapolation::AdaptiveExtrapolation;
 pub use options::{AdaptiveOptions, AdaptiveStats};
+pub use reversible::ReversibleSteps;
+pub use step_density::{DensityFn, StepDensity, step_density};
 pub use tolerances::Tolerances;

@@ -2,6 +2,7 @@
 //! ([`AdaptiveStats`]).
 
 use super::Tolerances;
+use crate::error::SetupError;
 use crate::flow::MAX_ROWS;
 use crate::real::Real;
 
@@ -33,6 +34,33 @@ impl<T: Real> AdaptiveOptions<T> {
             h_max: None,
             max_order: 2 * MAX_ROWS as u32,
         }
+    }
+
+    /// Checks the step bounds: `0 ≤ h_min < h_max`, `h_min` finite, a first step positive and
+    /// finite.
+    ///
+    /// # Errors
+    /// [`SetupError::InvalidParameter`] naming the bound.
+    pub fn check(&self) -> Result<(), SetupError> {
+        let h_min = self.h_min.to_f64_lossy();
+        let h_max = self.h_max.map_or(f64::INFINITY, |h| h.to_f64_lossy());
+        if !(h_min >= 0.0 && h_min.is_finite() && h_max > h_min && !h_max.is_nan()) {
+            return Err(SetupError::InvalidParameter {
+                name: "h_min, h_max".to_owned(),
+                value: h_min,
+                requirement: "0 ≤ h_min < h_max, both finite (h_max may be unbounded)",
+            });
+        }
+        if let Some(h) = self.first_step.map(|h| h.to_f64_lossy())
+            && !(h > 0.0 && h.is_finite())
+        {
+            return Err(SetupError::InvalidParameter {
+                name: "first_step".to_owned(),
+                value: h,
+                requirement: "positive and finite",
+            });
+        }
+        Ok(())
     }
 }
 
