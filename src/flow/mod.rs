@@ -31,7 +31,7 @@ mod step_end;
 
 pub use adaptive::{
     AcceptStep, AdaptiveExtrapolation, AdaptiveOptions, AdaptiveStats, DensityFn, ReversibleSteps,
-    StepDensity, Tolerances, step_density,
+    StepDensity, StepDoubling, Tolerances, step_density,
 };
 pub use coefficients::CompositionTable;
 pub use compose::{Composition, Strang, Then};

@@ -114,6 +114,17 @@ impl Method {
 }
 
 named_enum! {
+    /// How steps are chosen for a tolerance (`integrator.controller`).
+    pub enum Controller {
+        /// To meet the tolerance: the adaptive extrapolation of the splitting, or step
+        /// doubling of a named fixed-order scheme.
+        Error = "error",
+        /// Time-reversible steps along `integrator.density` (conservative splittings only).
+        Reversible = "reversible",
+    }
+}
+
+named_enum! {
     /// A diagnostic computed after every step (`integrator.diagnostics`).
     pub enum Diagnostic {
         /// `H`, and with damping the energy budget.

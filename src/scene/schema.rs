@@ -5,7 +5,7 @@
 //! own `name`, a generator's name (all its bodies), `"<generator>.<i>"` (its `i`-th body,
 //! counting from 0), or `"*"` (every body).
 
-pub use super::names::{Diagnostic, Flag, Method, Redundant};
+pub use super::names::{Controller, Diagnostic, Flag, Method, Redundant};
 use serde::Deserialize;
 
 /// The scene format version this library reads.
@@ -258,9 +258,23 @@ pub struct IntegratorSpec {
     pub dt: f64,
     /// A tolerance (`rtol = atol = tol`): the steps and orders are chosen to meet it by the
     /// adaptive extrapolation of the splitting (`scheme = "auto"` or `"extrapolation"`; every
-    /// sub-step forward, the constraints projected after every accepted step).
+    /// sub-step forward, the constraints projected after every accepted step), or the steps of
+    /// a named fixed-order scheme by step doubling (its order kept, the error per unit step
+    /// controlled); with `controller = "reversible"` it sets the step scale once.
     #[serde(default)]
     pub tol: Option<f64>,
+    /// With a tolerance: `"error"` (default: the steps chosen to meet the tolerance) or
+    /// `"reversible"` (Hairer–Söderlind: steps along `density` that retrace themselves when
+    /// time is reversed — no energy drift on long conservative runs; the splitting without
+    /// damping only).
+    #[serde(default)]
+    pub controller: Option<Controller>,
+    /// The reversible controller's step density, `ρ = r^{−power}` with `r` the distance
+    /// between two bodies (or of one body from the origin): `density = { distance = ["sun",
+    /// "planet"], power = 1.5 }` gives steps `∝ r^{3/2}`, shrinking like the period of a
+    /// Kepler orbit at that radius.
+    #[serde(default)]
+    pub density: Option<DensitySpec>,
     /// The relative tolerance (instead of or beside `tol`).
     #[serde(default)]
     pub rtol: Option<f64>,
@@ -301,6 +315,16 @@ pub struct IntegratorSpec {
     /// are dropped; a dependent row of a pin is refused.
     #[serde(default)]
     pub redundant: Redundant,
+}
+
+/// The reversible controller's step density (`integrator.density`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DensitySpec {
+    /// One body (its distance from the origin) or two (their distance).
+    pub distance: Vec<String>,
+    /// `ρ = r^{−power}`, positive (1.5: Kepler's period at radius `r`).
+    pub power: f64,
 }
 
 fn default_diagnostics() -> Vec<Diagnostic> {

@@ -38,4 +38,5 @@ mod rigid;
 mod rigid_planar;
 mod rigid_projection;
 mod small_path;
+mod step_doubling;
 mod stepper;

@@ -15,6 +15,7 @@ mod mechanical_discrete_gradient;
 mod mechanical_form;
 mod scene;
 mod scene_bricard;
+mod scene_controllers;
 mod scene_damping_account;
 mod scene_errors;
 mod scene_flight;

@@ -124,11 +124,6 @@ fn a_checkpoint_of_an_adaptive_run_continues_bit_for_bit() {
 fn what_a_tolerance_cannot_go_with_is_refused_where_it_is_written() {
     let cases = [
         (
-            pendulum(0.1, "tol = 1e-8\nscheme = \"petrov-galerkin\""),
-            SceneErrorKind::Unsupported,
-            "integrator.scheme",
-        ),
-        (
             pendulum(0.1, "tol = 1e-8\norder = 6"),
             SceneErrorKind::Value,
             "integrator.order",

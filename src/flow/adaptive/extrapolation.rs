@@ -1,7 +1,8 @@
 //! Order- and step-size-controlled extrapolation of a symmetric step of order 2: ODEX's
 //! controller around the projected Strang step (RATTLE), every sub-step forward.
 
-use super::{AcceptStep, AdaptiveOptions, AdaptiveStats};
+use super::control::{Control, Outcome};
+use super::{AcceptStep, AdaptiveOptions};
 use crate::error::{SetupError, StepError};
 use crate::flow::{Flow, Ledger, MAX_ROWS};
 use crate::real::Real;
@@ -41,17 +42,12 @@ use num_traits::{One as _, Zero as _};
 pub struct AdaptiveExtrapolation<V: Vector, F, P = ()> {
     base: F,
     finish: P,
-    options: AdaptiveOptions<V::Real>,
+    control: Control<V>,
     /// The most rows.
     kmax: usize,
-    /// The column aimed at (2 … kmax).
+    /// The column aimed at (2 … kmax; no increase after a rejection).
     kc: usize,
-    /// The next macro step to try (`None`: none taken yet).
-    h_next: Option<V::Real>,
-    /// Whether the last macro step was rejected (no increase of step or order after one).
-    rejected_last: bool,
     start: V,
-    whole: V,
     /// Two rows of the table (the previous one and the one being built).
     prev: Vec<V>,
     cur: Vec<V>,
@@ -59,16 +55,6 @@ pub struct AdaptiveExtrapolation<V: Vector, F, P = ()> {
     prev_l: [[V::Real; 2]; MAX_ROWS],
     cur_l: [[V::Real; 2]; MAX_ROWS],
     memory: Vec<V::Real>,
-    whole_memory: Vec<V::Real>,
-    stats: AdaptiveStats,
-    /// The error estimate of the last rejected step (for the message when the step fails).
-    rejected_error: f64,
-}
-
-/// How a macro step went.
-enum Outcome<T> {
-    Accepted,
-    Rejected(T),
 }
 
 impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
@@ -114,24 +100,15 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         Ok(Self {
             base,
             finish,
-            options,
+            control: Control::new(options),
             kmax,
             kc,
-            h_next: None,
-            rejected_last: false,
             start: V::zeros(0),
-            whole: V::zeros(0),
             prev: Vec::new(),
             cur: Vec::new(),
             prev_l: [[zero; 2]; MAX_ROWS],
             cur_l: [[zero; 2]; MAX_ROWS],
             memory: Vec::new(),
-            whole_memory: Vec::new(),
-            stats: AdaptiveStats {
-                smallest: f64::INFINITY,
-                ..AdaptiveStats::default()
-            },
-            rejected_error: 0.0,
         })
     }
 
@@ -147,7 +124,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
 
     /// The next macro step the controller will try (`None` before the first).
     pub fn next_step(&self) -> Option<V::Real> {
-        self.h_next
+        self.control.h_next
     }
 
     /// The column (order / 2) the controller aims at next.
@@ -156,24 +133,17 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
     }
 
     /// The controller's state and the base flow's memory.
-    fn save_all(&mut self, out: &mut Vec<V::Real>) {
-        let one = V::Real::one();
-        out.push(self.h_next.unwrap_or(-one));
+    fn save_state(&mut self, out: &mut Vec<V::Real>) {
+        self.control.save(out);
         out.push(V::Real::lit(self.kc as f64));
-        out.push(if self.rejected_last {
-            one
-        } else {
-            V::Real::zero()
-        });
         self.base.save_memory(out);
     }
 
-    fn restore_all(&mut self, from: &mut &[V::Real]) {
+    fn restore_state(&mut self, from: &mut &[V::Real]) {
         if from.len() >= 3 {
             let (head, rest) = from.split_at(3);
-            self.h_next = (head[0] >= V::Real::zero()).then_some(head[0]);
-            self.kc = (head[1].to_f64_lossy() as usize).clamp(2, self.kmax);
-            self.rejected_last = head[2] != V::Real::zero();
+            self.control.restore(&head[..2]);
+            self.kc = (head[2].to_f64_lossy() as usize).clamp(2, self.kmax);
             *from = rest;
         }
         self.base.restore_memory(from);
@@ -183,7 +153,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
     /// One macro step of size `big` from `x`: on acceptance `x` and `ledger` advance and the
     /// next step is proposed; on rejection or failure both and the base flow's memory are as
     /// they were.
-    fn attempt(
+    fn attempt_table(
         &mut self,
         ledger: &mut Ledger<V::Real>,
         big: V::Real,
@@ -208,7 +178,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             let n = j as u32;
             let sub = big / V::Real::lit(j as f64);
             let stepped = self.base.step_repeated(&mut lj, sub, n, &mut self.cur[0]);
-            self.stats.base_steps += u64::from(n);
+            self.control.stats.base_steps += u64::from(n);
             if let Err(e) = stepped {
                 self.restore_base();
                 return Err(e);
@@ -236,6 +206,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             }
             let (a, b) = (&self.prev[j - 1], &self.prev[j - 2]);
             err = self
+                .control
                 .options
                 .tolerances
                 .error(
@@ -279,9 +250,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
                     k -= 1;
                 }
                 self.kc = k.clamp(2, self.kmax);
-                self.rejected_last = true;
-                self.rejected_error = err;
-                self.stats.rejected += 1;
+                self.control.book_rejected(err);
                 let next = h_opt[k].min(0.9 * hf);
                 return Ok(Outcome::Rejected(V::Real::lit(next)));
             }
@@ -344,22 +313,18 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             let a = |r: usize| (r * (r + 1) / 2) as f64;
             h_opt[j] * a(k) / a(j)
         };
-        if self.rejected_last {
+        let c = &mut self.control;
+        if c.rejected_last {
             k = k.min(j);
             next = next.min(hf);
         }
-        if let Some(h_max) = self.options.h_max {
+        if let Some(h_max) = c.options.h_max {
             next = next.min(h_max.to_f64_lossy());
         }
         self.kc = k.clamp(2, self.kmax);
-        self.rejected_last = false;
-        self.h_next = Some(V::Real::lit(next));
-        let s = &mut self.stats;
-        s.accepted += 1;
-        s.orders[j] += 1;
-        s.smallest = s.smallest.min(hf);
-        s.largest = s.largest.max(hf);
-        s.last_error = err;
+        c.rejected_last = false;
+        c.h_next = Some(V::Real::lit(next));
+        c.book_accepted(hf, j, err);
         Ok(Outcome::Accepted)
     }
 }

@@ -1,157 +1,44 @@
-//! How [`AdaptiveExtrapolation`] steps: a call's bookkeeping (what a failure restores), the
-//! macro steps until one is accepted, and the [`Flow`] it is — `step(h)` lands on `t + h`,
-//! `step_own` takes one step of its own size.
+//! The [`Flow`] an [`AdaptiveExtrapolation`] is: its macro step ([`MacroStep`]) run by the
+//! stepping every error-controlled flow shares (`control.rs`).
 
-use super::{AcceptStep, AdaptiveExtrapolation, AdaptiveStats, Outcome};
+use super::AdaptiveExtrapolation;
 use crate::error::StepError;
+use crate::flow::adaptive::control::{self, Control, MacroStep, Outcome};
+use crate::flow::adaptive::{AcceptStep, AdaptiveStats};
 use crate::flow::{Flow, FlowStats, Ledger, Multipliers};
-use crate::real::Real;
 use crate::vector::Vector;
-use num_traits::{Float as _, Zero as _};
 
-impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
-    /// Checks a call's step and state and keeps what a failure restores: `false` for a zero
-    /// step (nothing to do).
-    fn begin(&mut self, h: V::Real, x: &V) -> Result<bool, StepError> {
-        if !crate::flow::check_step(h, x)? {
-            return Ok(false);
-        }
-        if !self.options.tolerances.fits(x.len()) {
-            return Err(StepError::StateLength {
-                flow: "adaptive extrapolation (per-component tolerances)",
-                expected: self.options.tolerances.components(),
-                got: x.len(),
-            });
-        }
-        self.prepare(x);
-        self.whole.copy_from(x);
-        let mut memory = core::mem::take(&mut self.whole_memory);
-        memory.clear();
-        self.save_all(&mut memory);
-        self.whole_memory = memory;
-        Ok(true)
+impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for AdaptiveExtrapolation<V, F, P> {
+    const NAME: &'static str = "adaptive extrapolation (per-component tolerances)";
+
+    fn control(&mut self) -> &mut Control<V> {
+        &mut self.control
     }
 
-    /// Ends a call: on success the ledger's time is exactly `t + h`; on failure the state, the
-    /// ledger and the memory are those of the call's start.
-    fn end(
-        &mut self,
-        result: Result<(), StepError>,
-        ledger: &mut Ledger<V::Real>,
-        l_whole: Ledger<V::Real>,
-        h: V::Real,
-        x: &mut V,
-    ) -> Result<(), StepError> {
-        match result {
-            Ok(()) => {
-                ledger.t = l_whole.t + h;
-                Ok(())
-            }
-            Err(e) => {
-                x.copy_from(&self.whole);
-                *ledger = l_whole;
-                let memory = core::mem::take(&mut self.whole_memory);
-                let mut from = memory.as_slice();
-                self.restore_all(&mut from);
-                self.whole_memory = memory;
-                Err(e)
-            }
-        }
-    }
-
-    /// Macro steps in the direction `sign` until one is accepted, none longer than `left`;
-    /// returns its length. Rejected and failed attempts shrink the step; below `h_min` (or
-    /// where the step no longer moves time) the error names the time and the cause.
-    fn until_accepted(
+    fn attempt(
         &mut self,
         ledger: &mut Ledger<V::Real>,
-        sign: V::Real,
-        left: V::Real,
+        big: V::Real,
         x: &mut V,
-    ) -> Result<V::Real, StepError> {
-        let h_max = self
-            .options
-            .h_max
-            .map_or_else(V::Real::infinity, |v| v.abs());
-        loop {
-            // The controller's proposal taken down to the ladder 2^{k/4}: successive steps then
-            // often share a size, and so do their rows' sub-steps, whose per-size work a base
-            // flow keeps (an exact linear flow's exponentials, a kept Newton matrix).
-            let proposal = self
-                .h_next
-                .map(ladder)
-                .or(self.options.first_step)
-                .map_or(left, |v| v.abs())
-                .min(h_max);
-            // Up to the end of the interval: in one step when the proposal reaches it, in two
-            // equal ones when it falls short by less than itself (not a step and a sliver).
-            let big = if proposal >= left {
-                left
-            } else if proposal + proposal > left {
-                left * V::Real::lit(0.5)
-            } else {
-                proposal
-            };
-            let t = ledger.t;
-            let cause = match self.attempt(ledger, sign * big, x) {
-                Ok(Outcome::Accepted) => {
-                    // A step shortened to fit the interval says nothing against the longer one
-                    // proposed before it.
-                    if big < proposal
-                        && let Some(next) = self.h_next
-                    {
-                        self.h_next = Some(next.max(proposal));
-                    }
-                    return Ok(big);
-                }
-                Ok(Outcome::Rejected(next)) => {
-                    self.h_next = Some(next.abs());
-                    format!(
-                        "the error estimate stayed above the tolerance ({:.3e} of it, in the weighted norm)",
-                        self.rejected_error
-                    )
-                }
-                Err(e) => {
-                    self.stats.failed += 1;
-                    self.rejected_last = true;
-                    self.h_next = Some(big * V::Real::lit(0.5));
-                    e.to_string()
-                }
-            };
-            let next = self.h_next.unwrap_or(big);
-            if next <= self.options.h_min || t + sign * next == t {
-                return Err(self.too_small(t, next, cause));
-            }
-        }
+    ) -> Result<Outcome<V::Real>, StepError> {
+        self.attempt_table(ledger, big, x)
     }
 
-    /// One macro step of its own size, at most `|max|` (see [`Flow::step_own`]).
-    fn own_step(
-        &mut self,
-        ledger: &mut Ledger<V::Real>,
-        max: V::Real,
-        x: &mut V,
-    ) -> Result<V::Real, StepError> {
-        if !self.begin(max, x)? {
-            return Ok(V::Real::zero());
-        }
-        let l_whole = *ledger;
-        let taken = self.until_accepted(ledger, max.signum(), max.abs(), x);
-        let h = match taken {
-            Ok(t) if t < max.abs() => max.signum() * t,
-            _ => max,
-        };
-        self.end(taken.map(|_| ()), ledger, l_whole, h, x)?;
-        Ok(h)
+    fn save_all(&mut self, out: &mut Vec<V::Real>) {
+        self.save_state(out);
     }
 
-    fn too_small(&self, t: V::Real, h: V::Real, cause: String) -> StepError {
-        StepError::StepSizeTooSmall {
-            t: t.to_f64_lossy(),
-            h: h.to_f64_lossy(),
-            h_min: self.options.h_min.to_f64_lossy(),
-            cause,
+    fn restore_all(&mut self, from: &mut &[V::Real]) {
+        self.restore_state(from);
+    }
+
+    fn prepare_all(&mut self, x: &V) {
+        if self.prev.len() != self.kmax || self.start.len() != x.len() {
+            self.start = x.zeros_like();
+            self.prev = (0..self.kmax).map(|_| x.zeros_like()).collect();
+            self.cur = (0..self.kmax).map(|_| x.zeros_like()).collect();
         }
+        self.base.prepare(x);
     }
 }
 
@@ -168,24 +55,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for AdaptiveExtrapolation<
         h: V::Real,
         x: &mut V,
     ) -> Result<(), StepError> {
-        if !self.begin(h, x)? {
-            return Ok(());
-        }
-        let l_whole = *ledger;
-        let span = h.abs();
-        let mut done = V::Real::zero();
-        let mut result = Ok(());
-        while done < span {
-            let left = span - done;
-            match self.until_accepted(ledger, h.signum(), left, x) {
-                Ok(taken) => done = if taken >= left { span } else { done + taken },
-                Err(e) => {
-                    result = Err(e);
-                    break;
-                }
-            }
-        }
-        self.end(result, ledger, l_whole, h, x)
+        control::step_at(self, ledger, h, x)
     }
 
     /// One macro step of the controller's own size, at most `|max|`, in the direction of `max`.
@@ -195,7 +65,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for AdaptiveExtrapolation<
         max: V::Real,
         x: &mut V,
     ) -> Option<Result<V::Real, StepError>> {
-        Some(self.own_step(ledger, max, x))
+        Some(control::step_own(self, ledger, max, x))
     }
 
     fn order(&self) -> u32 {
@@ -207,13 +77,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for AdaptiveExtrapolation<
     }
 
     fn prepare(&mut self, x: &V) {
-        if self.prev.len() != self.kmax || self.start.len() != x.len() {
-            self.start = x.zeros_like();
-            self.whole = x.zeros_like();
-            self.prev = (0..self.kmax).map(|_| x.zeros_like()).collect();
-            self.cur = (0..self.kmax).map(|_| x.zeros_like()).collect();
-        }
-        self.base.prepare(x);
+        self.prepare_all(x);
     }
 
     fn stats(&self) -> FlowStats {
@@ -229,26 +93,14 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for AdaptiveExtrapolation<
     }
 
     fn save_memory(&mut self, out: &mut Vec<V::Real>) {
-        self.save_all(out);
+        self.save_state(out);
     }
 
     fn adaptive_stats(&self) -> Option<AdaptiveStats> {
-        Some(self.stats)
+        Some(self.control.stats)
     }
 
     fn restore_memory(&mut self, from: &mut &[V::Real]) {
-        self.restore_all(from);
-    }
-}
-
-/// The largest `2^{k/4}` (k an integer) not above `|h|`.
-fn ladder<T: Real>(h: T) -> T {
-    let h = h.abs();
-    let k = (h.to_f64_lossy().log2() * 4.0).floor();
-    let rung = T::lit((k / 4.0).exp2());
-    if rung > T::zero() && rung <= h && rung.is_finite() {
-        rung
-    } else {
-        h
+        self.restore_state(from);
     }
 }

@@ -48,7 +48,7 @@ fn a_rejected_macro_step_restores_state_ledger_and_memory() {
     f.prepare(&x);
     let mut ledger = Ledger::at(2.0);
     // A macro step of 10 (a period and a half) cannot meet 1e-12 in a few rows.
-    let outcome = f.attempt(&mut ledger, 10.0, &mut x).unwrap();
+    let outcome = f.attempt_table(&mut ledger, 10.0, &mut x).unwrap();
     assert!(matches!(outcome, Outcome::Rejected(h) if h < 9.0));
     assert_eq!(x, X::new(1.0, 0.0));
     assert_eq!(ledger, Ledger::at(2.0));
@@ -66,7 +66,7 @@ fn an_accepted_macro_step_is_the_extrapolated_table_s_diagonal() {
     f.prepare(&x);
     let mut l = Ledger::at(0.0);
     let h = 0.1;
-    let outcome = f.attempt(&mut l, h, &mut x).unwrap();
+    let outcome = f.attempt_table(&mut l, h, &mut x).unwrap();
     assert!(matches!(outcome, Outcome::Accepted));
     let mut v = Verlet::default();
     let mut t1 = X::new(1.0, 0.0);

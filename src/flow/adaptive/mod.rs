@@ -14,16 +14,20 @@
 //! Files: `tolerances.rs` ([`Tolerances`]: the weighted norm), `options.rs`
 //! ([`AdaptiveOptions`], [`AdaptiveStats`]), `extrapolation.rs`
 //! ([`AdaptiveExtrapolation`]: order- and step-size-controlled extrapolation of a symmetric
-//! base step, ODEX's controller), `reversible.rs` ([`ReversibleSteps`]: time-reversible
+//! base step, ODEX's controller), `step_doubling.rs` ([`StepDoubling`]: step-size control of a
+//! fixed-order scheme by step doubling and a PI controller), `control.rs` (the state and the
+//! stepping every error-controlled flow shares), `reversible.rs` ([`ReversibleSteps`]: time-reversible
 //! variable steps along a [`StepDensity`] (`step_density.rs`), for conservative symmetric
 //! schemes), `accept.rs` ([`AcceptStep`]: what runs after each accepted
 //! step — the projection onto the manifold, or nothing).
 
 mod accept;
+mod control;
 mod extrapolation;
 mod options;
 mod reversible;
 mod step_density;
+mod step_doubling;
 mod tolerances;
 
 pub use accept::AcceptStep;
@@ -31,4 +35,5 @@ pub use extrapolation::AdaptiveExtrapolation;
 pub use options::{AdaptiveOptions, AdaptiveStats};
 pub use reversible::ReversibleSteps;
 pub use step_density::{DensityFn, StepDensity, step_density};
+pub use step_doubling::StepDoubling;
 pub use tolerances::Tolerances;

@@ -199,7 +199,11 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
             x0[nq + b * dim + k] = body.mass * body.v[k];
         }
     }
-    let (raise, order) = choose_scheme(&file.integrator, model.is_dissipative() && !backward)?;
+    let (raise, order) = choose_scheme(
+        &file.integrator,
+        model.is_dissipative() && !backward,
+        Some(&bodies),
+    )?;
     let m = model.m;
     let mut initial_projection = None;
     let mut notes = gravity_notes(file);

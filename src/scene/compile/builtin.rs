@@ -62,8 +62,8 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
             path.key("links"),
         );
     }
-    let (raise, order) = choose_scheme(&file.integrator, false)?;
-    if let super::Raise::Adaptive(_) = raise {
+    let (raise, order) = choose_scheme(&file.integrator, false, None)?;
+    if raise.is_controlled() {
         let key = ["tol", "rtol", "atol"]
             .into_iter()
             .zip([

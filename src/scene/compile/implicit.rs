@@ -59,12 +59,21 @@ pub(super) fn implicit_flow(
             ),
         )));
     }
-    match file.integrator.scheme {
-        Method::PetrovGalerkin => Some(petrov_galerkin(file, model, x0)),
-        Method::DiscreteGradient => Some(discrete_gradient(model, x0)),
-        Method::Midpoint => Some(midpoint(model, x0, raise, backward)),
-        _ => None,
-    }
+    let built = match file.integrator.scheme {
+        Method::PetrovGalerkin => petrov_galerkin(file, model, x0),
+        Method::DiscreteGradient => discrete_gradient(model, x0),
+        Method::Midpoint => return Some(midpoint(model, x0, raise, backward)),
+        _ => return None,
+    };
+    // A tolerance: the scheme's steps chosen by step doubling (`raise` is the base step or
+    // that; the choice of scheme refuses the others).
+    Some(built.and_then(|mut s| {
+        if let Raise::Doubling(..) = raise {
+            s.flow = raised::<_, _, SceneSystem<f64>>(s.flow, raise, backward, None)
+                .map_err(|e| setup_error(model, e))?;
+        }
+        Ok(s)
+    }))
 }
 
 /// The energy-consistent Petrov–Galerkin scheme at the file's order (4 by default).

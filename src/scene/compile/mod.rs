@@ -6,6 +6,7 @@ pub(crate) mod bodies;
 mod builtin;
 mod columns;
 mod constraints;
+mod density;
 mod effects;
 mod fingerprint;
 mod implicit;
@@ -14,6 +15,7 @@ mod raise;
 mod rigid;
 mod scheme;
 mod storage;
+mod tolerance;
 mod weld;
 
 pub(crate) use super::validate::{self, Result, err};

@@ -1,10 +1,11 @@
 //! How a scene's order-2 step is raised to the order it asks for: a symmetric composition
 //! (negative sub-steps) or an extrapolation (every sub-step forward, for damped scenes).
 
+use super::density::DistanceDensity;
 use crate::error::SetupError;
 use crate::flow::{
     AdaptiveExtrapolation, AdaptiveOptions, CompositionTable, Flow, FlowExt, ManifoldProjection,
-    ProjectionOptions, Tolerances,
+    ProjectionOptions, ReversibleSteps, StepDoubling, Tolerances,
 };
 use crate::scene::schema::Method;
 use crate::system::Model;
@@ -26,6 +27,12 @@ pub enum Raise {
     /// ([`AdaptiveExtrapolation`](crate::flow::AdaptiveExtrapolation)), every sub-step forward,
     /// projected onto the manifold after every accepted step when constrained.
     Adaptive(Control),
+    /// The step (composed by the table, when any) of fixed order, its steps chosen to a
+    /// tolerance by step doubling ([`StepDoubling`](crate::flow::StepDoubling)).
+    Doubling(Control, Option<&'static CompositionTable>),
+    /// The symmetric step (composed by the table, when any) with reversible steps along a
+    /// density ([`ReversibleSteps`](crate::flow::ReversibleSteps)).
+    Reversible(Control, DistanceDensity, Option<&'static CompositionTable>),
 }
 
 /// A scene's tolerance and step limits ([`Raise::Adaptive`]).
@@ -62,8 +69,17 @@ impl Raise {
     pub fn table(self) -> Option<&'static CompositionTable> {
         match self {
             Raise::Compose(t) => Some(t),
+            Raise::Doubling(_, t) | Raise::Reversible(_, _, t) => t,
             _ => None,
         }
+    }
+
+    /// Whether the steps are chosen by a controller (a tolerance was given).
+    pub fn is_controlled(self) -> bool {
+        matches!(
+            self,
+            Raise::Adaptive(_) | Raise::Doubling(..) | Raise::Reversible(..)
+        )
     }
 
     /// Why a scene with `scheme` (damped or not) at `order` gets this raise — what `lieflow
@@ -88,6 +104,12 @@ impl Raise {
             (_, Raise::Adaptive(_)) => {
                 "a tolerance asked: the splitting extrapolated with the order and the step chosen to meet it, every sub-step forward"
             }
+            (_, Raise::Doubling(..)) => {
+                "a tolerance asked of a scheme of fixed order: its steps chosen by step doubling (the error per unit step), each step a step of the scheme, so what it keeps it keeps"
+            }
+            (_, Raise::Reversible(..)) => {
+                "`controller = \"reversible\"` on a conservative scene: steps along the density that retrace themselves backwards (no drift on long runs); the tolerance sets the step scale once"
+            }
             (Method::Extrapolation, _) => {
                 "`scheme = \"extrapolation\"`: Strang extrapolated, every sub-step forward"
             }
@@ -110,6 +132,18 @@ impl Raise {
             Raise::Adaptive(c) => format!(
                 "{base}, extrapolated adaptively (orders 4 to {}, rtol {:e}, atol {:e}; any constraints projected after every accepted step)",
                 c.max_order, c.rtol, c.atol
+            ),
+            Raise::Doubling(c, t) => format!(
+                "{}, steps by step doubling with a PI controller (rtol {:e}, atol {:e}, per unit step)",
+                t.map_or(Raise::Base, Raise::Compose).describe(base),
+                c.rtol,
+                c.atol
+            ),
+            Raise::Reversible(c, _, t) => format!(
+                "{}, reversible steps along the density (Hairer–Söderlind; ε set at rtol {:e}, atol {:e})",
+                t.map_or(Raise::Base, Raise::Compose).describe(base),
+                c.rtol,
+                c.atol
             ),
             Raise::Extrapolate(order) => {
                 let rows = order / 2;
@@ -153,6 +187,16 @@ where
                 Some((system, x0, options)) => Box::new(e.reprojected(system, x0, options)?),
                 None => Box::new(e),
             }
+        }
+        (Raise::Doubling(c, t), _) => {
+            let step =
+                raised::<V, F, Sys>(flow, t.map_or(Raise::Base, Raise::Compose), backward, None)?;
+            Box::new(StepDoubling::try_new(step, (), c.options()?)?)
+        }
+        (Raise::Reversible(c, density, t), _) => {
+            let step =
+                raised::<V, F, Sys>(flow, t.map_or(Raise::Base, Raise::Compose), backward, None)?;
+            Box::new(ReversibleSteps::try_new(step, density, c.options()?)?)
         }
         (Raise::Adaptive(c), _) => {
             let options = c.options()?;

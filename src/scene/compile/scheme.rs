@@ -1,7 +1,7 @@
 //! The scheme of a scene: how its step is raised and to which order, the run plan, and the flow —
 //! the splitting of the exact sub-flows, projected when constrained, or an implicit scheme.
 
-use super::raise::{Control, Raise, raised};
+use super::raise::{Raise, raised};
 use super::{MAX_STEPS, Result, constraints::setup_error, err, validate::positive};
 use crate::error::SetupError;
 use crate::flow::{
@@ -11,6 +11,7 @@ use crate::linalg::LinearSolver;
 use crate::nonlinear::NewtonOptions;
 use crate::port::InputFlow;
 use crate::real::Real;
+use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::model::{
     DashpotFlow, FreeFlight, HingeDamperFlow, Kick, SceneKick, SceneModel, SceneSplitting,
@@ -34,7 +35,11 @@ const ORDERS: &str =
 /// backwards; `order = 10 | 12 | 14 | 16` extrapolates it (no composition of those orders is
 /// offered). `extrapolation` extrapolates whatever the scene. A named composition on a
 /// dissipative scene is refused.
-pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result<(Raise, u32)> {
+pub(super) fn choose_scheme(
+    integ: &IntegratorSpec,
+    dissipative: bool,
+    bodies: Option<&Bodies>,
+) -> Result<(Raise, u32)> {
     let path = FieldPath::root().key("integrator");
     let out_of_range = |o: u32, what: &str| {
         err(
@@ -92,9 +97,6 @@ pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result
             format!("order {o}, but scheme '{}' has order {order}", integ.scheme),
         ));
     }
-    if let Some(control) = control(integ)? {
-        return Ok((Raise::Adaptive(control), control.max_order));
-    }
     if dissipative && let Raise::Compose(t) = raise {
         return Err(err(
             SceneErrorKind::Unsupported,
@@ -105,105 +107,12 @@ pub(super) fn choose_scheme(integ: &IntegratorSpec, dissipative: bool) -> Result
             ),
         ));
     }
-    Ok((raise, order))
-}
-
-/// The scene's tolerance, when it gives one: `tol`, or `rtol` and `atol` (each defaulting to
-/// the other, or to `tol`), with the step limits — for `scheme = "auto"` or `"extrapolation"`
-/// without an `order` (the controller chooses it, up to `max_order`).
-fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
-    let path = FieldPath::root().key("integrator");
-    let given = integ.tol.or(integ.rtol).or(integ.atol);
-    let Some(tol) = given else {
-        for (key, set) in [
-            ("h_min", integ.h_min.is_some()),
-            ("h_max", integ.h_max.is_some()),
-            ("max_order", integ.max_order.is_some()),
-        ] {
-            if set {
-                return Err(err(
-                    SceneErrorKind::Value,
-                    path.key(key),
-                    format!("`{key}` goes with a tolerance (`tol`, or `rtol` and `atol`)"),
-                ));
-            }
+    match super::tolerance::control(integ)? {
+        Some(control) => {
+            super::tolerance::controlled(integ, control, raise, order, dissipative, bodies)
         }
-        return Ok(None);
-    };
-    let key = if integ.tol.is_some() {
-        "tol"
-    } else if integ.rtol.is_some() {
-        "rtol"
-    } else {
-        "atol"
-    };
-    if !matches!(integ.scheme, Method::Auto | Method::Extrapolation) {
-        return Err(err(
-            SceneErrorKind::Unsupported,
-            path.key("scheme"),
-            format!(
-                "a tolerance is met by the adaptive extrapolation of the splitting (`scheme = \"auto\"` or `\"extrapolation\"`); '{}' takes a fixed `dt`",
-                integ.scheme
-            ),
-        ));
+        None => Ok((raise, order)),
     }
-    if integ.order.is_some() {
-        return Err(err(
-            SceneErrorKind::Value,
-            path.key("order"),
-            "with a tolerance the controller chooses the order: give `max_order` instead",
-        ));
-    }
-    let tolerance = |v: Option<f64>, name: &str| -> Result<f64> {
-        let v = v.or(integ.tol).unwrap_or(tol);
-        if v > 0.0 && v.is_finite() {
-            Ok(v)
-        } else {
-            Err(err(
-                SceneErrorKind::Value,
-                path.key(if v == tol { key } else { name }),
-                format!("a tolerance is positive and finite, not {v}"),
-            ))
-        }
-    };
-    let (rtol, atol) = (
-        tolerance(integ.rtol, "rtol")?,
-        tolerance(integ.atol, "atol")?,
-    );
-    let dt = positive(integ.dt, &path.key("dt"), "step size")?;
-    let h_min = match integ.h_min {
-        None => 0.0,
-        Some(h) if h >= 0.0 && h < dt => h,
-        Some(h) => {
-            return Err(err(
-                SceneErrorKind::Value,
-                path.key("h_min"),
-                format!("h_min {h}: non-negative and below dt = {dt}"),
-            ));
-        }
-    };
-    let h_max = match integ.h_max {
-        None => dt,
-        Some(h) => positive(h, &path.key("h_max"), "largest step")?,
-    };
-    let max_order = integ.max_order.unwrap_or(16);
-    if !max_order.is_multiple_of(2) || !(4..=16).contains(&max_order) {
-        return Err(err(
-            SceneErrorKind::Value,
-            path.key("max_order"),
-            format!(
-                "max_order {max_order}: the adaptive extrapolation reaches the even orders 4 to 16"
-            ),
-        ));
-    }
-    Ok(Some(Control {
-        rtol,
-        atol,
-        h_min,
-        h_max,
-        max_order,
-        first_step: dt.min(h_max),
-    }))
 }
 
 pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(RunPlan, bool)> {

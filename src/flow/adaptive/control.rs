@@ -1,0 +1,296 @@
+//! What every error-controlled adaptive flow shares: the controller's state ([`Control`]), a
+//! macro step's verdict ([`Outcome`]), and the stepping built on one macro step
+//! ([`MacroStep`]): a call's bookkeeping (what a failure restores), the macro steps until one
+//! is accepted, `step(h)` landing on `t + h` ([`step_at`]) and one step of the flow's own size
+//! ([`step_own`]).
+
+use super::{AdaptiveOptions, AdaptiveStats};
+use crate::error::StepError;
+use crate::flow::Ledger;
+use crate::real::Real;
+use crate::vector::Vector;
+use num_traits::{Float as _, One as _, Zero as _};
+
+/// How a macro step went.
+pub(crate) enum Outcome<T> {
+    Accepted,
+    /// Rejected, with the step to try next.
+    Rejected(T),
+}
+
+/// The state an error controller keeps between macro steps, and what a call restores.
+#[derive(Debug)]
+pub(crate) struct Control<V: Vector> {
+    pub(crate) options: AdaptiveOptions<V::Real>,
+    /// The next macro step to try (`None`: none taken yet).
+    pub(crate) h_next: Option<V::Real>,
+    /// Whether the last macro step was rejected (no increase of the step after one).
+    pub(crate) rejected_last: bool,
+    /// The error estimate of the last rejected step (for the message when the step fails).
+    pub(crate) rejected_error: f64,
+    pub(crate) stats: AdaptiveStats,
+    /// The call's start: the state and the memory a failure restores.
+    whole: V,
+    whole_memory: Vec<V::Real>,
+}
+
+impl<V: Vector> Control<V> {
+    pub(crate) fn new(options: AdaptiveOptions<V::Real>) -> Self {
+        Self {
+            options,
+            h_next: None,
+            rejected_last: false,
+            rejected_error: 0.0,
+            stats: AdaptiveStats {
+                smallest: f64::INFINITY,
+                ..AdaptiveStats::default()
+            },
+            whole: V::zeros(0),
+            whole_memory: Vec::new(),
+        }
+    }
+
+    /// Appends the proposal and the last verdict (two values).
+    pub(crate) fn save(&self, out: &mut Vec<V::Real>) {
+        let one = V::Real::one();
+        out.push(self.h_next.unwrap_or(-one));
+        out.push(if self.rejected_last {
+            one
+        } else {
+            V::Real::zero()
+        });
+    }
+
+    /// Reads back what [`save`](Self::save) appended.
+    pub(crate) fn restore(&mut self, head: &[V::Real]) {
+        self.h_next = (head[0] >= V::Real::zero()).then_some(head[0]);
+        self.rejected_last = head[1] != V::Real::zero();
+    }
+
+    /// Books an accepted step of length `h` at order `2 rows` with estimate `err`.
+    pub(crate) fn book_accepted(&mut self, h: f64, rows: usize, err: f64) {
+        let s = &mut self.stats;
+        s.accepted += 1;
+        s.orders[rows.min(s.orders.len() - 1)] += 1;
+        s.smallest = s.smallest.min(h);
+        s.largest = s.largest.max(h);
+        s.last_error = err;
+    }
+
+    /// Books a rejected step with estimate `err`.
+    pub(crate) fn book_rejected(&mut self, err: f64) {
+        self.rejected_last = true;
+        self.rejected_error = err;
+        self.stats.rejected += 1;
+    }
+}
+
+/// One macro step of an error-controlled flow, and the state it keeps.
+pub(crate) trait MacroStep<V: Vector> {
+    /// The flow's name, for messages.
+    const NAME: &'static str;
+    fn control(&mut self) -> &mut Control<V>;
+    /// One macro step of size `big` from `x`: on acceptance `x` and `ledger` advance and the
+    /// next step is proposed (`control().h_next`); on rejection or failure both and the base
+    /// flow's memory are as they were.
+    fn attempt(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        big: V::Real,
+        x: &mut V,
+    ) -> Result<Outcome<V::Real>, StepError>;
+    /// Appends the controller's state and the base flow's memory.
+    fn save_all(&mut self, out: &mut Vec<V::Real>);
+    /// Reads back what [`save_all`](Self::save_all) appended.
+    fn restore_all(&mut self, from: &mut &[V::Real]);
+    /// Allocates the workspace for states like `x`.
+    fn prepare_all(&mut self, x: &V);
+}
+
+/// Checks a call's step and state and keeps what a failure restores: `false` for a zero step.
+fn begin<V: Vector, M: MacroStep<V>>(m: &mut M, h: V::Real, x: &V) -> Result<bool, StepError> {
+    if !crate::flow::check_step(h, x)? {
+        return Ok(false);
+    }
+    let tolerances = &m.control().options.tolerances;
+    if !tolerances.fits(x.len()) {
+        return Err(StepError::StateLength {
+            flow: M::NAME,
+            expected: tolerances.components(),
+            got: x.len(),
+        });
+    }
+    m.prepare_all(x);
+    let c = m.control();
+    if c.whole.len() != x.len() {
+        c.whole = x.zeros_like();
+    }
+    c.whole.copy_from(x);
+    let mut memory = core::mem::take(&mut c.whole_memory);
+    memory.clear();
+    m.save_all(&mut memory);
+    m.control().whole_memory = memory;
+    Ok(true)
+}
+
+/// Ends a call: on success the ledger's time is exactly `t + h`; on failure the state, the
+/// ledger and the memory are those of the call's start.
+fn end<V: Vector, M: MacroStep<V>>(
+    m: &mut M,
+    result: Result<(), StepError>,
+    ledger: &mut Ledger<V::Real>,
+    l_whole: Ledger<V::Real>,
+    h: V::Real,
+    x: &mut V,
+) -> Result<(), StepError> {
+    match result {
+        Ok(()) => {
+            ledger.t = l_whole.t + h;
+            Ok(())
+        }
+        Err(e) => {
+            let c = m.control();
+            x.copy_from(&c.whole);
+            *ledger = l_whole;
+            let memory = core::mem::take(&mut c.whole_memory);
+            let mut from = memory.as_slice();
+            m.restore_all(&mut from);
+            m.control().whole_memory = memory;
+            Err(e)
+        }
+    }
+}
+
+/// Macro steps in the direction `sign` until one is accepted, none longer than `left`; returns
+/// its length. Rejected and failed attempts shrink the step; below `h_min` (or where the step
+/// no longer moves time) the error names the time and the cause.
+fn until_accepted<V: Vector, M: MacroStep<V>>(
+    m: &mut M,
+    ledger: &mut Ledger<V::Real>,
+    sign: V::Real,
+    left: V::Real,
+    x: &mut V,
+) -> Result<V::Real, StepError> {
+    loop {
+        let c = m.control();
+        let h_max = c.options.h_max.map_or_else(V::Real::infinity, |v| v.abs());
+        // The controller's proposal taken down to the ladder 2^{k/4}: successive steps then
+        // often share a size, and so do their sub-steps, whose per-size work a base flow keeps
+        // (an exact linear flow's exponentials, a kept Newton matrix).
+        let proposal = c
+            .h_next
+            .map(ladder)
+            .or(c.options.first_step)
+            .map_or(left, |v| v.abs())
+            .min(h_max);
+        // Up to the end of the interval: in one step when the proposal reaches it, in two equal
+        // ones when it falls short by less than itself (not a step and a sliver).
+        let big = if proposal >= left {
+            left
+        } else if proposal + proposal > left {
+            left * V::Real::lit(0.5)
+        } else {
+            proposal
+        };
+        let t = ledger.t;
+        let cause = match m.attempt(ledger, sign * big, x) {
+            Ok(Outcome::Accepted) => {
+                // A step shortened to fit the interval says nothing against the longer one
+                // proposed before it.
+                let c = m.control();
+                if big < proposal
+                    && let Some(next) = c.h_next
+                {
+                    c.h_next = Some(next.max(proposal));
+                }
+                return Ok(big);
+            }
+            Ok(Outcome::Rejected(next)) => {
+                let c = m.control();
+                c.h_next = Some(next.abs());
+                format!(
+                    "the error estimate stayed above the tolerance ({:.3e} of it, in the weighted norm)",
+                    c.rejected_error
+                )
+            }
+            Err(e) => {
+                let c = m.control();
+                c.stats.failed += 1;
+                c.rejected_last = true;
+                c.h_next = Some(big * V::Real::lit(0.5));
+                e.to_string()
+            }
+        };
+        let c = m.control();
+        let next = c.h_next.unwrap_or(big);
+        if next <= c.options.h_min || t + sign * next == t {
+            return Err(StepError::StepSizeTooSmall {
+                t: t.to_f64_lossy(),
+                h: next.to_f64_lossy(),
+                h_min: c.options.h_min.to_f64_lossy(),
+                cause,
+            });
+        }
+    }
+}
+
+/// Advances by exactly `h`: macro steps of the controller's choosing, the last clipped to land
+/// on `t + h` (see [`Flow::step_at`](crate::flow::Flow::step_at)).
+pub(crate) fn step_at<V: Vector, M: MacroStep<V>>(
+    m: &mut M,
+    ledger: &mut Ledger<V::Real>,
+    h: V::Real,
+    x: &mut V,
+) -> Result<(), StepError> {
+    if !begin(m, h, x)? {
+        return Ok(());
+    }
+    let l_whole = *ledger;
+    let span = h.abs();
+    let mut done = V::Real::zero();
+    let mut result = Ok(());
+    while done < span {
+        let left = span - done;
+        match until_accepted(m, ledger, h.signum(), left, x) {
+            Ok(taken) => done = if taken >= left { span } else { done + taken },
+            Err(e) => {
+                result = Err(e);
+                break;
+            }
+        }
+    }
+    end(m, result, ledger, l_whole, h, x)
+}
+
+/// One macro step of the controller's own size, at most `|max|`, in the direction of `max`
+/// (see [`Flow::step_own`](crate::flow::Flow::step_own)).
+pub(crate) fn step_own<V: Vector, M: MacroStep<V>>(
+    m: &mut M,
+    ledger: &mut Ledger<V::Real>,
+    max: V::Real,
+    x: &mut V,
+) -> Result<V::Real, StepError> {
+    if !begin(m, max, x)? {
+        return Ok(V::Real::zero());
+    }
+    let l_whole = *ledger;
+    let taken = until_accepted(m, ledger, max.signum(), max.abs(), x);
+    let h = match taken {
+        Ok(t) if t < max.abs() => max.signum() * t,
+        _ => max,
+    };
+    end(m, taken.map(|_| ()), ledger, l_whole, h, x)?;
+    Ok(h)
+}
+
+/// The largest `2^{k/4}` (k an integer) not above `|h|`.
+fn ladder<T: Real>(h: T) -> T {
+    let h = h.abs();
+    let k = (h.to_f64_lossy().log2() * 4.0).floor();
+    let rung = T::lit((k / 4.0).exp2());
+    if rung > T::zero() && rung <= h && rung.is_finite() {
+        rung
+    } else {
+        h
+    }
+}

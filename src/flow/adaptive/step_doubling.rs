@@ -1,0 +1,304 @@
+//! Step-size control for a scheme of fixed order by step doubling, with a PI controller.
+
+use super::control::{self, Control, MacroStep, Outcome};
+use super::{AcceptStep, AdaptiveOptions, AdaptiveStats};
+use crate::error::{SetupError, StepError};
+use crate::flow::{EXACT, Flow, FlowStats, Ledger, Multipliers};
+use crate::real::Real;
+use crate::vector::{Vector, ops};
+
+/// Step-size control for any one-step scheme `S_h` of fixed order `p` — the Petrov–Galerkin
+/// scheme, the (projected) midpoint rule, the discrete gradients, a composition — by step
+/// doubling: each step of size `H` is taken once whole and once as two halves, and
+///
+/// ```text
+/// err = ‖S_{H/2}² x − S_H x‖ / (2^p − 1)
+/// ```
+///
+/// (the weighted norm of [`Tolerances`](super::Tolerances)) estimates the error of the two
+/// halves, which are kept: the result is a genuine step sequence of the scheme, so whatever it
+/// preserves step by step — Petrov–Galerkin's discrete energy balance, a projection's
+/// constraints, a discrete gradient's energy — it preserves under variable steps (no local
+/// extrapolation, which would not). Without local extrapolation a local error at the tolerance
+/// in every step adds up to a global error `∝ tol^{p/(p+1)}`; the error is therefore
+/// controlled **per unit step**, `err/|H| ≤ 1` (`H` in the model's time unit), so that the
+/// global error over a span `T` is about `tol · T` and proportional to the tolerance
+/// (Shampine, *Numerical Solution of ODEs*, §7.1). With `err_n = ‖…‖/((2^p − 1)|H_n|) = O(H^p)`,
+/// a step with `err ≤ 1` is accepted and the next one is chosen by Gustafsson's PI controller,
+///
+/// ```text
+/// H_{n+1} = H_n · 0.9 · err_n^{−0.7/p} · err_{n−1}^{0.4/p},   clamped to [0.2, 5] H_n,
+/// ```
+///
+/// (no growth right after a rejection); a rejected one is retried with
+/// `H · max(0.2, 0.9 err^{−1/p})` (Hairer & Wanner, *Solving ODEs II*, §IV.2; Gustafsson,
+/// ACM TOMS 20, 1994). Each accepted result goes through `P` ([`AcceptStep`]). A rejected step,
+/// or one whose sub-step fails (a Newton failure: the step halves), restores the state, the
+/// ledger and the base flow's memory exactly; every sub-step has the sign of the step, so
+/// damping never runs backwards. It is a [`Flow`] like
+/// [`AdaptiveExtrapolation`](super::AdaptiveExtrapolation): `step(h)` lands on `t + h`,
+/// [`Flow::step_own`] takes one step of its own size, the controller's state is part of the
+/// flow's memory.
+#[derive(Debug)]
+pub struct StepDoubling<V: Vector, F, P = ()> {
+    base: F,
+    finish: P,
+    control: Control<V>,
+    /// The scheme's order `p`.
+    order: u32,
+    /// The last accepted estimate (the PI controller's memory; 1 before the first).
+    err_prev: f64,
+    start: V,
+    whole_step: V,
+    memory: Vec<V::Real>,
+}
+
+impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> StepDoubling<V, F, P> {
+    /// Step doubling of `base` under `options` (`max_order` is not used), each accepted step
+    /// finished by `finish`.
+    ///
+    /// # Errors
+    /// [`SetupError::Scheme`] when `base` is exact (it needs no control) or of order 0;
+    /// [`SetupError::InvalidParameter`] for bad step bounds.
+    pub fn try_new(
+        base: F,
+        finish: P,
+        options: AdaptiveOptions<V::Real>,
+    ) -> Result<Self, SetupError> {
+        let order = base.order();
+        if order == 0 || order == EXACT || order > 30 {
+            return Err(SetupError::Scheme {
+                what: format!(
+                    "step doubling needs a scheme of finite order 1 … 30; this one has order {}",
+                    if order == EXACT {
+                        "EXACT (an exact flow needs no step control)".to_owned()
+                    } else {
+                        order.to_string()
+                    }
+                ),
+            });
+        }
+        options.check()?;
+        Ok(Self {
+            base,
+            finish,
+            control: Control::new(options),
+            order,
+            err_prev: 1.0,
+            start: V::zeros(0),
+            whole_step: V::zeros(0),
+            memory: Vec::new(),
+        })
+    }
+
+    /// The base scheme.
+    pub fn base(&self) -> &F {
+        &self.base
+    }
+
+    /// The next step the controller will try (`None` before the first).
+    pub fn next_step(&self) -> Option<V::Real> {
+        self.control.h_next
+    }
+
+    fn restore_base(&mut self) {
+        let mut from = self.memory.as_slice();
+        self.base.restore_memory(&mut from);
+    }
+
+    /// The state, the ledger and the base flow's memory as the step found them.
+    fn undo(&mut self, ledger: &mut Ledger<V::Real>, l0: Ledger<V::Real>, x: &mut V) {
+        x.copy_from(&self.start);
+        *ledger = l0;
+        self.restore_base();
+    }
+
+    fn step_twice(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        big: V::Real,
+        x: &mut V,
+    ) -> Result<Outcome<V::Real>, StepError> {
+        let l0 = *ledger;
+        self.start.copy_from(x);
+        self.memory.clear();
+        self.base.save_memory(&mut self.memory);
+        // The whole step, then (from the same memory) the two halves, which are kept.
+        let mut l_whole = l0;
+        self.whole_step.copy_from(x);
+        let whole = self.base.step_at(&mut l_whole, big, &mut self.whole_step);
+        self.control.stats.base_steps += 1;
+        if let Err(e) = whole {
+            self.undo(ledger, l0, x);
+            return Err(e);
+        }
+        self.restore_base();
+        let half = big * V::Real::lit(0.5);
+        let halves = self.base.step_repeated(ledger, half, 2, x);
+        self.control.stats.base_steps += 2;
+        if let Err(e) = halves {
+            self.undo(ledger, l0, x);
+            return Err(e);
+        }
+        let scale = f64::from(2u32.pow(self.order) - 1);
+        let err = self
+            .control
+            .options
+            .tolerances
+            .error(
+                x.as_slice(),
+                self.whole_step.as_slice(),
+                self.start.as_slice(),
+                x.as_slice(),
+            )
+            .to_f64_lossy()
+            / scale;
+        // Per unit step: the local error over the step's length.
+        let hf = big.to_f64_lossy().abs();
+        let err = err / hf;
+        let p1 = f64::from(self.order);
+        if err > 1.0 || err.is_nan() {
+            self.undo(ledger, l0, x);
+            let fac = if err.is_finite() {
+                (0.9 * err.powf(-1.0 / p1)).max(0.2)
+            } else {
+                0.2
+            };
+            self.control.book_rejected(err);
+            return Ok(Outcome::Rejected(V::Real::lit(hf * fac)));
+        }
+        let finished =
+            self.finish
+                .accept(x)
+                .and_then(|()| match ops::first_non_finite(x.as_slice()) {
+                    Some(component) => Err(StepError::NonFinite { component }),
+                    None => Ok(()),
+                });
+        if let Err(e) = finished {
+            self.undo(ledger, l0, x);
+            self.finish.forget();
+            return Err(e);
+        }
+        ledger.t = l0.t + big;
+        let e = err.max(1e-10);
+        let mut fac = (0.9 * e.powf(-0.7 / p1) * self.err_prev.powf(0.4 / p1)).clamp(0.2, 5.0);
+        let c = &mut self.control;
+        if c.rejected_last {
+            fac = fac.min(1.0);
+        }
+        let mut next = hf * fac;
+        if let Some(h_max) = c.options.h_max {
+            next = next.min(h_max.to_f64_lossy());
+        }
+        self.err_prev = e;
+        c.rejected_last = false;
+        c.h_next = Some(V::Real::lit(next));
+        c.book_accepted(hf, (self.order / 2) as usize, err);
+        Ok(Outcome::Accepted)
+    }
+}
+
+impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for StepDoubling<V, F, P> {
+    const NAME: &'static str = "step doubling (per-component tolerances)";
+
+    fn control(&mut self) -> &mut Control<V> {
+        &mut self.control
+    }
+
+    fn attempt(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        big: V::Real,
+        x: &mut V,
+    ) -> Result<Outcome<V::Real>, StepError> {
+        self.step_twice(ledger, big, x)
+    }
+
+    fn save_all(&mut self, out: &mut Vec<V::Real>) {
+        self.control.save(out);
+        out.push(V::Real::lit(self.err_prev));
+        self.base.save_memory(out);
+    }
+
+    fn restore_all(&mut self, from: &mut &[V::Real]) {
+        if from.len() >= 3 {
+            let (head, rest) = from.split_at(3);
+            self.control.restore(&head[..2]);
+            self.err_prev = head[2].to_f64_lossy();
+            *from = rest;
+        }
+        self.base.restore_memory(from);
+        self.finish.forget();
+    }
+
+    fn prepare_all(&mut self, x: &V) {
+        if self.start.len() != x.len() {
+            self.start = x.zeros_like();
+            self.whole_step = x.zeros_like();
+        }
+        self.base.prepare(x);
+    }
+}
+
+impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for StepDoubling<V, F, P> {
+    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+        self.step_at(&mut Ledger::default(), h, x)
+    }
+
+    /// Advances by exactly `h`: steps of the controller's choosing, the last fitted to land on
+    /// `t + h`.
+    fn step_at(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        h: V::Real,
+        x: &mut V,
+    ) -> Result<(), StepError> {
+        control::step_at(self, ledger, h, x)
+    }
+
+    /// One step of the controller's own size, at most `|max|`, in the direction of `max`.
+    fn step_own(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        max: V::Real,
+        x: &mut V,
+    ) -> Option<Result<V::Real, StepError>> {
+        Some(control::step_own(self, ledger, max, x))
+    }
+
+    fn order(&self) -> u32 {
+        self.order
+    }
+
+    fn is_symmetric(&self) -> bool {
+        false
+    }
+
+    fn prepare(&mut self, x: &V) {
+        self.prepare_all(x);
+    }
+
+    fn stats(&self) -> FlowStats {
+        self.base.stats() + self.finish.stats()
+    }
+
+    fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
+        self.base.multipliers()
+    }
+
+    fn dissipates(&self) -> bool {
+        self.base.dissipates()
+    }
+
+    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+        self.save_all(out);
+    }
+
+    fn restore_memory(&mut self, from: &mut &[V::Real]) {
+        self.restore_all(from);
+    }
+
+    fn adaptive_stats(&self) -> Option<AdaptiveStats> {
+        Some(self.control.stats)
+    }
+}
