@@ -552,7 +552,7 @@ fn small_scenes_on_the_stack_agree_with_the_heap_column() {
         let model = compiled.model.expect("a scene model");
         let mut x = Col::<f64>::zeros(n);
         x.as_mut_slice().copy_from_slice(sim.state());
-        let (mut heap, _, _) = heap_splitting(&model, &x, raise, false).expect("a flow");
+        let (mut heap, _, _) = heap_splitting(&model, &x, raise.clone(), false).expect("a flow");
         let steps = 300;
         let mut worst = 0.0f64;
         for _ in 0..steps {

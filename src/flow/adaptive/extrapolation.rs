@@ -167,7 +167,9 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         let hf = big.to_f64_lossy().abs();
         // H_j and W_j by row (index j, 1-based).
         let mut h_opt = [0.0f64; MAX_ROWS + 2];
-        let mut work = [0.0f64; MAX_ROWS + 2];
+        // Row 1 has no estimate: its work is infinite, so that column 2 is always left upwards
+        // after an accepted step (ODEX: KOPT = 3 when KC = 2) instead of staying there for good.
+        let mut work = [f64::INFINITY; MAX_ROWS + 2];
         let mut err = 0.0f64;
         for j in 1..=jmax {
             if j > 1 {

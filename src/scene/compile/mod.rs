@@ -236,9 +236,9 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         solver,
         split,
         detail,
-    } = match implicit::implicit_flow(file, &model, &x0, raise, backward) {
+    } = match implicit::implicit_flow(file, &model, &x0, raise.clone(), backward) {
         Some(implicit) => implicit?,
-        None => scheme_flow(file, &model, &x0, raise, backward)?,
+        None => scheme_flow(file, &model, &x0, raise.clone(), backward)?,
     };
     let scheme = raise.describe(scheme_name);
     let mut reason = raise

@@ -12,7 +12,7 @@ use crate::system::Model;
 use crate::vector::Vector;
 
 /// The raise of a scene's symmetric order-2 step (see `choose_scheme`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Raise {
     /// The step itself: order 2.
     Base,
@@ -36,7 +36,7 @@ pub enum Raise {
 }
 
 /// A scene's tolerance and step limits ([`Raise::Adaptive`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Control {
     /// The relative tolerance.
     pub rtol: f64,
@@ -50,12 +50,22 @@ pub struct Control {
     pub max_order: u32,
     /// The first step tried.
     pub first_step: f64,
+    /// The state's scales for the absolute tolerance (empty: 1 for every component): 1 for a
+    /// position, the slot's mass for a momentum, so that `atol` holds positions and
+    /// velocities alike.
+    pub scales: Vec<f64>,
 }
 
 impl Control {
     /// The library's options in the scalar `T`.
     fn options<T: crate::real::Real>(&self) -> Result<AdaptiveOptions<T>, SetupError> {
-        let mut o = AdaptiveOptions::new(Tolerances::new(T::lit(self.rtol), T::lit(self.atol))?);
+        let tolerances = if self.scales.is_empty() {
+            Tolerances::new(T::lit(self.rtol), T::lit(self.atol))?
+        } else {
+            let atol = self.scales.iter().map(|&s| T::lit(self.atol * s)).collect();
+            Tolerances::per_component(vec![T::lit(self.rtol)], atol)?
+        };
+        let mut o = AdaptiveOptions::new(tolerances);
         o.h_min = T::lit(self.h_min);
         o.h_max = Some(T::lit(self.h_max));
         o.max_order = self.max_order;
@@ -66,16 +76,16 @@ impl Control {
 
 impl Raise {
     /// The composition table, when composed.
-    pub fn table(self) -> Option<&'static CompositionTable> {
+    pub fn table(&self) -> Option<&'static CompositionTable> {
         match self {
             Raise::Compose(t) => Some(t),
-            Raise::Doubling(_, t) | Raise::Reversible(_, _, t) => t,
+            Raise::Doubling(_, t) | Raise::Reversible(_, _, t) => *t,
             _ => None,
         }
     }
 
     /// Whether the steps are chosen by a controller (a tolerance was given).
-    pub fn is_controlled(self) -> bool {
+    pub fn is_controlled(&self) -> bool {
         matches!(
             self,
             Raise::Adaptive(_) | Raise::Doubling(..) | Raise::Reversible(..)
@@ -84,9 +94,9 @@ impl Raise {
 
     /// Why a scene with `scheme` (damped or not) at `order` gets this raise — what `lieflow
     /// check` tells a user.
-    pub fn reason(self, scheme: Method, dissipative: bool, order: u32) -> &'static str {
+    pub fn reason(&self, scheme: Method, dissipative: bool, order: u32) -> &'static str {
         match (scheme, self) {
-            (Method::Auto, Raise::Extrapolate(o)) if o > 8 && !dissipative => {
+            (Method::Auto, Raise::Extrapolate(o)) if *o > 8 && !dissipative => {
                 "an order above 8 asked: extrapolation (the compositions stop at order 8)"
             }
             (Method::Auto, Raise::Extrapolate(_)) => {
@@ -125,7 +135,7 @@ impl Raise {
 
     /// The scheme's description with the raise: `"{base} composed by …"`, `"{base},
     /// extrapolated …"`.
-    pub fn describe(self, base: &str) -> String {
+    pub fn describe(&self, base: &str) -> String {
         match self {
             Raise::Base => base.to_owned(),
             Raise::Compose(t) => format!("{base} composed by {} ({} stages)", t.name, t.stages),

@@ -89,6 +89,7 @@ pub(super) fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
         h_max,
         max_order,
         first_step: dt.min(h_max),
+        scales: Vec::new(),
     }))
 }
 
@@ -109,6 +110,21 @@ pub(super) fn controlled(
     bodies: Option<&Bodies>,
 ) -> Result<(Raise, u32)> {
     let path = FieldPath::root().key("integrator");
+    let mut control = control;
+    if let Some(bodies) = bodies {
+        // Momenta p = m v: their absolute tolerance is atol times the slot's mass, so that
+        // `atol` holds velocities as it holds positions (a planet of mass 1e-3 would otherwise
+        // have its velocity held to 1e3 atol).
+        let d = bodies.dim;
+        let mut scales = vec![1.0; bodies.list.len() * d];
+        scales.extend(
+            bodies
+                .list
+                .iter()
+                .flat_map(|b| std::iter::repeat_n(b.mass, d)),
+        );
+        control.scales = scales;
+    }
     let extrapolates = matches!(integ.scheme, Method::Auto | Method::Extrapolation);
     let controller = integ.controller.unwrap_or(Controller::Error);
     if integ.max_order.is_some() && !(extrapolates && controller == Controller::Error) {
@@ -134,7 +150,8 @@ pub(super) fn controlled(
                     "with a tolerance the adaptive extrapolation chooses the order: give `max_order` instead (or name a scheme of fixed order)",
                 ));
             }
-            Ok((Raise::Adaptive(control), control.max_order))
+            let max_order = control.max_order;
+            Ok((Raise::Adaptive(control), max_order))
         }
         Controller::Error => match raise {
             Raise::Base | Raise::Compose(_) => Ok((Raise::Doubling(control, raise.table()), order)),
