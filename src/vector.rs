@@ -247,20 +247,10 @@ pub mod ops {
     /// A pass without branches first — `v · 0` is `±0` for a finite `v` and NaN otherwise, so
     /// the sum of those products is zero exactly when every entry is finite; four independent
     /// sums, which the compiler keeps in vector registers — and the search for the index only
-    /// when it fails: states are checked every step and are almost always finite. A short slice
-    /// (under 16 entries) is summed one entry at a time: it was usually just written entry by
-    /// entry, and reading it back in vector-wide loads would wait for those stores to retire.
+    /// when it fails: states are checked every step and are almost always finite.
     #[inline]
     pub fn first_non_finite<T: Real>(x: &[T]) -> Option<usize> {
         let zero = T::zero();
-        if x.len() < 16 {
-            let total = x.iter().fold(zero, |s, &v| s + v * zero);
-            return if total == zero {
-                None
-            } else {
-                x.iter().position(|v| !v.is_finite())
-            };
-        }
         let mut sums = [zero; 4];
         let mut chunks = x.chunks_exact(4);
         for c in &mut chunks {

@@ -26,9 +26,14 @@ pub(crate) struct PrecisionArgs {
     /// Orders of the splitting (default 2,4,6,8): compositions, or with damping extrapolations.
     #[arg(long, value_name = "P,P,…", value_delimiter = ',')]
     orders: Vec<u32>,
-    /// Peer tolerances (default 1e-4,1e-6,…,1e-14).
+    /// Tolerances for the peers and for lieflow's adaptive extrapolation (default
+    /// 1e-4,1e-6,…,1e-14); the adaptive runs report once, at the final time, the controller
+    /// choosing every step and order (scenes of bodies).
     #[arg(long, value_name = "TOL,…", value_delimiter = ',')]
     tols: Vec<f64>,
+    /// Leave out lieflow's adaptive extrapolation.
+    #[arg(long)]
+    no_adaptive: bool,
     /// Override the scene's final time.
     #[arg(long, value_name = "T")]
     t_end: Option<f64>,
@@ -101,6 +106,7 @@ pub(crate) fn precision(args: &PrecisionArgs) -> ExitCode {
     plan.double_double = !args.f64_reference;
     plan.implicit_reference = args.implicit_reference;
     plan.peers = !args.no_peers;
+    plan.adaptive = !args.no_adaptive;
     if args.no_implicit {
         plan.discrete_gradient = false;
         plan.midpoint = false;

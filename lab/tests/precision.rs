@@ -23,6 +23,7 @@ fn plan(dts: &[f64], orders: &[u32]) -> PrecisionPlan {
     p.modified = false;
     p.petrov_galerkin.clear();
     p.peers = false;
+    p.adaptive = false;
     p.repeats = 1;
     p
 }
@@ -322,4 +323,34 @@ fn radau5_runs_beside_a_scene_of_any_size() {
     // does not fall steadily — 2.3e-6, 5.3e-7, 1.2e-7 at 1e-7, 1e-9, 1e-11 — as on its fixed
     // arrays: it keeps its LU across step-size changes; DOP853 falls 3.8e-6 … 1.9e-14 here.)
     assert!(tight < 1e-3 * loose, "{loose:e} → {tight:e}");
+}
+
+/// The adaptive extrapolation's rows: one per tolerance, the tolerance in `tol` and no `dt`,
+/// the error near the tolerance (the run is one report interval: the controller chooses every
+/// step), the rows at round-off, no fitted order (it has no step size).
+#[test]
+fn the_adaptive_extrapolation_is_a_row_per_tolerance() {
+    let text = include_str!("../../scenes/damped_pendulum.toml");
+    let mut scene = Scene::from_toml(text, "damped_pendulum.toml").unwrap();
+    scene.file.integrator.t_end = 2.0;
+    let mut p = plan(&[0.01], &[2]);
+    p.adaptive = true;
+    p.tolerances = vec![1e-6, 1e-9];
+    let r = reference(&scene, &p).unwrap();
+    let rows = work_precision(&scene, &p, &r, &mut |_| {});
+    let adaptive: Vec<&PrecisionRow> = rows
+        .iter()
+        .filter(|r| r.method == "lieflow adaptive extrapolation")
+        .collect();
+    assert_eq!(adaptive.len(), 2, "{rows:?}");
+    for (row, tol) in adaptive.iter().zip([1e-6, 1e-9]) {
+        assert_eq!((row.status.as_str(), row.dt, row.tol), ("ok", None, Some(tol)));
+        let e = row.error.unwrap();
+        // Each step's local error at the tolerance, over a span of 2 s: within a factor 20.
+        assert!(e <= 20.0 * tol && e >= tol / 1e3, "tol {tol:e}: {e:e}");
+        assert!(row.max_abs_g.unwrap() <= 64.0 * f64::EPSILON);
+        assert!(row.steps > 0 && row.time_min.is_some());
+    }
+    let slopes = fitted_slopes(&rows, 1e-14, 1e-2);
+    assert!(slopes.iter().all(|(m, _)| !m.contains("adaptive")));
 }

@@ -20,7 +20,7 @@ mod reference;
 pub use lieflow::scene::DENSE_MAX_DIM;
 pub use plan::{PrecisionPlan, PrecisionRow, Reference};
 pub(crate) use plan::{distance, is_paper, min_median};
-use plan::{final_time, with_scheme};
+use plan::{final_time, with_scheme, with_tolerance};
 pub use reference::{DD_MAX_DIM, double_double_splitting, reference};
 
 /// Runs the whole set (see the module docs). `progress` sees every row as it is done.
@@ -117,6 +117,17 @@ pub fn work_precision_until(
             push(row, &mut rows);
         }
     }
+    if plan.adaptive && !is_builtin {
+        for &tol in &plan.tolerances {
+            if stopped() {
+                return rows;
+            }
+            let s = with_tolerance(scene, tol);
+            let name = "lieflow adaptive extrapolation";
+            let row = timed_row(scene, &s, name, None, Some(tol), plan.repeats, reference);
+            push(row, &mut rows);
+        }
+    }
     if plan.peers && !stopped() {
         for row in crate::peers::peer_rows(scene, plan, reference, &stopped) {
             push(row, &mut rows);
@@ -146,10 +157,24 @@ fn lieflow_row(
             format!("dt = {dt} does not divide t_end"),
         );
     }
+    timed_row(scene, &s, name, Some(dt), None, repeats, reference)
+}
+
+/// The row of `s` (a variant of `scene`) at step `dt` or tolerance `tol`: a warm-up run with
+/// diagnostics, then `repeats` timed runs with nothing observed.
+fn timed_row(
+    scene: &Scene,
+    s: &Scene,
+    name: &str,
+    dt: Option<f64>,
+    tol: Option<f64>,
+    repeats: usize,
+    reference: &Reference,
+) -> PrecisionRow {
     let compile = || s.compile();
     let mut c = match compile() {
         Ok(c) => c,
-        Err(e) => return PrecisionRow::failed(name, Some(dt), None, "Setup", e.to_string()),
+        Err(e) => return PrecisionRow::failed(name, dt, tol, "Setup", e.to_string()),
     };
     let observed = RunPlan {
         energy: true,
@@ -160,8 +185,8 @@ fn lieflow_row(
     if let Some(f) = &summary.error {
         let mut row = PrecisionRow::failed(
             name,
-            Some(dt),
-            None,
+            dt,
+            tol,
             &f.kind,
             format!("step {} at t = {}: {}", f.step, f.t, f.message),
         );
@@ -185,8 +210,8 @@ fn lieflow_row(
     let (time_min, time_median) = min_median(times);
     PrecisionRow {
         method: name.to_owned(),
-        dt: Some(dt),
-        tol: None,
+        dt,
+        tol,
         status: "ok".into(),
         message: String::new(),
         error: Some(distance(&summary.x, &reference.x)),
@@ -200,7 +225,11 @@ fn lieflow_row(
                 .max_energy_balance_error
                 .or(summary.max_abs_energy_error)
         },
-        steps: summary.steps as u64,
+        // Under a tolerance, the steps the controller accepted (the run reports once).
+        steps: summary
+            .adaptive
+            .as_ref()
+            .map_or(summary.steps as u64, |a| a.accepted),
         evaluations: stats.residual_evaluations,
         newton_iterations: stats.newton_iterations,
         factorizations: stats.factorizations,

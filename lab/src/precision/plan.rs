@@ -24,8 +24,11 @@ pub struct PrecisionPlan {
     /// Orders of the energy-consistent Petrov–Galerkin scheme to run (scenes of bodies; a
     /// scene above its dense limit gets a `Setup` row).
     pub petrov_galerkin: Vec<u32>,
-    /// Tolerances (`rtol = atol`) for the peers.
+    /// Tolerances (`rtol = atol`) for the peers and for lieflow's adaptive extrapolation.
     pub tolerances: Vec<f64>,
+    /// Also run lieflow's adaptive extrapolation of the splitting at every tolerance (scenes of
+    /// bodies): one report interval over the whole run, the steps and orders chosen inside.
+    pub adaptive: bool,
     /// Run the peers (needs the `peers` feature; otherwise no peer rows).
     pub peers: bool,
     /// Timed runs after the warm-up.
@@ -40,8 +43,9 @@ pub struct PrecisionPlan {
 
 impl PrecisionPlan {
     /// Four step sizes `dt · 2^k`, the largest `k ≤ 3` whose steps divide `t_end`; orders 2,
-    /// 4, 6, 8; the implicit schemes (Petrov–Galerkin of orders 4 and 6); peer tolerances `1e-4 … 1e-14` (every second decade);
-    /// three timed runs.
+    /// 4, 6, 8; the implicit schemes (Petrov–Galerkin of orders 4 and 6); tolerances `1e-4 …
+    /// 1e-14` (every second decade) for the peers and the adaptive extrapolation; three timed
+    /// runs.
     pub fn around(dt: f64, t_end: f64) -> Self {
         let divides = |h: f64| {
             let n = t_end / h;
@@ -64,6 +68,7 @@ impl PrecisionPlan {
             modified: true,
             petrov_galerkin: vec![4, 6],
             tolerances: vec![1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-14],
+            adaptive: true,
             peers: true,
             repeats: 3,
             double_double: true,
@@ -184,6 +189,17 @@ pub(crate) fn with_scheme(scene: &Scene, scheme: Method, order: Option<u32>, dt:
     s.file.integrator.scheme = scheme;
     s.file.integrator.order = order;
     s.file.integrator.dt = dt;
+    s.file.integrator.tol = None;
+    s.file.integrator.rtol = None;
+    s.file.integrator.atol = None;
+    s
+}
+
+/// `scene` run by the adaptive extrapolation of its splitting at `tol` (`rtol = atol`), its
+/// whole run one report interval: the controller chooses every step and order.
+pub(crate) fn with_tolerance(scene: &Scene, tol: f64) -> Scene {
+    let mut s = with_scheme(scene, Method::Auto, None, scene.file.integrator.t_end);
+    s.file.integrator.tol = Some(tol);
     s
 }
 
