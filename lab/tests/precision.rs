@@ -344,7 +344,10 @@ fn the_adaptive_extrapolation_is_a_row_per_tolerance() {
         .collect();
     assert_eq!(adaptive.len(), 2, "{rows:?}");
     for (row, tol) in adaptive.iter().zip([1e-6, 1e-9]) {
-        assert_eq!((row.status.as_str(), row.dt, row.tol), ("ok", None, Some(tol)));
+        assert_eq!(
+            (row.status.as_str(), row.dt, row.tol),
+            ("ok", None, Some(tol))
+        );
         let e = row.error.unwrap();
         // Each step's local error at the tolerance, over a span of 2 s: within a factor 20.
         assert!(e <= 20.0 * tol && e >= tol / 1e3, "tol {tol:e}: {e:e}");
