@@ -38,11 +38,13 @@ fn attr(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
-/// `modelDescription.xml` of a scene named `name` with step `dt` to `t_end`.
+/// `modelDescription.xml` of a scene named `name` with step (or, under a tolerance, report
+/// interval) `dt` to `t_end`; `fixed`: whether `dt` is the internal step (a scene without a
+/// tolerance) — under a tolerance the steps inside a communication step are the controller's.
 pub(crate) fn model_description(
     name: &str,
     token: &str,
-    dt: f64,
+    (dt, fixed): (f64, bool),
     t_end: f64,
     vars: &Variables,
 ) -> String {
@@ -53,8 +55,13 @@ pub(crate) fn model_description(
         attr(name),
         env!("CARGO_PKG_VERSION")
     );
+    let internal = if fixed {
+        format!(" fixedInternalStepSize=\"{dt:?}\"")
+    } else {
+        String::new()
+    };
     x += &format!(
-        "  <CoSimulation modelIdentifier=\"lieflow_fmu\" canHandleVariableCommunicationStepSize=\"true\" fixedInternalStepSize=\"{dt:?}\" canGetAndSetFMUState=\"true\" hasEventMode=\"false\"/>\n"
+        "  <CoSimulation modelIdentifier=\"lieflow_fmu\" canHandleVariableCommunicationStepSize=\"true\"{internal} canGetAndSetFMUState=\"true\" hasEventMode=\"false\"/>\n"
     );
     x += &format!(
         "  <DefaultExperiment startTime=\"0\" stopTime=\"{t_end:?}\" stepSize=\"{dt:?}\"/>\n"
@@ -203,9 +210,11 @@ pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
         Ok(v) => v,
         Err(e) => return bad_scene(&e),
     };
-    let (dt, t_end) = (scene.file.integrator.dt, scene.file.integrator.t_end);
+    let integ = &scene.file.integrator;
+    let (dt, t_end) = (integ.dt, integ.t_end);
+    let fixed = integ.tol.is_none() && integ.rtol.is_none() && integ.atol.is_none();
     let name = compiled.assembly.name.clone();
-    let xml = model_description(&name, &token(&text), dt, t_end, &vars);
+    let xml = model_description(&name, &token(&text), (dt, fixed), t_end, &vars);
     let binary = match std::fs::read(&lib_path) {
         Ok(b) => b,
         Err(e) => {

@@ -7,8 +7,9 @@
 //! declared outputs ([`variables`], the same list `lieflow fmu` writes into
 //! `modelDescription.xml`). `fmi3DoStep` advances the scene to the communication point exactly
 //! (`Simulation::advance_to`: steps of the scene's `dt`, the fixed internal step, and a shorter
-//! last one when the communication step is not a multiple of it), with the inputs held over the
-//! communication step. FMU states are the simulation's checkpoints.
+//! last one when the communication step is not a multiple of it; under a tolerance each of those
+//! is the controller's own steps, and the model description declares no fixed internal step),
+//! with the inputs held over the communication step. FMU states are the simulation's checkpoints.
 //!
 //! Only the functions a co-simulation master calls are exported; Model Exchange and Scheduled
 //! Execution instantiation return null (the model description declares co-simulation only).
