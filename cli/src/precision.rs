@@ -56,6 +56,10 @@ pub(crate) struct PrecisionArgs {
     /// reference.
     #[arg(long)]
     implicit_reference: bool,
+    /// The scene's motion is periodic and its final time a whole number of periods (a Kepler
+    /// orbit over whole periods, say): the reference is its initial state, exact.
+    #[arg(long)]
+    periodic: bool,
     /// Write `<stem>.csv` and `<stem>_{time,dt,g}.svg` into this directory.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
@@ -105,6 +109,7 @@ pub(crate) fn precision(args: &PrecisionArgs) -> ExitCode {
     plan.repeats = args.repeats;
     plan.double_double = !args.f64_reference;
     plan.implicit_reference = args.implicit_reference;
+    plan.periodic = args.periodic;
     plan.peers = !args.no_peers;
     plan.adaptive = !args.no_adaptive;
     if args.no_implicit {

@@ -357,3 +357,24 @@ fn the_adaptive_extrapolation_is_a_row_per_tolerance() {
     let slopes = fitted_slopes(&rows, 1e-14, 1e-2);
     assert!(slopes.iter().all(|(m, _)| !m.contains("adaptive")));
 }
+
+/// A periodic motion over whole periods: the reference is the initial state, exact, and the
+/// adaptive runs' errors at the end are the orbit's error after the periods.
+#[test]
+fn a_periodic_scene_s_reference_is_its_initial_state() {
+    let text = include_str!("../../scenes/kepler.toml");
+    let mut scene = Scene::from_toml(text, "kepler.toml").unwrap();
+    scene.file.integrator.t_end = 2.0 * std::f64::consts::PI / 1.001f64.sqrt();
+    let mut p = plan(&[scene.file.integrator.t_end / 2000.0], &[8]);
+    p.periodic = true;
+    p.adaptive = true;
+    p.tolerances = vec![1e-10];
+    let r = reference(&scene, &p).unwrap();
+    assert_eq!(r.error_estimate, None);
+    assert_eq!(r.x, scene.compile().unwrap().simulation.state().to_vec());
+    let rows = work_precision(&scene, &p, &r, &mut |_| {});
+    assert!(rows.iter().all(|r| r.status == "ok"), "{rows:?}");
+    // One period at tol 1e-10 (docs/method.md §12d: 5.7e-9 in the relative position).
+    let adaptive = rows.iter().find(|r| r.tol == Some(1e-10)).unwrap();
+    assert!(adaptive.error.unwrap() < 1e-7, "{adaptive:?}");
+}

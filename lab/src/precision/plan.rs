@@ -36,6 +36,9 @@ pub struct PrecisionPlan {
     /// Compute the reference in double-double for scenes of at most [`DD_MAX_DIM`] (else in
     /// double precision).
     pub double_double: bool,
+    /// The motion is periodic and the final time a whole number of periods: the reference is
+    /// the initial state (exact).
+    pub periodic: bool,
     /// Compute the reference with the Petrov–Galerkin scheme of order 6 in double precision at
     /// `h_min/8` and `h_min/16` (stiff damping: the splitting's expansion in `h²` breaks down).
     pub implicit_reference: bool,
@@ -72,6 +75,7 @@ impl PrecisionPlan {
             peers: true,
             repeats: 3,
             double_double: true,
+            periodic: false,
             implicit_reference: false,
         }
     }

@@ -7,7 +7,8 @@ use lieflow::scene::schema::Method;
 use lieflow::scene::{RunPlan, run};
 use lieflow::scene::{Scene, SceneError};
 
-/// The reference: the closed form for the paper's example; otherwise Kahan–Li 8 around the
+/// The reference: the closed form for the paper's example, the initial state when the plan
+/// says the motion is periodic over the run ([`PrecisionPlan::periodic`]); otherwise Kahan–Li 8 around the
 /// scene's splitting (backward damping sub-steps allowed for this run) at steps dividing `T`
 /// near `h_min/4` and `h_min/8` in double-double for scenes of at most [`DD_MAX_DIM`] state
 /// entries (when the plan asks), else at `h_min/8` and `h_min/16` in double precision, or if
@@ -27,6 +28,17 @@ pub fn reference(scene: &Scene, plan: &PrecisionPlan) -> Result<Reference, Scene
             x: paper::exact(t, -0.15).to_vec(),
             t,
             source: "closed form (models::paper::exact)".into(),
+            error_estimate: None,
+        });
+    }
+    if plan.periodic {
+        // A periodic motion over whole periods ends where it started: its initial state is
+        // the exact final state (a Kepler orbit with its centre of mass at rest, say).
+        let c = scene.compile()?;
+        return Ok(Reference {
+            x: c.simulation.state().to_vec(),
+            t,
+            source: "closed form: the initial state (a periodic motion over whole periods)".into(),
             error_estimate: None,
         });
     }
