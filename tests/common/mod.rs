@@ -26,6 +26,15 @@ pub fn fitted_order(hs: &[f64], errs: &[f64], floor: f64) -> f64 {
     sxy / sxx
 }
 
+/// Least-squares slope of `log y` against `log x` (an error against a tolerance, say).
+pub fn log_slope(x: &[f64], y: &[f64]) -> f64 {
+    let (lx, ly): (Vec<f64>, Vec<f64>) = x.iter().zip(y).map(|(a, b)| (a.ln(), b.ln())).unzip();
+    let n = lx.len() as f64;
+    let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
+    let sxy: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
+    sxy / lx.iter().map(|a| (a - mx) * (a - mx)).sum::<f64>()
+}
+
 pub type V4 = SVector<f64, 4>;
 pub type V3 = SVector<f64, 3>;
 

@@ -5,6 +5,12 @@
 use lieflow::scene::{RunSummary, Scene, SceneModel, run};
 use std::sync::Arc;
 
+/// scenes/damped_pendulum.toml reporting every `dt`, with `extra` integrator keys.
+pub fn damped_pendulum(dt: f64, extra: &str) -> String {
+    include_str!("../../scenes/damped_pendulum.toml")
+        .replace("dt = 0.01", &format!("dt = {dt}\n{extra}"))
+}
+
 pub fn parse(text: &str) -> Scene {
     Scene::from_toml(text, "test.toml").unwrap_or_else(|e| panic!("{e}"))
 }

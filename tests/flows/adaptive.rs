@@ -3,6 +3,7 @@
 //! sub-step runs forward, the order rises as the tolerance falls, rejected and failed steps
 //! leave nothing behind, and a continuation from saved memory is bit-identical.
 
+use crate::common::log_slope as slope;
 use lieflow::flow::{
     AcceptStep, AdaptiveExtrapolation, AdaptiveOptions, Flow, FlowExt, Ledger, ManifoldProjection,
     Tolerances,
@@ -122,17 +123,6 @@ fn adaptive(tol: f64) -> (Adaptive, V) {
         AdaptiveExtrapolation::try_new(b, finish, options).unwrap(),
         x0,
     )
-}
-
-/// The least-squares slope of `log y` against `log x`.
-fn slope(x: &[f64], y: &[f64]) -> f64 {
-    let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();
-    let ly: Vec<f64> = y.iter().map(|v| v.ln()).collect();
-    let n = lx.len() as f64;
-    let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
-    let sxy: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let sxx: f64 = lx.iter().map(|a| (a - mx) * (a - mx)).sum();
-    sxy / sxx
 }
 
 /// The Newton tolerance's accepted floor, `100 · 2ε`, at which the projection leaves a row.

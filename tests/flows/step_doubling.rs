@@ -4,6 +4,7 @@
 //! composition of order 4 is controlled at its order; a rejected step leaves nothing behind; a
 //! continuation from saved memory is bit-identical; an exact flow is refused.
 
+use crate::common::log_slope as slope;
 use lieflow::flow::{
     AdaptiveOptions, Flow, FlowExt, Ledger, PetrovGalerkin, StepDoubling, Tolerances, from_fn,
 };
@@ -17,17 +18,6 @@ const T_END: f64 = 10.0;
 
 fn options(tol: f64) -> AdaptiveOptions<f64> {
     AdaptiveOptions::new(Tolerances::new(tol, tol).unwrap())
-}
-
-/// The least-squares slope of `log y` against `log x`.
-fn slope(x: &[f64], y: &[f64]) -> f64 {
-    let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();
-    let ly: Vec<f64> = y.iter().map(|v| v.ln()).collect();
-    let n = lx.len() as f64;
-    let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
-    let sxy: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let sxx: f64 = lx.iter().map(|a| (a - mx) * (a - mx)).sum();
-    sxy / sxx
 }
 
 fn error(x: &V, r: &[f64; 4]) -> f64 {

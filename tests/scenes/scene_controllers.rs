@@ -4,24 +4,9 @@
 //! (Kepler at e = 0.9 over 100 orbits without energy drift, far below a fixed step of the same
 //! work); and what they cannot go with, refused where it is written.
 
-use crate::scene_text::{parse, run_scene};
+use crate::common::log_slope as slope;
+use crate::scene_text::{damped_pendulum as pendulum, parse, run_scene};
 use lieflow::scene::SceneErrorKind;
-
-const PENDULUM: &str = include_str!("../../scenes/damped_pendulum.toml");
-
-/// The damped pendulum reporting every `dt` with `extra` integrator keys.
-fn pendulum(dt: f64, extra: &str) -> String {
-    PENDULUM.replace("dt = 0.01", &format!("dt = {dt}\n{extra}"))
-}
-
-/// The least-squares slope of `log y` against `log x`.
-fn slope(x: &[f64], y: &[f64]) -> f64 {
-    let (lx, ly): (Vec<f64>, Vec<f64>) = x.iter().zip(y).map(|(a, b)| (a.ln(), b.ln())).unzip();
-    let n = lx.len() as f64;
-    let (mx, my) = (lx.iter().sum::<f64>() / n, ly.iter().sum::<f64>() / n);
-    let sxy: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
-    sxy / lx.iter().map(|a| (a - mx) * (a - mx)).sum::<f64>()
-}
 
 #[test]
 fn a_named_scheme_under_a_tolerance_keeps_its_order_and_its_energy_balance() {

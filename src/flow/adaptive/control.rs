@@ -107,6 +107,72 @@ pub(crate) trait MacroStep<V: Vector> {
     fn prepare_all(&mut self, x: &V);
 }
 
+/// The [`Flow`](crate::flow::Flow) of an error-controlled flow `$ty<V, F, P>` with fields `base:
+/// F`, `finish: P` and `control: Control<V>`, implementing [`MacroStep`]: `step(h)` lands on
+/// `t + h` ([`step_at`]), `step_own` takes one step of the controller's size ([`step_own`]), the
+/// work counters, multipliers and dissipation are the base flow's, the memory is the
+/// controller's and the base flow's. `$order` is the flow's order as an expression of `self`.
+macro_rules! controlled_flow {
+    ($ty:ident, |$s:ident| $order:expr) => {
+        impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for $ty<V, F, P> {
+            fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
+                self.step_at(&mut Ledger::default(), h, x)
+            }
+            /// Advances by exactly `h`: steps of the controller's choosing, the last fitted to
+            /// land on `t + h`.
+            fn step_at(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                h: V::Real,
+                x: &mut V,
+            ) -> Result<(), StepError> {
+                $crate::flow::adaptive::control::step_at(self, ledger, h, x)
+            }
+            /// One step of the controller's own size, at most `|max|`, in the direction of
+            /// `max`.
+            fn step_own(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                max: V::Real,
+                x: &mut V,
+            ) -> Option<Result<V::Real, StepError>> {
+                Some($crate::flow::adaptive::control::step_own(
+                    self, ledger, max, x,
+                ))
+            }
+            fn order(&self) -> u32 {
+                let $s = self;
+                $order
+            }
+            fn is_symmetric(&self) -> bool {
+                false
+            }
+            fn prepare(&mut self, x: &V) {
+                MacroStep::prepare_all(self, x);
+            }
+            fn stats(&self) -> FlowStats {
+                self.base.stats() + self.finish.stats()
+            }
+            fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
+                self.base.multipliers()
+            }
+            fn dissipates(&self) -> bool {
+                self.base.dissipates()
+            }
+            fn save_memory(&mut self, out: &mut Vec<V::Real>) {
+                MacroStep::save_all(self, out);
+            }
+            fn restore_memory(&mut self, from: &mut &[V::Real]) {
+                MacroStep::restore_all(self, from);
+            }
+            fn adaptive_stats(&self) -> Option<AdaptiveStats> {
+                Some(self.control.stats)
+            }
+        }
+    };
+}
+pub(crate) use controlled_flow;
+
 /// Checks a call's step and state and keeps what a failure restores: `false` for a zero step.
 fn begin<V: Vector, M: MacroStep<V>>(m: &mut M, h: V::Real, x: &V) -> Result<bool, StepError> {
     if !crate::flow::check_step(h, x)? {

@@ -3,7 +3,7 @@
 
 use super::AdaptiveExtrapolation;
 use crate::error::StepError;
-use crate::flow::adaptive::control::{self, Control, MacroStep, Outcome};
+use crate::flow::adaptive::control::{Control, MacroStep, Outcome, controlled_flow};
 use crate::flow::adaptive::{AcceptStep, AdaptiveStats};
 use crate::flow::{Flow, FlowStats, Ledger, Multipliers};
 use crate::vector::Vector;
@@ -42,65 +42,4 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for AdaptiveExtrapola
     }
 }
 
-impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for AdaptiveExtrapolation<V, F, P> {
-    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
-        self.step_at(&mut Ledger::default(), h, x)
-    }
-
-    /// Advances by exactly `h`: macro steps of the controller's choosing, the last clipped to
-    /// land on `t + h`.
-    fn step_at(
-        &mut self,
-        ledger: &mut Ledger<V::Real>,
-        h: V::Real,
-        x: &mut V,
-    ) -> Result<(), StepError> {
-        control::step_at(self, ledger, h, x)
-    }
-
-    /// One macro step of the controller's own size, at most `|max|`, in the direction of `max`.
-    fn step_own(
-        &mut self,
-        ledger: &mut Ledger<V::Real>,
-        max: V::Real,
-        x: &mut V,
-    ) -> Option<Result<V::Real, StepError>> {
-        Some(control::step_own(self, ledger, max, x))
-    }
-
-    fn order(&self) -> u32 {
-        2 * self.kmax as u32
-    }
-
-    fn is_symmetric(&self) -> bool {
-        false
-    }
-
-    fn prepare(&mut self, x: &V) {
-        self.prepare_all(x);
-    }
-
-    fn stats(&self) -> FlowStats {
-        self.base.stats() + self.finish.stats()
-    }
-
-    fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
-        self.base.multipliers()
-    }
-
-    fn dissipates(&self) -> bool {
-        self.base.dissipates()
-    }
-
-    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
-        self.save_state(out);
-    }
-
-    fn adaptive_stats(&self) -> Option<AdaptiveStats> {
-        Some(self.control.stats)
-    }
-
-    fn restore_memory(&mut self, from: &mut &[V::Real]) {
-        self.restore_state(from);
-    }
-}
+controlled_flow!(AdaptiveExtrapolation, |s| 2 * s.kmax as u32);

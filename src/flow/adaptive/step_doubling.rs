@@ -1,6 +1,6 @@
 //! Step-size control for a scheme of fixed order by step doubling, with a PI controller.
 
-use super::control::{self, Control, MacroStep, Outcome};
+use super::control::{Control, MacroStep, Outcome, controlled_flow};
 use super::{AcceptStep, AdaptiveOptions, AdaptiveStats};
 use crate::error::{SetupError, StepError};
 use crate::flow::{EXACT, Flow, FlowStats, Ledger, Multipliers};
@@ -240,65 +240,4 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for StepDoubling<V, F
     }
 }
 
-impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> Flow<V> for StepDoubling<V, F, P> {
-    fn step(&mut self, h: V::Real, x: &mut V) -> Result<(), StepError> {
-        self.step_at(&mut Ledger::default(), h, x)
-    }
-
-    /// Advances by exactly `h`: steps of the controller's choosing, the last fitted to land on
-    /// `t + h`.
-    fn step_at(
-        &mut self,
-        ledger: &mut Ledger<V::Real>,
-        h: V::Real,
-        x: &mut V,
-    ) -> Result<(), StepError> {
-        control::step_at(self, ledger, h, x)
-    }
-
-    /// One step of the controller's own size, at most `|max|`, in the direction of `max`.
-    fn step_own(
-        &mut self,
-        ledger: &mut Ledger<V::Real>,
-        max: V::Real,
-        x: &mut V,
-    ) -> Option<Result<V::Real, StepError>> {
-        Some(control::step_own(self, ledger, max, x))
-    }
-
-    fn order(&self) -> u32 {
-        self.order
-    }
-
-    fn is_symmetric(&self) -> bool {
-        false
-    }
-
-    fn prepare(&mut self, x: &V) {
-        self.prepare_all(x);
-    }
-
-    fn stats(&self) -> FlowStats {
-        self.base.stats() + self.finish.stats()
-    }
-
-    fn multipliers(&self) -> Option<Multipliers<'_, V::Real>> {
-        self.base.multipliers()
-    }
-
-    fn dissipates(&self) -> bool {
-        self.base.dissipates()
-    }
-
-    fn save_memory(&mut self, out: &mut Vec<V::Real>) {
-        self.save_all(out);
-    }
-
-    fn restore_memory(&mut self, from: &mut &[V::Real]) {
-        self.restore_all(from);
-    }
-
-    fn adaptive_stats(&self) -> Option<AdaptiveStats> {
-        Some(self.control.stats)
-    }
-}
+controlled_flow!(StepDoubling, |s| s.order);
