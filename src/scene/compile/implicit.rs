@@ -90,13 +90,18 @@ fn petrov_galerkin(file: &SceneFile, model: &Arc<SceneModel>, x0: &Col<f64>) -> 
             .map_err(|e| setup_error(model, e))?;
     }
     let points = pg.quadrature_points();
+    let gauss = if points == 1 {
+        "1 Gauss point".to_owned()
+    } else {
+        format!("{points} Gauss points")
+    };
     let detail = if Hamiltonian::<Col<f64>>::is_quadratic(model) {
         format!(
-            "{points} Gauss points a residual: H and any constraints are quadratic, so these integrate every term exactly"
+            "{gauss} a residual: H and any constraints are quadratic, so these integrate every term exactly"
         )
     } else {
         format!(
-            "{points} Gauss points a residual (k + 2): the potential is not a polynomial, so its energy balance holds to a quadrature error O(h^{})",
+            "{gauss} a residual (k + 2): the potential is not a polynomial, so its energy balance holds to a quadrature error O(h^{})",
             2 * points + 1
         )
     };
