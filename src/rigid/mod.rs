@@ -25,11 +25,13 @@ mod rows;
 mod weld;
 
 pub use body::RigidBody;
+#[cfg(feature = "scene")]
 pub(crate) use body::orthonormality;
 pub use drift::MultibodyDrift;
 pub use elements::{
     Coordinate, Distance, HingeAngle, JointCoordinate, JointDamper, JointSpring, SliderDisplacement,
 };
+#[cfg(feature = "scene")]
 pub(crate) use frames::Entry;
 pub use frames::{Affine, Frames};
 pub use inertia::Inertia;
@@ -37,6 +39,7 @@ pub use joints::{Ball, BodyRef, Hinge, JointKind, Slider, Universal};
 pub use kick::MultibodyKick;
 pub use model::{Multibody, MultibodyEnergy};
 pub use pose::{Rotation, cross, dot};
+#[cfg(feature = "scene")]
 pub(crate) use pose::{body_frame, director_spin, planar_rotation};
 pub use rows::{QuadraticRows, RowBuilder};
 pub use weld::{Part, Placement, Welded, weld};

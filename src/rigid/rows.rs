@@ -86,6 +86,7 @@ impl<T: Real> RowBuilder<T> {
 
 impl<T> RowBuilder<T> {
     /// The columns the row touches (linearly or in a product).
+    #[cfg_attr(not(feature = "scene"), allow(dead_code))]
     pub(crate) fn columns(&self) -> impl Iterator<Item = usize> + '_ {
         self.b
             .keys()
@@ -181,6 +182,7 @@ impl<T: Real> QuadraticRows<T> {
 impl<T: Real> QuadraticRows<T> {
     /// Calls `f(i, ∂g_r/∂q_i)` for every column `i` row `r` touches, in increasing `i`.
     #[inline]
+    #[cfg_attr(not(feature = "scene"), allow(dead_code))]
     pub(crate) fn for_each_partial(&self, q: &[T], r: usize, mut f: impl FnMut(usize, T)) {
         for (i, b, range) in &self.rows[r].columns {
             f(*i, self.partial(q, *b, range));
@@ -189,6 +191,7 @@ impl<T: Real> QuadraticRows<T> {
 
     /// `uᵀ A_r v` of row `r` (its Hessian is the constant `A_r`).
     #[inline]
+    #[cfg_attr(not(feature = "scene"), allow(dead_code))]
     pub(crate) fn row_hessian(&self, u: &[T], v: &[T], r: usize) -> T {
         self.rows[r]
             .columns
