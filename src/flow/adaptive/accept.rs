@@ -2,7 +2,7 @@
 
 use crate::error::StepError;
 use crate::flow::FlowStats;
-use crate::vector::Vector;
+use crate::vector::{Vector, ops};
 
 /// A map applied to each accepted step's result: the projection onto the constraint manifold
 /// ([`ManifoldProjection`](crate::flow::ManifoldProjection): `g = 0` and, in the degenerate
@@ -28,5 +28,20 @@ pub trait AcceptStep<V: Vector> {
 impl<V: Vector> AcceptStep<V> for () {
     fn accept(&mut self, _x: &mut V) -> Result<(), StepError> {
         Ok(())
+    }
+}
+
+/// `finish` applied to an accepted result, which must come out finite.
+///
+/// # Errors
+/// The map's [`StepError`], or [`StepError::NonFinite`] naming the first non-finite component.
+pub(crate) fn finish_accepted<V: Vector, P: AcceptStep<V>>(
+    finish: &mut P,
+    x: &mut V,
+) -> Result<(), StepError> {
+    finish.accept(x)?;
+    match ops::first_non_finite(x.as_slice()) {
+        Some(component) => Err(StepError::NonFinite { component }),
+        None => Ok(()),
     }
 }

@@ -6,7 +6,7 @@ use super::{AcceptStep, AdaptiveOptions};
 use crate::error::{SetupError, StepError};
 use crate::flow::{Flow, Ledger, MAX_ROWS};
 use crate::real::Real;
-use crate::vector::{Vector, ops};
+use crate::vector::Vector;
 use num_traits::{One as _, Zero as _};
 
 /// Order- and step-size-controlled extrapolation of a symmetric base step `S_h` of order 2
@@ -281,13 +281,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         x: &mut V,
     ) -> Result<Outcome<V::Real>, StepError> {
         x.copy_from(&self.prev[j - 1]);
-        let finished =
-            self.finish
-                .accept(x)
-                .and_then(|()| match ops::first_non_finite(x.as_slice()) {
-                    Some(component) => Err(StepError::NonFinite { component }),
-                    None => Ok(()),
-                });
+        let finished = super::accept::finish_accepted(&mut self.finish, x);
         if let Err(e) = finished {
             x.copy_from(&self.start);
             self.restore_base();

@@ -5,7 +5,7 @@ use super::{AcceptStep, AdaptiveOptions, AdaptiveStats};
 use crate::error::{SetupError, StepError};
 use crate::flow::{EXACT, Flow, FlowStats, Ledger, Multipliers};
 use crate::real::Real;
-use crate::vector::{Vector, ops};
+use crate::vector::Vector;
 
 /// Step-size control for any one-step scheme `S_h` of fixed order `p` — the Petrov–Galerkin
 /// scheme, the (projected) midpoint rule, the discrete gradients, a composition — by step
@@ -156,24 +156,18 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> StepDoubling<V, F, P> {
         // Per unit step: the local error over the step's length.
         let hf = big.to_f64_lossy().abs();
         let err = err / hf;
-        let p1 = f64::from(self.order);
+        let p = f64::from(self.order);
         if err > 1.0 || err.is_nan() {
             self.undo(ledger, l0, x);
             let fac = if err.is_finite() {
-                (0.9 * err.powf(-1.0 / p1)).max(0.2)
+                (0.9 * err.powf(-1.0 / p)).max(0.2)
             } else {
                 0.2
             };
             self.control.book_rejected(err);
             return Ok(Outcome::Rejected(V::Real::lit(hf * fac)));
         }
-        let finished =
-            self.finish
-                .accept(x)
-                .and_then(|()| match ops::first_non_finite(x.as_slice()) {
-                    Some(component) => Err(StepError::NonFinite { component }),
-                    None => Ok(()),
-                });
+        let finished = super::accept::finish_accepted(&mut self.finish, x);
         if let Err(e) = finished {
             self.undo(ledger, l0, x);
             self.finish.forget();
@@ -181,7 +175,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> StepDoubling<V, F, P> {
         }
         ledger.t = l0.t + big;
         let e = err.max(1e-10);
-        let mut fac = (0.9 * e.powf(-0.7 / p1) * self.err_prev.powf(0.4 / p1)).clamp(0.2, 5.0);
+        let mut fac = (0.9 * e.powf(-0.7 / p) * self.err_prev.powf(0.4 / p)).clamp(0.2, 5.0);
         let c = &mut self.control;
         if c.rejected_last {
             fac = fac.min(1.0);
