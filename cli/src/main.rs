@@ -5,6 +5,7 @@
 //! Exit codes: 0 success, 1 a run that stopped early (what it computed is still written), 2 bad
 //! input (flags or scene).
 
+mod animate;
 mod check;
 mod csv_rows;
 mod distributed;

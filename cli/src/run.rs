@@ -94,6 +94,8 @@ pub(crate) struct RunArgs {
     /// one effect or constraint by its `name`.
     #[arg(long, value_name = "NAME")]
     off: Vec<String>,
+    #[command(flatten)]
+    animate: crate::animate::AnimateArgs,
 }
 
 pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
@@ -160,6 +162,10 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         eprintln!("error: --plot: {e}");
         return ExitCode::from(2);
     }
+    if let Err(e) = args.animate.check() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     let mut compiled = match scene.compile() {
         Ok(c) => c,
         Err(e) => return bad_scene(&e),
@@ -224,6 +230,13 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         &body_names,
         &compiled.simulation.output_names(),
     );
+    let mut animation = match args.animate.recorder(&compiled) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
     let mut progress = Progress::new(steps);
     // The last state seen: a run that stops early still ends its CSV and plot with it.
     // The scalars of the last sample seen (its slices are copied beside it).
@@ -250,6 +263,9 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         last_multipliers.extend_from_slice(s.multipliers);
         if let Some(rows) = csv.as_mut() {
             rows.observe(s);
+        }
+        if let Some(a) = animation.as_mut() {
+            a.observe(s);
         }
     };
     interrupt::catch_interrupt();
@@ -278,6 +294,11 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     let io_error = csv.and_then(|rows| rows.finish(&final_sample));
     print_summary(&summary);
     let mut code = ExitCode::SUCCESS;
+    let animated = animation.map(|a| a.write(&final_sample, &summary));
+    if let Some(Err(e)) = &animated {
+        eprintln!("error: --animate: {e}");
+        code = ExitCode::from(1);
+    }
     if let Some(e) = io_error {
         eprintln!("error: writing the CSV: {e}");
         code = ExitCode::from(1);
@@ -318,6 +339,9 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     obj.insert("scene".into(), compiled.assembly.name.clone().into());
     obj.insert("scheme".into(), compiled.assembly.scheme.clone().into());
     obj.insert("order".into(), compiled.assembly.order.into());
+    if let Some(Ok(a)) = animated {
+        obj.insert("animation".into(), a);
+    }
     if !compiled.assembly.dropped_constraints.is_empty() {
         obj.insert(
             "dropped_constraints".into(),

@@ -29,6 +29,9 @@ pub(crate) struct RigidEntry {
     pub(crate) orientation: crate::rigid::Rotation,
     /// `P`: the principal axes in the body frame (`Q = R P`).
     pub(crate) axes: crate::rigid::Rotation,
+    /// The solid its inertia was declared as, for drawings (`None`: moments, a tensor, a
+    /// welded body).
+    pub(crate) shape: Option<crate::scene::sketch::Shape>,
 }
 
 /// A member of a merged body (`type = "weld"`): the merged body's centre and name, and where

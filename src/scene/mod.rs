@@ -54,6 +54,7 @@ mod rigid_spec;
 mod run;
 pub mod schema;
 pub(crate) mod simulation;
+pub mod sketch;
 pub(crate) mod validate;
 mod watch;
 

@@ -117,6 +117,20 @@ fn matrix(m: &[Vec<f64>], path: &FieldPath) -> Result<[[f64; 3]; 3]> {
 }
 
 impl InertiaSpec {
+    /// The solid a drawing shows (`scene::sketch`), when the inertia is a shape (read after
+    /// [`resolve`](Self::resolve) has checked it).
+    pub(crate) fn drawn_shape(&self) -> Option<crate::scene::sketch::Shape> {
+        use crate::scene::sketch::Shape;
+        match (self.shape.as_deref()?, &self.size, self.radius, self.height) {
+            ("box", Some(s), _, _) if s.len() == 3 => Some(Shape::Box {
+                size: [s[0], s[1], s[2]],
+            }),
+            ("cylinder", _, Some(radius), Some(height)) => Some(Shape::Cylinder { radius, height }),
+            ("sphere", _, Some(radius), _) => Some(Shape::Sphere { radius }),
+            _ => None,
+        }
+    }
+
     /// The body's mass and inertia; `mass` is the body's own `mass` field, `body` where the
     /// body is declared, `dim` the scene's (`moment` is planar only; a planar body's normal is
     /// checked where the body is added, `compile::rigid::push_rigid`).

@@ -38,6 +38,9 @@ pub(crate) fn expand_bodies(file: &SceneFile, dim: usize) -> Result<(Bodies, Vec
         if let Some(inertia) = &b.inertia {
             let body = super::rigid::rigid_body(b, inertia, dim, &path)?;
             super::rigid::push_rigid(&mut bodies, &b.name, &body, i, &path, &mut generated)?;
+            if let Some(entry) = bodies.rigid.last_mut() {
+                entry.shape = inertia.drawn_shape();
+            }
             continue;
         }
         for (field, set) in [

@@ -287,6 +287,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
         assembly,
         plan: run_plan,
         model: None,
+        sketch: None,
     })
 }
 

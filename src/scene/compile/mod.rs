@@ -115,6 +115,8 @@ pub struct Compiled {
     pub plan: RunPlan,
     /// The assembled model (`None` for built-in models).
     pub model: Option<Arc<SceneModel>>,
+    /// What a viewer draws of it (`None` for built-in models).
+    pub sketch: Option<crate::scene::sketch::Sketch>,
 }
 
 impl std::fmt::Debug for Compiled {
@@ -311,6 +313,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
             })
             .collect(),
     };
+    let sketch = crate::scene::sketch::sketch(&bodies, &model);
     let parts = RunParts {
         model: &model,
         x0: &x0,
@@ -334,6 +337,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         assembly,
         plan: run_plan,
         model: Some(model),
+        sketch: Some(sketch),
     })
 }
 

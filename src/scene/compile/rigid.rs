@@ -116,6 +116,7 @@ pub(super) fn push_rigid(
         centre,
         orientation,
         axes,
+        shape: None,
     });
     generated.push((
         Constraint::Rows(Rows::new(

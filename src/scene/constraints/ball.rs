@@ -43,6 +43,14 @@ impl Declare for BallSpec {
             b: body_ref(1, ends.b),
             anchor_b,
         };
-        joint::declare(&ball, ends, bodies, i, path, out)
+        joint::declare(
+            &ball,
+            ends,
+            ([anchor_a, anchor_b], None),
+            bodies,
+            i,
+            path,
+            out,
+        )
     }
 }

@@ -53,6 +53,14 @@ impl Declare for HingeSpec {
             anchor_b,
             axis_b,
         };
-        joint::declare(&hinge, ends, bodies, i, path, out)
+        joint::declare(
+            &hinge,
+            ends,
+            ([anchor_a, anchor_b], Some(axis_a)),
+            bodies,
+            i,
+            path,
+            out,
+        )
     }
 }

@@ -220,10 +220,12 @@ fn per_end(
 }
 
 /// The library's `joint` (with ends `BodyRef::Body(0)` = `a`, `Body(1)` = `b`, or the world)
-/// built on the scene's slots and appended to `out` as one term.
+/// built on the scene's slots and appended to `out` as one term; its anchors (one per end, in
+/// its frame) and axis (in the first end's frame) are kept for drawings.
 pub(super) fn declare(
     joint: &dyn JointKind,
     ends: Ends,
+    (anchors, axis): ([[f64; 3]; 2], Option<[f64; 3]>),
     bodies: &Bodies,
     i: usize,
     path: &FieldPath,
@@ -247,7 +249,8 @@ pub(super) fn declare(
     out.push((
         Constraint::Rows(
             Rows::new(joint.name(), (ends.a, ends.b), rows, q0.len(), bodies.dim)
-                .with_rigid_first(bodies.rigid_at(ends.a).is_some()),
+                .with_rigid_first(bodies.rigid_at(ends.a).is_some())
+                .with_anchors(anchors, axis),
         ),
         label,
         path.clone(),

@@ -24,7 +24,26 @@ pub(crate) struct Rows<T = f64> {
     source: Vec<RowBuilder<f64>>,
     /// Each row's index as declared (rows dropped as dependent leave gaps), for its CSV name.
     declared: Vec<usize>,
+    /// A joint's anchor in each end's frame and its axis in the first's, for a drawing (boxed:
+    /// a body's own rows, the most common term, carry none).
+    drawn: Option<Box<Drawn>>,
     rows: QuadraticRows<T>,
+}
+
+/// A joint's anchors and axis, as [`JointSketch`] has them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Drawn {
+    anchors: [[f64; 3]; 2],
+    axis: Option<[f64; 3]>,
+}
+
+/// What a drawing shows of a joint (`scene::sketch`): its ends (scene body indices; `None` the
+/// world), its anchor in each end's frame (a world point for the world), its axis in the first
+/// end's frame.
+pub(crate) struct JointSketch {
+    pub(crate) ends: (usize, Option<usize>),
+    pub(crate) anchors: [[f64; 3]; 2],
+    pub(crate) axis: Option<[f64; 3]>,
 }
 
 impl Rows<f64> {
@@ -54,8 +73,21 @@ impl Rows<f64> {
             slots,
             source,
             declared,
+            drawn: None,
             rows,
         }
+    }
+
+    /// The same term, a joint with these anchors (one per end, in its frame) and axis (in the
+    /// first end's frame).
+    pub(crate) fn with_anchors(mut self, anchors: [[f64; 3]; 2], axis: Option<[f64; 3]>) -> Self {
+        self.drawn = Some(Box::new(Drawn { anchors, axis }));
+        self
+    }
+
+    /// Its kind (`"hinge"`, `"directors"`).
+    pub(crate) fn kind(&self) -> &'static str {
+        self.kind
     }
 
     /// The same term without its row `r` (dependent on the others: `redundant =
@@ -102,8 +134,20 @@ impl Rows<f64> {
             slots: self.slots.clone(),
             source: self.source.clone(),
             declared: self.declared.clone(),
+            drawn: self.drawn.clone(),
             rows,
         }
+    }
+}
+
+impl<T> Rows<T> {
+    /// A joint's ends, anchors and axis for a drawing; `None` for a body's own rows.
+    pub(crate) fn joint_sketch(&self) -> Option<JointSketch> {
+        self.drawn.as_deref().map(|d| JointSketch {
+            ends: self.ends,
+            anchors: d.anchors,
+            axis: d.axis,
+        })
     }
 }
 

@@ -58,6 +58,14 @@ impl Declare for SliderSpec {
             b: body_ref(1, ends.b),
             anchor_b,
         };
-        joint::declare(&slider, ends, bodies, i, path, out)
+        joint::declare(
+            &slider,
+            ends,
+            ([anchor_a, anchor_b], Some(axis_a)),
+            bodies,
+            i,
+            path,
+            out,
+        )
     }
 }

@@ -77,6 +77,14 @@ impl Declare for UniversalSpec {
             anchor_b,
             axis_b,
         };
-        joint::declare(&universal, ends, bodies, i, path, out)
+        joint::declare(
+            &universal,
+            ends,
+            ([anchor_a, anchor_b], Some(axis_a)),
+            bodies,
+            i,
+            path,
+            out,
+        )
     }
 }

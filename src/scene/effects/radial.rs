@@ -95,6 +95,12 @@ impl<T> Pairs<T> {
     pub(super) fn new(pairs: Vec<(usize, usize)>, law: PairLaw<T>) -> Self {
         Self { pairs, law }
     }
+
+    /// The pairs a spring law joins (none for another law), for a drawing (`scene::sketch`).
+    pub(crate) fn springs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        let spring = matches!(self.law, PairLaw::Spring { .. });
+        self.pairs.iter().copied().filter(move |_| spring)
+    }
 }
 
 #[inline]

@@ -48,6 +48,13 @@ impl Trap<f64> {
     }
 }
 
+impl<T: Copy> Trap<T> {
+    /// Its centre and the bodies it pulls towards it (for a drawing: `scene::sketch`).
+    pub(crate) fn ends(&self) -> ([T; 3], &[usize]) {
+        (self.center, &self.bodies)
+    }
+}
+
 impl<T: Real> Trap<T> {
     /// `(r = |q_b − c|, 1 − L/r)` for body `b`: the gradient is `k (1 − L/r)(q_b − c)`. At
     /// `r = 0` with `L > 0` the spring has no direction: its force is taken as zero there.
