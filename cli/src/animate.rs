@@ -77,6 +77,21 @@ impl AnimateArgs {
     }
 }
 
+/// Runs `compiled` to its plan's end with an animation (`args.animate` set) and writes the
+/// page; returns what a summary says of it. For a sweep's member, whose rows the sweep wrote.
+pub(crate) fn run_animated(
+    mut compiled: Compiled,
+    args: &AnimateArgs,
+) -> Result<serde_json::Value, String> {
+    let mut animation = args
+        .recorder(&compiled)?
+        .ok_or_else(|| "no --animate file".to_owned())?;
+    let summary = lieflow::scene::run(compiled.simulation.as_mut(), &compiled.plan, &mut |s| {
+        animation.observe(s);
+    });
+    animation.write(&summary)
+}
+
 /// An animation being recorded.
 pub(crate) struct Animation {
     path: PathBuf,
@@ -91,14 +106,10 @@ impl Animation {
         self.recorder.observe(s);
     }
 
-    /// Writes the page with the run's last sample and its summary's events; returns what the
-    /// summary says of it.
-    pub(crate) fn write(
-        mut self,
-        last: &Sample<'_>,
-        summary: &RunSummary,
-    ) -> Result<serde_json::Value, String> {
-        self.recorder.finish(last);
+    /// Writes the page, its last frame the run's last sample, with the summary's events;
+    /// returns what the summary says of it.
+    pub(crate) fn write(mut self, summary: &RunSummary) -> Result<serde_json::Value, String> {
+        self.recorder.finish();
         let info = PageInfo {
             title: self.title,
             subtitle: format!(

@@ -294,7 +294,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     let io_error = csv.and_then(|rows| rows.finish(&final_sample));
     print_summary(&summary);
     let mut code = ExitCode::SUCCESS;
-    let animated = animation.map(|a| a.write(&final_sample, &summary));
+    let animated = animation.map(|a| a.write(&summary));
     if let Some(Err(e)) = &animated {
         eprintln!("error: --animate: {e}");
         code = ExitCode::from(1);

@@ -20,6 +20,11 @@ pub(crate) struct SweepArgs {
     /// slice of a larger sweep, e.g. one job of a batch array.
     #[arg(long, value_name = "A..B,…", value_delimiter = ',')]
     members: Vec<String>,
+    #[command(flatten)]
+    animate: crate::animate::AnimateArgs,
+    /// The member whose run `--animate` shows (its id; default 0), run again after the sweep.
+    #[arg(long, value_name = "ID", requires = "animate")]
+    animate_member: Option<usize>,
 }
 
 /// Parses `--members` (`a..b` or `i`) against the sweep's size.
@@ -64,6 +69,21 @@ pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let animate_member = args.animate_member.unwrap_or(0);
+    if args.animate.animate.is_some() {
+        if animate_member >= sweep.len() {
+            eprintln!(
+                "error: --animate-member {animate_member}: the sweep has {} members (ids 0..{})",
+                sweep.len(),
+                sweep.len()
+            );
+            return ExitCode::from(2);
+        }
+        if let Err(e) = args.animate.check() {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    }
     // Under mpirun (feature `mpi`), rank r of n runs every n-th member; rank 0 gathers.
     let ranks = distributed::Ranks::init();
     let members: Vec<_> = ids
@@ -219,6 +239,21 @@ pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
         let (k, m) = r.error.as_ref().expect("filtered");
         println!("member {} failed ({k}): {m}", r.id);
     }
+    let mut animation = None;
+    let mut code = ExitCode::SUCCESS;
+    if args.animate.animate.is_some() {
+        let compiled = sweep
+            .scene(&sweep.member(animate_member))
+            .and_then(|scene| scene.compile())
+            .map_err(|e| e.to_string());
+        match compiled.and_then(|c| crate::animate::run_animated(c, &args.animate)) {
+            Ok(a) => animation = Some(a),
+            Err(e) => {
+                eprintln!("error: --animate (member {animate_member}): {e}");
+                code = ExitCode::from(1);
+            }
+        }
+    }
     println!(
         "{}",
         serde_json::json!({
@@ -232,6 +267,7 @@ pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
             "out": args.out.display().to_string(),
             "plot": plot,
             "interrupted": stopped,
+            "animation": animation,
         })
     );
     if stopped {
@@ -242,5 +278,5 @@ pub(crate) fn sweep(args: &SweepArgs) -> ExitCode {
         eprintln!("error: every member failed (the first failures are listed above)");
         return ExitCode::from(1);
     }
-    ExitCode::SUCCESS
+    code
 }

@@ -260,3 +260,152 @@ fn the_page_of_a_rigid_top_draws_the_body_where_the_run_put_it() {
         "top",
     );
 }
+
+/// The page's data block.
+fn page_data(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).unwrap();
+    let open = text
+        .find("<script id=\"lieflow-data\" type=\"application/json\">")
+        .unwrap();
+    let start = open + text[open..].find('>').unwrap() + 1;
+    let end = start + text[start..].find("</script>").unwrap();
+    serde_json::from_str(&text[start..end]).unwrap()
+}
+
+#[test]
+fn the_page_holds_the_runs_first_and_last_states_and_its_events() {
+    // The forced pendulum records events; its page marks them.
+    let page = scratch("forced.html");
+    let o = lieflow(&[
+        "run",
+        &repo("scenes/forced_pendulum.toml"),
+        "--animate",
+        page.to_str().unwrap(),
+        "--frames",
+        "40",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let run = summary(&o);
+    let data = page_data(&page);
+    // At most 40 frames spread over 20 s; the run stops at its `high` event, and the page
+    // ends there.
+    let frames = data["frames"].as_u64().unwrap() as usize;
+    assert!((2..40).contains(&frames), "{frames} frames");
+    assert_eq!(run["animation"]["frames"].as_u64(), Some(frames as u64));
+    assert!(run["stopped_by"].is_string(), "{run}");
+    assert_eq!(data["times"][frames - 1].as_f64(), run["t"].as_f64());
+    let events = run["events"].as_array().unwrap();
+    assert!(!events.is_empty(), "the scene records events");
+    assert_eq!(data["events"].as_array().unwrap().len(), events.len());
+    assert_eq!(data["events"][0]["t"], events[0]["t"]);
+    // The last frame's positions are the final state's, as f32.
+    let b64 = data["positions"].as_str().unwrap();
+    let bytes = decode_base64(b64);
+    let slots = data["slots"].as_u64().unwrap() as usize;
+    let last: Vec<f32> = bytes[((frames - 1) * slots * 12)..]
+        .chunks(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    let x: Vec<f64> = run["x"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let d = data["dim"].as_u64().unwrap() as usize;
+    for s in 0..slots {
+        for k in 0..d {
+            assert_eq!(last[3 * s + k], x[s * d + k] as f32, "slot {s}, axis {k}");
+        }
+    }
+}
+
+fn decode_base64(text: &str) -> Vec<u8> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => c - b'A',
+        b'a'..=b'z' => c - b'a' + 26,
+        b'0'..=b'9' => c - b'0' + 52,
+        b'+' => 62,
+        b'/' => 63,
+        _ => panic!("not base64: {c}"),
+    };
+    let mut out = Vec::new();
+    for chunk in text.as_bytes().chunks(4) {
+        let n = chunk.iter().take_while(|&&c| c != b'=').count();
+        let mut v = 0u32;
+        for (i, &c) in chunk.iter().enumerate() {
+            v |= u32::from(if i < n { value(c) } else { 0 }) << (18 - 6 * i);
+        }
+        out.extend_from_slice(&v.to_be_bytes()[1..n]);
+    }
+    out
+}
+
+#[test]
+fn a_sweep_animates_the_member_it_is_asked_for() {
+    let (page, out) = (scratch("member.html"), scratch("sweep-out"));
+    let sweep = repo("tests/data/sweep_damped.toml");
+    let o = lieflow(&[
+        "sweep",
+        &sweep,
+        "--out",
+        out.to_str().unwrap(),
+        "--threads",
+        "1",
+        "--animate",
+        page.to_str().unwrap(),
+        "--animate-member",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = summary(&o);
+    assert!(j["animation"]["frames"].as_u64().unwrap() >= 2, "{j}");
+    assert!(page_data(&page)["frames"].as_u64().unwrap() >= 2);
+    let o = lieflow(&[
+        "sweep",
+        &sweep,
+        "--out",
+        out.to_str().unwrap(),
+        "--animate",
+        page.to_str().unwrap(),
+        "--animate-member",
+        "99",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--animate-member 99"), "{}", stderr(&o));
+}
+
+#[test]
+fn animation_flags_are_checked_before_the_run() {
+    let page = scratch("refused.html");
+    for (args, expect) in [
+        (vec!["run", "--animate", "out.svg"], "ending in .html"),
+        (
+            vec![
+                "run",
+                &repo("scenes/paper.toml"),
+                "--animate",
+                page.to_str().unwrap(),
+            ],
+            "built-in model",
+        ),
+        (
+            vec![
+                "run",
+                "--animate",
+                page.to_str().unwrap(),
+                "--trace",
+                "nobody",
+            ],
+            "'nobody'",
+        ),
+        (
+            vec!["run", "--animate", page.to_str().unwrap(), "--frames", "1"],
+            "at least 2",
+        ),
+    ] {
+        let o = lieflow(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(expect), "{args:?}: {}", stderr(&o));
+    }
+}

@@ -5,6 +5,7 @@
 //! (nothing is allocated in Python per step). A scene's located errors become `SceneError`, a
 //! failed step `StepError`.
 
+mod animate;
 mod errors;
 mod lab;
 mod simulation;

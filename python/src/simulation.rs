@@ -19,6 +19,8 @@ pub struct Simulation {
     sim: Box<dyn lieflow::scene::Simulation>,
     plan: RunPlan,
     assembly: Assembly,
+    /// What the animation page draws (`None` for a built-in model).
+    sketch: Option<lieflow::scene::sketch::Sketch>,
 }
 
 /// A saved state of a `Simulation` (see `Simulation.save`): restoring it makes the continuation
@@ -35,6 +37,7 @@ impl Simulation {
             sim: compiled.simulation,
             plan: compiled.plan,
             assembly: compiled.assembly,
+            sketch: compiled.sketch,
         })
     }
 }
@@ -249,6 +252,57 @@ impl Simulation {
     /// the run up to the last good state).
     #[pyo3(signature = (every = 1))]
     fn run<'py>(&mut self, py: Python<'py>, every: usize) -> PyResult<Bound<'py, PyDict>> {
+        self.run_observed(py, every, &mut |_| {})
+    }
+
+    /// Runs as `run()` does and writes the run's animation to `path`: one self-contained HTML
+    /// page (three.js inlined, opens offline) that plays the motion, with the outputs plotted
+    /// and the events on the time line; `frames` caps its frames (default 1000, fewer for large
+    /// scenes: the page stays under 20 MB), `trace` names the bodies whose paths it draws. The
+    /// summary's `"animation"` gives the page's path, frames and bytes.
+    #[pyo3(signature = (path, every = 1, frames = None, trace = None))]
+    fn animate<'py>(
+        &mut self,
+        py: Python<'py>,
+        path: PathBuf,
+        every: usize,
+        frames: Option<usize>,
+        trace: Option<Vec<String>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut recorder = crate::animate::recorder(
+            self.sketch.as_ref(),
+            self.sim.as_ref(),
+            self.plan.t_end,
+            frames,
+            &trace.unwrap_or_default(),
+        )?;
+        let dict = self.run_observed(py, every, &mut |s| recorder.observe(s))?;
+        let info = crate::animate::info(&self.assembly, self.sim.as_ref(), &dict)?;
+        let page = crate::animate::write(py, &mut recorder, &path, &info)?;
+        dict.set_item("animation", page)?;
+        Ok(dict)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Simulation({:?}, t = {}, dt = {}, scheme = {:?}, order {})",
+            self.assembly.name,
+            self.sim.time(),
+            self.sim.dt(),
+            self.assembly.scheme,
+            self.assembly.order
+        )
+    }
+}
+
+impl Simulation {
+    /// `run(every)`, each sample also passed to `observe`.
+    fn run_observed<'py>(
+        &mut self,
+        py: Python<'py>,
+        every: usize,
+        observe: &mut dyn FnMut(&lieflow::scene::Sample<'_>),
+    ) -> PyResult<Bound<'py, PyDict>> {
         if every == 0 {
             return Err(PyValueError::new_err("every must be at least 1"));
         }
@@ -257,6 +311,7 @@ impl Simulation {
         let mut states = Vec::new();
         let mut last = (usize::MAX, 0.0);
         let summary = lieflow::scene::run(self.sim.as_mut(), &self.plan, &mut |s| {
+            observe(s);
             if s.step.is_multiple_of(every) {
                 times.push(s.t);
                 states.extend_from_slice(s.x);
@@ -280,17 +335,6 @@ impl Simulation {
         dict.set_item("times", PyArray1::from_vec(py, times))?;
         dict.set_item("states", PyArray1::from_vec(py, states).reshape([rows, n])?)?;
         Ok(dict)
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "Simulation({:?}, t = {}, dt = {}, scheme = {:?}, order {})",
-            self.assembly.name,
-            self.sim.time(),
-            self.sim.dt(),
-            self.assembly.scheme,
-            self.assembly.order
-        )
     }
 }
 

@@ -64,7 +64,7 @@ fn a_1000_body_chain_over_ten_thousand_steps_stays_under_20_mb() {
     for k in 0..=steps {
         r.observe(&sample(k, k as f64 * 1e-3, &x0));
     }
-    r.finish(&sample(steps, 10.0, &x0));
+    r.finish();
     assert_eq!(r.frames(), 1000);
     // Frame k is the first step at or after k · 10/999: within one step of it.
     for (k, &t) in r.times.iter().enumerate() {
@@ -106,19 +106,20 @@ fn a_short_run_keeps_every_step_and_an_early_stop_ends_the_frames() {
     for k in 0..=100 {
         r.observe(&sample(k, k as f64 * 0.1, &x0));
     }
-    r.finish(&sample(100, 10.0, &x0));
+    r.finish();
     assert_eq!(
         r.frames(),
         101,
         "every step of a run shorter than the budget"
     );
     assert_eq!(r.traces, vec![999]);
-    // Stopped at t = 4.25 (step 17 of 0.25): the last frame is that state.
+    // Stopped at t = 4.25 (step 17 of 0.25, between frames 424 and 425 of 1000): the last
+    // frame is that state.
     let mut r = make();
     for k in 0..=17 {
         r.observe(&sample(k, k as f64 * 0.25, &x0));
     }
-    r.finish(&sample(17, 4.25, &x0));
+    r.finish();
     assert_eq!(*r.times.last().unwrap(), 4.25);
     assert_eq!(r.frames(), 18);
 }

@@ -73,7 +73,18 @@ pub struct Recorder {
     pub(crate) positions: Vec<f32>,
     pub(crate) outputs: Vec<f32>,
     pub(crate) energy: Vec<f64>,
-    last_step: Option<usize>,
+    /// The latest sample seen, when it was not kept.
+    latest: Option<Latest>,
+}
+
+/// A copy of the latest sample (its buffers reused from sample to sample).
+#[derive(Debug, Clone, Default)]
+struct Latest {
+    step: usize,
+    t: f64,
+    energy: Option<f64>,
+    x: Vec<f64>,
+    outputs: Vec<f64>,
 }
 
 impl Recorder {
@@ -134,11 +145,12 @@ impl Recorder {
             positions: Vec::new(),
             outputs: Vec::new(),
             energy: Vec::new(),
-            last_step: None,
+            latest: None,
         })
     }
 
-    /// Keeps sample `s` if it is the first at or after the next frame's time.
+    /// Keeps sample `s` if it is the first at or after the next frame's time; otherwise holds
+    /// it as the run's latest, which [`finish`](Self::finish) keeps.
     pub fn observe(&mut self, s: &Sample<'_>) {
         let due = self.t0 + self.span * self.next as f64 / (self.planned - 1) as f64;
         if self.next < self.planned && s.t >= due - 1e-12 * self.span.max(f64::MIN_POSITIVE) {
@@ -148,14 +160,36 @@ impl Recorder {
             {
                 self.next += 1;
             }
+            self.latest = None;
+        } else {
+            let mut l = self.latest.take().unwrap_or_default();
+            l.step = s.step;
+            l.t = s.t;
+            l.energy = s.energy;
+            l.x.clear();
+            l.x.extend_from_slice(s.x);
+            l.outputs.clear();
+            l.outputs.extend_from_slice(s.outputs);
+            self.latest = Some(l);
         }
     }
 
-    /// Keeps the run's last sample `s` unless it is already the last frame (a run that stopped
-    /// early ends its animation where it stopped).
-    pub fn finish(&mut self, s: &Sample<'_>) {
-        if self.last_step != Some(s.step) {
-            self.keep(s);
+    /// Ends the frames with the run's last sample, if it was not kept (a run that stopped early
+    /// ends its animation where it stopped).
+    pub fn finish(&mut self) {
+        if let Some(l) = self.latest.take() {
+            self.keep(&Sample {
+                step: l.step,
+                t: l.t,
+                x: &l.x,
+                energy: l.energy,
+                dissipated: None,
+                supplied: None,
+                g: None,
+                phi: None,
+                outputs: &l.outputs,
+                multipliers: &[],
+            });
         }
     }
 
@@ -180,7 +214,6 @@ impl Recorder {
         }
         self.times.push(s.t);
         self.steps.push(s.step);
-        self.last_step = Some(s.step);
     }
 }
 
