@@ -116,6 +116,7 @@
     controls.screenSpacePanning = true;
   }
   controls.update();
+  controls.saveState();
   controls.addEventListener('change', render);
 
   if (!planar) {
@@ -390,7 +391,10 @@
     const dt = last ? (now - last) / 1000 : 0;
     last = now;
     simTime += dt * base * Number(speedSelect.value);
-    if (simTime >= times[F - 1]) { simTime = times[F - 1]; playing = false; playButton.textContent = '▶'; }
+    if (simTime >= times[F - 1]) {
+      if (document.getElementById('loop').checked) simTime = t0;
+      else { simTime = times[F - 1]; playing = false; playButton.textContent = '▶'; }
+    }
     show(frameAt(simTime));
     if (playing) requestAnimationFrame(tick);
   }
@@ -405,11 +409,13 @@
     render();
   }
   playButton.addEventListener('click', () => play(!playing));
+  document.getElementById('fit').addEventListener('click', () => { controls.reset(); render(); });
   slider.addEventListener('input', () => { simTime = times[Number(slider.value)]; show(Number(slider.value)); });
   window.addEventListener('keydown', e => {
     if (e.key === ' ') { play(!playing); e.preventDefault(); }
     if (e.key === 'ArrowRight') show(frame + 1);
     if (e.key === 'ArrowLeft') show(frame - 1);
+    if (e.key === 'r') { controls.reset(); render(); }
   });
   window.addEventListener('resize', resize);
   resize();
@@ -418,6 +424,8 @@
   const want = hash.get('frame');
   show(want === 'last' ? F - 1 : Number(want) || 0);
   status.ready = true;
+  // Milliseconds from the page's navigation to the first frame drawn.
+  status.loadMs = Math.round(performance.now());
   render();
   if (hash.has('play')) play(true);
 })();
