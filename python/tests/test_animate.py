@@ -29,6 +29,7 @@ def test_animate_writes_one_self_contained_page_of_the_run(tmp_path):
     text, data = page_data(out)
     # three.js is inlined: nothing is fetched (no script or link with a source).
     assert "three.js 0.187.0" in text
+    assert "Copyright © 2010-2026 three.js authors" in text  # its MIT licence travels with it
     assert not re.search(r"<script[^>]*\ssrc=", text)
     assert not re.search(r"<link[^>]*\shref=", text)
     assert data["frames"] == 50 and data["dim"] == 3

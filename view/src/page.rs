@@ -10,6 +10,7 @@ use std::path::Path;
 const TEMPLATE: &str = include_str!("../assets/page.html");
 const CSS: &str = include_str!("../assets/viewer.css");
 const THREE: &str = include_str!("../assets/three.min.js");
+const THREE_LICENSE: &str = include_str!("../assets/THREE_LICENSE");
 const VIEWER: &str = include_str!("../assets/viewer.js");
 
 /// What a page says besides its frames.
@@ -56,6 +57,7 @@ pub(crate) fn page(r: &Recorder, info: &PageInfo) -> String {
             "CSS" => out.push_str(CSS),
             "DATA" => out.push_str(&data),
             "THREE" => out.push_str(THREE),
+            "THREE_LICENSE" => out.push_str(THREE_LICENSE),
             "VIEWER" => out.push_str(VIEWER),
             other => panic!("unknown placeholder {other}"),
         }
