@@ -31,7 +31,7 @@ pub(crate) struct RigidEntry {
     pub(crate) axes: crate::rigid::Rotation,
     /// The solid its inertia was declared as, for drawings (`None`: moments, a tensor, a
     /// welded body).
-    pub(crate) shape: Option<crate::scene::sketch::Shape>,
+    pub(crate) shape: Option<crate::scene::shape::Shape>,
 }
 
 /// A member of a merged body (`type = "weld"`): the merged body's centre and name, and where

@@ -53,6 +53,7 @@ pub mod ports;
 mod rigid_spec;
 mod run;
 pub mod schema;
+mod shape;
 pub(crate) mod simulation;
 pub mod sketch;
 pub(crate) mod validate;

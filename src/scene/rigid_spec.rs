@@ -119,8 +119,8 @@ fn matrix(m: &[Vec<f64>], path: &FieldPath) -> Result<[[f64; 3]; 3]> {
 impl InertiaSpec {
     /// The solid a drawing shows (`scene::sketch`), when the inertia is a shape (read after
     /// [`resolve`](Self::resolve) has checked it).
-    pub(crate) fn drawn_shape(&self) -> Option<crate::scene::sketch::Shape> {
-        use crate::scene::sketch::Shape;
+    pub(crate) fn drawn_shape(&self) -> Option<crate::scene::shape::Shape> {
+        use crate::scene::shape::Shape;
         match (self.shape.as_deref()?, &self.size, self.radius, self.height) {
             ("box", Some(s), _, _) if s.len() == 3 => Some(Shape::Box {
                 size: [s[0], s[1], s[2]],
