@@ -31,6 +31,7 @@ mod scene_ports;
 mod scene_rigid;
 mod scene_servo;
 mod scene_sketch;
+mod scene_slider_force;
 mod scene_slider_limit;
 mod scene_slider_spring;
 mod scene_taut_chain;

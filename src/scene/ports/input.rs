@@ -2,6 +2,7 @@
 
 use super::signal::SignalSpec;
 use crate::real::Real;
+use crate::rigid::Coordinate;
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::validate::{Result, err, norm, sub, vector};
@@ -62,6 +63,31 @@ pub enum InputSpec {
         /// `u(t)`, N m.
         signal: SignalSpec,
     },
+    /// A linear motor on a slider: the force `u(t)` along the slider's axis between two bodies
+    /// (the first rigid; the second feels the reaction) or a body and the world,
+    /// `B(q) = ∇s(q)` with `s` the slider's displacement: its port output is `s'` and its power
+    /// `u s'` exactly. Put it beside a `slider` with the same anchor and axis.
+    SliderForce {
+        /// Unique name.
+        name: String,
+        /// One rigid body (pushed against the world) or two, the first rigid.
+        bodies: Vec<String>,
+        /// A point of the axis in the world at the start (default: the first body's centre).
+        #[serde(default)]
+        anchor: Option<Vec<f64>>,
+        /// Or: that point in each body's frame.
+        #[serde(default)]
+        anchors: Option<Vec<Vec<f64>>>,
+        /// The axis in the world at the start (the force's positive direction on the first
+        /// body).
+        #[serde(default)]
+        axis: Option<Vec<f64>>,
+        /// Or: the axis in each body's frame.
+        #[serde(default)]
+        axes: Option<Vec<Vec<f64>>>,
+        /// `u(t)`, N.
+        signal: SignalSpec,
+    },
     /// A position servo on a hinge: the torque `k_p (θ_ref(t) − θ) − k_d θ'` about the axis (PD
     /// with the derivative on the measured angle), its reference `θ_ref` the signal (rad, from
     /// the initial poses, within half a turn of them). It is compiled as what it is: a torsion
@@ -95,6 +121,7 @@ impl InputSpec {
             Self::Force { name, .. }
             | Self::Torque { name, .. }
             | Self::HingeTorque { name, .. }
+            | Self::SliderForce { name, .. }
             | Self::HingeServo { name, .. } => name,
         }
     }
@@ -120,6 +147,9 @@ impl InputSpec {
             Self::HingeTorque { bodies, .. } => {
                 format!("torque on the hinge of {}, {kind}", bodies.join(" and "))
             }
+            Self::SliderForce { bodies, .. } => {
+                format!("force on the slider of {}, {kind}", bodies.join(" and "))
+            }
             Self::HingeServo { bodies, .. } => {
                 format!(
                     "servo on the hinge of {}, {kind} reference",
@@ -134,6 +164,7 @@ impl InputSpec {
             Self::Force { signal, .. }
             | Self::Torque { signal, .. }
             | Self::HingeTorque { signal, .. }
+            | Self::SliderForce { signal, .. }
             | Self::HingeServo { signal, .. } => signal,
         }
     }
@@ -151,8 +182,9 @@ pub(crate) enum InputTerm<T> {
         pivot: Pivot<T>,
         axis: [T; 3],
     },
-    /// `B = g ∇θ` of a hinge's angle, `g` the gain (1 for a motor, `k_p` for a servo).
-    Hinge(crate::rigid::HingeAngle, T),
+    /// `B = g ∇c` of a joint's coordinate `c` (a hinge's angle, a slider's displacement), `g`
+    /// the gain (1 for a motor, `k_p` for a servo).
+    Joint(crate::rigid::Coordinate, T),
 }
 
 /// A torque's pivot.
@@ -249,15 +281,31 @@ impl InputTerm<f64> {
                 axis,
                 axes,
                 ..
-            } => Self::Hinge(super::hinge_angle(sel, axis, axes, bodies, path)?, 1.0),
+            } => Self::Joint(
+                Coordinate::Angle(super::hinge_angle(sel, axis, axes, bodies, path)?),
+                1.0,
+            ),
+            InputSpec::SliderForce {
+                bodies: sel,
+                anchor,
+                anchors,
+                axis,
+                axes,
+                ..
+            } => Self::Joint(
+                Coordinate::Displacement(super::slider_displacement(
+                    sel, anchor, anchors, axis, axes, bodies, path,
+                )?),
+                1.0,
+            ),
             InputSpec::HingeServo {
                 bodies: sel,
                 axis,
                 axes,
                 stiffness,
                 ..
-            } => Self::Hinge(
-                super::hinge_angle(sel, axis, axes, bodies, path)?,
+            } => Self::Joint(
+                Coordinate::Angle(super::hinge_angle(sel, axis, axes, bodies, path)?),
                 crate::scene::validate::positive(*stiffness, &path.key("stiffness"), "stiffness")?,
             ),
         })
@@ -281,8 +329,8 @@ impl<S: Real> InputTerm<S> {
                 },
                 axis: c3(*axis),
             },
-            Self::Hinge(angle, gain) => {
-                InputTerm::Hinge(angle.clone(), T::lit(gain.to_f64_lossy()))
+            Self::Joint(coordinate, gain) => {
+                InputTerm::Joint(coordinate.clone(), T::lit(gain.to_f64_lossy()))
             }
         }
     }
@@ -306,7 +354,7 @@ impl<T: Real> InputTerm<T> {
     pub(crate) fn unit_force(&self, q: &[T], d: usize) -> [T; 3] {
         match self {
             Self::Force { direction, .. } => *direction,
-            Self::Hinge(..) => [T::zero(); 3],
+            Self::Joint(..) => [T::zero(); 3],
             Self::Torque { body, pivot, axis } => {
                 let from = match pivot {
                     Pivot::Point(p) => *p,

@@ -30,6 +30,7 @@ pub(crate) use rows::ConstraintRows;
 
 use crate::port::{Held, InputMap, Signal};
 use crate::real::Real;
+use crate::rigid::JointCoordinate;
 use crate::scene::bodies::Bodies;
 use crate::scene::error::{FieldPath, SceneErrorKind};
 use crate::scene::validate::{Result, err};
@@ -171,7 +172,7 @@ impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
         for (term, yj) in self.terms.iter().zip(y.iter_mut()) {
             let f = term.unit_force(q, d);
             *yj = match term {
-                InputTerm::Hinge(angle, gain) => *gain * angle.derivative(q, v),
+                InputTerm::Joint(coordinate, gain) => *gain * coordinate.derivative(q, v),
                 InputTerm::Force { bodies, .. } => {
                     bodies.iter().fold(V::Real::zero(), |s, &b| s + dot(&f, b))
                 }
@@ -193,8 +194,8 @@ impl<T: Real> SceneInputMap<T> {
     fn push(&self, q: &[T], p: &mut [T], w: &[T]) {
         let d = self.dim;
         for (term, &wj) in self.terms.iter().zip(w) {
-            if let InputTerm::Hinge(angle, gain) = term {
-                angle.gradient_add(q, *gain * wj, p);
+            if let InputTerm::Joint(coordinate, gain) = term {
+                coordinate.gradient_add(q, *gain * wj, p);
                 continue;
             }
             let f = term.unit_force(q, d);
@@ -204,7 +205,7 @@ impl<T: Real> SceneInputMap<T> {
                 }
             };
             match term {
-                InputTerm::Hinge(..) => {}
+                InputTerm::Joint(..) => {}
                 InputTerm::Force { bodies, .. } => bodies.iter().for_each(|&b| push(b, T::one())),
                 InputTerm::Torque { body, pivot, .. } => {
                     push(*body, T::one());
