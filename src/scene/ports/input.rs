@@ -183,8 +183,9 @@ pub(crate) enum InputTerm<T> {
         axis: [T; 3],
     },
     /// `B = g ∇c` of a joint's coordinate `c` (a hinge's angle, a slider's displacement), `g`
-    /// the gain (1 for a motor, `k_p` for a servo).
-    Joint(crate::rigid::Coordinate, T),
+    /// the gain (1 for a motor, `k_p` for a servo), and the rigid bodies its gradient reaches:
+    /// their centres' slots and directors' masses `Eᵢ` (see [`consistent_directors`]).
+    Joint(crate::rigid::Coordinate, T, Vec<(usize, [T; 3])>),
 }
 
 /// A torque's pivot.
@@ -281,9 +282,10 @@ impl InputTerm<f64> {
                 axis,
                 axes,
                 ..
-            } => Self::Joint(
+            } => Self::joint(
                 Coordinate::Angle(super::hinge_angle(sel, axis, axes, bodies, path)?),
                 1.0,
+                bodies,
             ),
             InputSpec::SliderForce {
                 bodies: sel,
@@ -292,11 +294,12 @@ impl InputTerm<f64> {
                 axis,
                 axes,
                 ..
-            } => Self::Joint(
+            } => Self::joint(
                 Coordinate::Displacement(super::slider_displacement(
                     sel, anchor, anchors, axis, axes, bodies, path,
                 )?),
                 1.0,
+                bodies,
             ),
             InputSpec::HingeServo {
                 bodies: sel,
@@ -304,11 +307,38 @@ impl InputTerm<f64> {
                 axes,
                 stiffness,
                 ..
-            } => Self::Joint(
+            } => Self::joint(
                 Coordinate::Angle(super::hinge_angle(sel, axis, axes, bodies, path)?),
                 crate::scene::validate::positive(*stiffness, &path.key("stiffness"), "stiffness")?,
+                bodies,
             ),
         })
+    }
+}
+
+impl InputTerm<f64> {
+    /// The input on `coordinate` with `gain`, and the rigid bodies among its slots.
+    fn joint(coordinate: Coordinate, gain: f64, bodies: &Bodies) -> Self {
+        use crate::rigid::JointCoordinate;
+        let slots = coordinate.slots();
+        let rigid = bodies
+            .rigid
+            .iter()
+            .map(|r| r.centre)
+            .filter(|&c| slots.iter().any(|&s| (c..=c + bodies.dim).contains(&s)))
+            .map(|s| {
+                // A planar body's third "director" is the fixed normal: its mass unused.
+                let e = |k: usize| {
+                    if k < bodies.dim {
+                        bodies.list[s + 1 + k].mass
+                    } else {
+                        1.0
+                    }
+                };
+                (s, [e(0), e(1), e(2)])
+            })
+            .collect();
+        Self::Joint(coordinate, gain, rigid)
     }
 }
 
@@ -329,9 +359,11 @@ impl<S: Real> InputTerm<S> {
                 },
                 axis: c3(*axis),
             },
-            Self::Joint(coordinate, gain) => {
-                InputTerm::Joint(coordinate.clone(), T::lit(gain.to_f64_lossy()))
-            }
+            Self::Joint(coordinate, gain, rigid) => InputTerm::Joint(
+                coordinate.clone(),
+                T::lit(gain.to_f64_lossy()),
+                rigid.iter().map(|&(s, e)| (s, c3(e))).collect(),
+            ),
         }
     }
 }

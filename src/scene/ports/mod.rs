@@ -153,14 +153,16 @@ impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
     fn inputs(&self) -> usize {
         self.terms.len()
     }
+    /// The splittings' kick: `p ← p + B(q) w`, a joint input's impulse on each rigid body's
+    /// directors without its part along the body's own rows ([`consistent_directors`]).
     fn apply(&self, x: &mut V, w: &[V::Real]) {
         let (q, p) = x.as_mut_slice().split_at_mut(self.nq);
-        self.push(q, p, w);
+        self.push(q, p, w, true);
     }
     /// `B(q)` at `x`'s positions onto `out`'s momenta: exact.
     fn add_product(&self, x: &V, w: &[V::Real], out: &mut V, _scratch: &mut V) {
         let q = &x.as_slice()[..self.nq];
-        self.push(q, &mut out.as_mut_slice()[self.nq..], w);
+        self.push(q, &mut out.as_mut_slice()[self.nq..], w, false);
     }
     fn transpose_apply(&self, x: &V, e: &V, y: &mut [V::Real]) {
         let d = self.dim;
@@ -172,7 +174,7 @@ impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
         for (term, yj) in self.terms.iter().zip(y.iter_mut()) {
             let f = term.unit_force(q, d);
             *yj = match term {
-                InputTerm::Joint(coordinate, gain) => *gain * coordinate.derivative(q, v),
+                InputTerm::Joint(coordinate, gain, _) => *gain * coordinate.derivative(q, v),
                 InputTerm::Force { bodies, .. } => {
                     bodies.iter().fold(V::Real::zero(), |s, &b| s + dot(&f, b))
                 }
@@ -190,12 +192,26 @@ impl<V: Vector> InputMap<V> for SceneInputMap<V::Real> {
 
 impl<T: Real> SceneInputMap<T> {
     /// `p ← p + B(q) w`: each input's unit force at `q`, times its `w`, on the momenta of the
-    /// bodies it drives.
-    fn push(&self, q: &[T], p: &mut [T], w: &[T]) {
+    /// bodies it drives; with `consistent`, a joint input's impulse on each rigid body's
+    /// directors without its part along the body's own rows.
+    fn push(&self, q: &[T], p: &mut [T], w: &[T], consistent: bool) {
         let d = self.dim;
         for (term, &wj) in self.terms.iter().zip(w) {
-            if let InputTerm::Joint(coordinate, gain) = term {
+            if let InputTerm::Joint(coordinate, gain, rigid) = term {
+                if !consistent || rigid.is_empty() {
+                    coordinate.gradient_add(q, *gain * wj, p);
+                    continue;
+                }
+                // The directors' momenta before, to take the impulse apart (at most two bodies).
+                let mut before = [[T::zero(); 9]; 2];
+                for (b, &(c, _)) in before.iter_mut().zip(rigid.iter()) {
+                    b[..d * d].copy_from_slice(&p[(c + 1) * d..(c + 1 + d) * d]);
+                }
                 coordinate.gradient_add(q, *gain * wj, p);
+                for (b, &(c, e)) in before.iter().zip(rigid.iter()) {
+                    let range = (c + 1) * d..(c + 1 + d) * d;
+                    consistent_directors(&q[range.clone()], &b[..d * d], &mut p[range], e, d);
+                }
                 continue;
             }
             let f = term.unit_force(q, d);
@@ -214,6 +230,43 @@ impl<T: Real> SceneInputMap<T> {
                     }
                 }
             }
+        }
+    }
+}
+
+/// A rigid body's director momenta `after = before + δ` with the impulse `δ` replaced by its
+/// part consistent with the body's own rows `QᵀQ = I` in the kinetic metric (`../shared/docs/
+/// METHOD.md` §8): `δ − Q S`, `S` symmetric with `S_ik = (P_ik Eᵢ + P_ki E_k)/(Eᵢ + E_k)`,
+/// `P = Qᵀδ`, so that `Qᵀ W⁻¹ (δ − Q S)` is skew — a turn of the frame, no stretch of it. The part
+/// taken away lies along the rows' gradients `Q S`, which the projection's multipliers absorb
+/// whatever it is (RATTLE's step is the same), but its kinetic energy would be booked as
+/// supplied by the kick and then removed by the projection. `q`, `before`, `after`: the `n`
+/// directors' `n` components each (`n` = 2 in the plane, 3 in space); `e` their masses.
+fn consistent_directors<T: Real>(q: &[T], before: &[T], after: &mut [T], e: [T; 3], n: usize) {
+    let mut delta = [[T::zero(); 3]; 3];
+    for k in 0..n {
+        for c in 0..n {
+            delta[k][c] = after[k * n + c] - before[k * n + c];
+        }
+    }
+    // P_ik = d_i · δ_k.
+    let mut s = [[T::zero(); 3]; 3];
+    for i in 0..n {
+        for k in 0..n {
+            let pik = (0..n).fold(T::zero(), |a, c| a + q[i * n + c] * delta[k][c]);
+            s[i][k] = pik;
+        }
+    }
+    let p = s;
+    for i in 0..n {
+        for k in 0..n {
+            s[i][k] = (p[i][k] * e[i] + p[k][i] * e[k]) / (e[i] + e[k]);
+        }
+    }
+    for k in 0..n {
+        for c in 0..n {
+            let qs = (0..n).fold(T::zero(), |a, i| a + q[i * n + c] * s[i][k]);
+            after[k * n + c] = before[k * n + c] + delta[k][c] - qs;
         }
     }
 }
