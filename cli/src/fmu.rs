@@ -211,8 +211,8 @@ pub(crate) fn fmu(args: &FmuArgs) -> ExitCode {
         Err(e) => return bad_scene(&e),
     };
     let integ = &scene.file.integrator;
-    let (dt, t_end) = (integ.dt, integ.t_end);
-    let fixed = integ.tol.is_none() && integ.rtol.is_none() && integ.atol.is_none();
+    let (dt, t_end) = (integ.step(), integ.t_end);
+    let fixed = !integ.has_tolerance();
     let name = compiled.assembly.name.clone();
     let xml = model_description(&name, &token(&text), (dt, fixed), t_end, &vars);
     let binary = match std::fs::read(&lib_path) {

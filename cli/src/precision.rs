@@ -87,7 +87,7 @@ pub(crate) fn precision(args: &PrecisionArgs) -> ExitCode {
         }
         scene.file.integrator.t_end = t;
     }
-    let mut plan = PrecisionPlan::around(scene.file.integrator.dt, scene.file.integrator.t_end);
+    let mut plan = PrecisionPlan::around(scene.file.integrator.step(), scene.file.integrator.t_end);
     if !args.dt.is_empty() {
         plan.dts = args.dt.clone();
     }

@@ -141,7 +141,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     if let Some(t) = args.t_end {
         scene.file.integrator.t_end = t;
     }
-    let (dt, t_end) = (scene.file.integrator.dt, scene.file.integrator.t_end);
+    let (dt, t_end) = (scene.file.integrator.step(), scene.file.integrator.t_end);
     if (args.dt.is_some() || args.t_end.is_some()) && dt > t_end {
         // The same refusal as the scene's, naming the flag that caused it.
         let flag = if args.dt.is_some() { "--dt" } else { "--t-end" };

@@ -39,7 +39,7 @@ pub fn precision<'py>(
     f64_reference: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let scene = Scene::from_path(&path).map_err(|e| scene_error(py, &e))?;
-    let mut plan = PrecisionPlan::around(scene.file.integrator.dt, scene.file.integrator.t_end);
+    let mut plan = PrecisionPlan::around(scene.file.integrator.step(), scene.file.integrator.t_end);
     if let Some(d) = dts {
         plan.dts = d;
     }

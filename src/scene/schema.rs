@@ -254,7 +254,9 @@ pub struct IntegratorSpec {
     pub order: Option<u32>,
     /// Step size, positive; with `tol`, the interval the run reports at (CSV rows, outputs,
     /// progress, an FMU's communication step), inside which the steps are chosen, and the
-    /// first step tried.
+    /// first step tried — optional then: left out, it is `t_end / 1000`
+    /// ([`step`](Self::step)). Read as NaN when the file leaves it out.
+    #[serde(default = "missing_step")]
     pub dt: f64,
     /// A tolerance (`rtol = atol = tol`): the steps and orders are chosen to meet it by the
     /// adaptive extrapolation of the splitting (`scheme = "auto"` or `"extrapolation"`; every
@@ -325,6 +327,32 @@ pub struct DensitySpec {
     pub distance: Vec<String>,
     /// `ρ = r^{−power}`, positive (1.5: Kepler's period at radius `r`).
     pub power: f64,
+}
+
+/// `dt` left out of the file: NaN until [`IntegratorSpec::step`] resolves it.
+fn missing_step() -> f64 {
+    f64::NAN
+}
+
+impl IntegratorSpec {
+    /// The number of report intervals a run with a tolerance and no `dt` takes.
+    pub const DEFAULT_INTERVALS: f64 = 1000.0;
+
+    /// `true` when the file asks for a tolerance (`tol`, `rtol` or `atol`).
+    pub fn has_tolerance(&self) -> bool {
+        self.tol.is_some() || self.rtol.is_some() || self.atol.is_some()
+    }
+
+    /// The step size: `dt`, or with a tolerance and no `dt`, `t_end / 1000` (the interval the
+    /// run reports at and the first step tried); NaN without either (refused when compiled,
+    /// naming `integrator.dt`).
+    pub fn step(&self) -> f64 {
+        if self.dt.is_nan() && self.has_tolerance() {
+            self.t_end / Self::DEFAULT_INTERVALS
+        } else {
+            self.dt
+        }
+    }
 }
 
 fn default_diagnostics() -> Vec<Diagnostic> {

@@ -149,6 +149,27 @@ fn what_a_tolerance_cannot_go_with_is_refused_where_it_is_written() {
     assert!(e.message.contains("h_min"), "{}", e.message);
 }
 
+#[test]
+fn with_a_tolerance_the_step_size_may_be_left_out() {
+    // The damped pendulum without `dt`: it reports every t_end/1000 = 0.01 s, the first step
+    // tried, and meets its tolerance as with dt = 0.01 given (the same run, bit for bit).
+    let without =
+        include_str!("../../scenes/damped_pendulum.toml").replace("dt = 0.01\n", "tol = 1e-8\n");
+    assert!(!without.contains("dt ="), "{without}");
+    let s = run_scene(&parse(&without));
+    assert!(s.error.is_none(), "{:?}", s.error);
+    assert_eq!(s.dt, 0.01);
+    assert_eq!(s.steps, 1000);
+    assert!(s.adaptive.is_some());
+    let given = run_scene(&parse(&pendulum(0.01, "tol = 1e-8")));
+    assert_eq!(s.x, given.x);
+    // Without a tolerance the step size is required, and its absence is named.
+    let bare = include_str!("../../scenes/damped_pendulum.toml").replace("dt = 0.01\n", "");
+    let e = parse(&bare).compile().unwrap_err();
+    assert_eq!(e.path.to_string(), "integrator.dt", "{e}");
+    assert!(e.to_string().contains("tolerance"), "{e}");
+}
+
 /// scenes/kepler.toml over `orbits` periods with `integrator` lines in place of its own: the
 /// distance of the relative position (planet − sun) from perihelion, where it returns each
 /// period, and the run's summary.

@@ -95,7 +95,7 @@ pub(super) fn compile_builtin(file: &SceneFile, b: &Builtin) -> Result<Compiled>
             ),
         ));
     }
-    let dt = file.integrator.dt;
+    let dt = file.integrator.step();
     let setup = |e: SetupError| err(SceneErrorKind::Setup, path.clone(), e.to_string());
     let compose = |t: Option<&'static CompositionTable>, name: &str| match t {
         None => name.to_owned(),

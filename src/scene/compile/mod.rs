@@ -228,7 +228,7 @@ fn compile_impl(file: &SceneFile, backward: bool) -> Result<Compiled> {
         splitting,
     } = assemble(file, backward)?;
     let (n, m) = (model.state_len(), model.m);
-    let dt = file.integrator.dt;
+    let dt = file.integrator.step();
     let dissipative = model.is_dissipative();
     let SchemeFlow {
         flow,

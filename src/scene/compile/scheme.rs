@@ -117,7 +117,14 @@ pub(super) fn choose_scheme(
 
 pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(RunPlan, bool)> {
     let path = FieldPath::root().key("integrator");
-    let dt = positive(integ.dt, &path.key("dt"), "step size")?;
+    if integ.step().is_nan() {
+        return Err(err(
+            SceneErrorKind::Value,
+            path.key("dt"),
+            "missing: a step size `dt`, or a tolerance (`tol`, `rtol`, `atol`) to have the steps chosen",
+        ));
+    }
+    let dt = positive(integ.step(), &path.key("dt"), "step size")?;
     let t_end = positive(integ.t_end, &path.key("t_end"), "final time")?;
     let (steps, last_step) = step_grid(dt, t_end, &path)?;
     let (mut energy, mut residuals, mut profile) = (false, false, false);

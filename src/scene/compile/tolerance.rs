@@ -56,7 +56,7 @@ pub(super) fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
         tolerance(integ.rtol, "rtol")?,
         tolerance(integ.atol, "atol")?,
     );
-    let dt = positive(integ.dt, &path.key("dt"), "step size")?;
+    let dt = positive(integ.step(), &path.key("dt"), "step size")?;
     let h_min = match integ.h_min {
         None => 0.0,
         Some(h) if h >= 0.0 && h < dt => h,
