@@ -6,6 +6,41 @@ use lieflow::scene::{RunSummary, Scene, SceneModel, run};
 use std::sync::Arc;
 
 /// scenes/damped_pendulum.toml reporting every `dt`, with `extra` integrator keys.
+/// Two boxes (1 and 2 kg) on a slider along `u = (1, 1, 0)/√2`, the second 0.5 m along `u`
+/// from the first and moving away along it at `speed`; `rest` follows the bodies and the
+/// slider (effects, inputs, outputs), then `[integrator]` with `dt`, `t_end` and `scheme`.
+pub fn boxes_on_a_slider(speed: f64, rest: &str, dt: f64, t_end: f64, scheme: &str) -> String {
+    let u = std::f64::consts::FRAC_1_SQRT_2;
+    format!(
+        r#"
+version = 1
+dim = 3
+[[bodies]]
+name = "a"
+mass = 1.0
+inertia = {{ shape = "box", size = [0.2, 0.1, 0.3] }}
+position = [0, 0, 0]
+[[bodies]]
+name = "b"
+mass = 2.0
+inertia = {{ shape = "box", size = [0.1, 0.3, 0.2] }}
+position = [{p}, {p}, 0]
+velocity = [{v}, {v}, 0]
+[[constraints]]
+type = "slider"
+bodies = ["a", "b"]
+axis = [1, 1, 0]
+{rest}
+[integrator]
+dt = {dt}
+t_end = {t_end}
+{scheme}
+"#,
+        p = 0.5 * u,
+        v = speed * u,
+    )
+}
+
 pub fn damped_pendulum(dt: f64, extra: &str) -> String {
     include_str!("../../scenes/damped_pendulum.toml")
         .replace("dt = 0.01", &format!("dt = {dt}\n{extra}"))

@@ -8,31 +8,16 @@
 //! projection absorbs whatever it is, and the kick leaves it out so that it books only the
 //! impulse the motion keeps: the budget closes to round-off, the motion unchanged.
 
+use crate::scene_text::boxes_on_a_slider;
 use lieflow::scene::{Scene, run};
 
 /// Boxes of 1 and 2 kg at rest, the second 0.5 m along `u = (1, 1, 0)/√2` from the first, a
 /// slider between them along `u`, and the motor `push` of `force` newtons on it.
 fn pushed(force: f64, dt: f64, t_end: f64, scheme: &str) -> String {
-    let p = 0.5 * std::f64::consts::FRAC_1_SQRT_2;
-    format!(
-        r#"
-version = 1
-dim = 3
-[[bodies]]
-name = "a"
-mass = 1.0
-inertia = {{ shape = "box", size = [0.2, 0.1, 0.3] }}
-position = [0, 0, 0]
-[[bodies]]
-name = "b"
-mass = 2.0
-inertia = {{ shape = "box", size = [0.1, 0.3, 0.2] }}
-position = [{p}, {p}, 0]
-[[constraints]]
-type = "slider"
-bodies = ["a", "b"]
-axis = [1, 1, 0]
-[[inputs]]
+    boxes_on_a_slider(
+        0.0,
+        &format!(
+            r#"[[inputs]]
 type = "slider-force"
 name = "push"
 bodies = ["a", "b"]
@@ -40,12 +25,11 @@ axis = [1, 1, 0]
 signal = {{ type = "constant", value = {force} }}
 [[outputs]]
 quantity = "port-output"
-input = "push"
-[integrator]
-dt = {dt}
-t_end = {t_end}
-{scheme}
-"#
+input = "push""#
+        ),
+        dt,
+        t_end,
+        scheme,
     )
 }
 

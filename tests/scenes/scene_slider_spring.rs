@@ -5,33 +5,16 @@
 //! directors: were those terms wrong the bodies would be twisted and the rows would fight it.
 
 use crate::common::fitted_order;
+use crate::scene_text::boxes_on_a_slider;
 use lieflow::scene::{Scene, run};
 
 /// Boxes of 1 and 2 kg, the second 0.5 m along `u = (1, 1, 0)/√2` from the first, a slider
 /// between them along `u`, a spring `k = 3` at rest where they start; the second moves away
 /// at 0.3 m/s. The gap along `u` is `d(t) = (0.3/ω) sin ωt`, `ω = √(k/μ)`, `μ = 2/3`.
 fn pair(dt: f64, t_end: f64, scheme: &str) -> String {
-    let u = std::f64::consts::FRAC_1_SQRT_2;
-    format!(
-        r#"
-version = 1
-dim = 3
-[[bodies]]
-name = "a"
-mass = 1.0
-inertia = {{ shape = "box", size = [0.2, 0.1, 0.3] }}
-position = [0, 0, 0]
-[[bodies]]
-name = "b"
-mass = 2.0
-inertia = {{ shape = "box", size = [0.1, 0.3, 0.2] }}
-position = [{p}, {p}, 0]
-velocity = [{v}, {v}, 0]
-[[constraints]]
-type = "slider"
-bodies = ["a", "b"]
-axis = [1, 1, 0]
-[[effects]]
+    boxes_on_a_slider(
+        0.3,
+        r#"[[effects]]
 type = "slider-spring"
 bodies = ["a", "b"]
 axis = [1, 1, 0]
@@ -51,14 +34,10 @@ component = 0
 [[outputs]]
 quantity = "position"
 body = "a"
-component = 1
-[integrator]
-dt = {dt}
-t_end = {t_end}
-{scheme}
-"#,
-        p = 0.5 * u,
-        v = 0.3 * u,
+component = 1"#,
+        dt,
+        t_end,
+        scheme,
     )
 }
 
