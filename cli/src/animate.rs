@@ -4,7 +4,7 @@
 use crate::number::num;
 use lieflow::scene::{Compiled, RunSummary, Sample};
 use lieflow_view::{FrameBudget, PageInfo, Recorder, write_page};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// The flags of an animation page.
 #[derive(Debug, Clone, clap::Args)]
@@ -133,13 +133,9 @@ impl Animation {
             bytes as f64 / 1e6
         );
         Ok(serde_json::json!({
-            "path": path_text(&self.path),
+            "path": self.path.display().to_string(),
             "frames": self.recorder.frames(),
             "bytes": bytes,
         }))
     }
-}
-
-fn path_text(p: &Path) -> String {
-    p.display().to_string()
 }

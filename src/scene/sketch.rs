@@ -127,7 +127,7 @@ pub(crate) fn sketch(bodies: &Bodies, model: &SceneModel) -> Sketch {
                         .get(k)
                         .map_or(0.0, |&s| (12.0 * bodies.list[s].mass / b.mass).sqrt())
                 };
-                InertiaBox {
+                Shape::InertiaBox {
                     size: [side(0), side(1), side(2)],
                 }
             });
@@ -144,7 +144,6 @@ pub(crate) fn sketch(bodies: &Bodies, model: &SceneModel) -> Sketch {
             rigid,
         });
     }
-    use Shape::InertiaBox;
     let at = |slot: usize| End::Body {
         body: index[slot],
         offset: [0.0; 3],
