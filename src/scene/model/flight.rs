@@ -108,20 +108,23 @@ impl<T: Real> Flight<T> {
     }
 
     /// The energy the damping of this flight removes from a body (`w = 1/m`) that starts with
-    /// momentum `p` under the constant force `f` (`d` components each): what
-    /// [`apply`](Self::apply) returns, for any `p` and `f` (the consistent account evaluates it
+    /// momentum `p` under the constant force `f`, as a quadratic form in `(p, f)`: what
+    /// [`apply`](Self::apply) returns is `form.eval(p, f)` (the consistent account evaluates it
     /// on their constraint-consistent parts, `consistent.rs`).
-    pub(super) fn removed(&self, c: &FlightCoefficients<T>, w: T, p: &[T], f: &[T]) -> T {
+    pub(super) fn form(&self, c: &FlightCoefficients<T>, w: T) -> BodyForm {
         let zero = T::lit(0.0);
-        let (p, f) = (load3(p), load3(f));
+        let f = |x: T| x.to_f64_lossy();
         match *self {
-            Flight::Drift | Flight::Fall { .. } => zero,
-            Flight::Exact { gamma, .. } if gamma != zero => T::lit(0.5) * w * c.lost * dot3(p, p),
-            Flight::Exact { .. } => zero,
-            Flight::DampedFall { gamma, .. } => {
-                (gamma * w * (c.i1 * dot3(p, p) + c.phi * c.phi * dot3(p, f) + c.i3 * dot3(f, f)))
-                    .max(zero)
-            }
+            Flight::Exact { gamma, .. } if gamma != zero => BodyForm {
+                p2: f(T::lit(0.5) * w * c.lost),
+                ..BodyForm::default()
+            },
+            Flight::DampedFall { gamma, .. } => BodyForm {
+                p2: f(gamma * w * c.i1),
+                pf: f(gamma * w * c.phi * c.phi),
+                f2: f(gamma * w * c.i3),
+            },
+            _ => BodyForm::default(),
         }
     }
 
@@ -381,11 +384,49 @@ pub struct FreeFlight<T: Real> {
     /// The damping's account on the consistent motion, when damped bodies are constrained
     /// (`consistent.rs`, set by [`with_account`](Self::with_account)), with the state before
     /// the flight.
-    account: Option<(Box<dyn DampingAccount>, Vec<f64>)>,
+    account: Option<Accounting>,
 }
 
-/// Body `b`'s closed-form dissipation for a momentum and a force (`d` entries each).
-pub(crate) type BodyBook<'a> = dyn Fn(usize, &[f64], &[f64]) -> f64 + 'a;
+/// The flight's account on the consistent motion, the state before the flight and the bodies'
+/// books it is given.
+#[derive(Debug)]
+struct Accounting {
+    account: Box<dyn DampingAccount>,
+    before: Vec<f64>,
+    books: BodyBooks,
+}
+
+/// A body's closed-form dissipation over a flight as a quadratic form in its initial momentum
+/// `p` and the constant force `F` on it: `max(0, p2 |p|² + pf p·F + f2 |F|²)` (the damped
+/// fall's `γ w (I₁ |p|² + φ² p·F + I₃ |F|²)`, `½ w (1 − e^{−2γt}) |p|²` without a force).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct BodyForm {
+    pub p2: f64,
+    pub pf: f64,
+    pub f2: f64,
+}
+
+impl BodyForm {
+    /// The form at `p`, `f` (`d` entries each), clamped at zero.
+    #[inline]
+    pub(crate) fn eval(&self, p: &[f64], f: &[f64]) -> f64 {
+        let (mut pp, mut pq, mut ff) = (0.0, 0.0, 0.0);
+        for (a, b) in p.iter().zip(f) {
+            pp += a * a;
+            pq += a * b;
+            ff += b * b;
+        }
+        (self.p2 * pp + self.pf * pq + self.f2 * ff).max(0.0)
+    }
+}
+
+/// What the flight gives its account for each body: the closed form of its dissipation and the
+/// constant force on it (`d` entries per body).
+#[derive(Debug, Default)]
+pub(crate) struct BodyBooks {
+    pub forms: Vec<BodyForm>,
+    pub forces: Vec<f64>,
+}
 
 /// How a flight's damping is booked when it is not the flight's own account: the
 /// constraint-consistent account of `consistent.rs`, given to the flight by the scheme that
@@ -394,17 +435,9 @@ pub(crate) trait DampingAccount: core::fmt::Debug {
     /// The booked dissipation kept for a flight of `t` from positions `q` (a Newton iteration
     /// at the positions and sub-step of the last evaluation), if any.
     fn kept_for(&self, t: f64, q: &[f64]) -> Option<f64>;
-    /// The dissipation of the flight of `t` from `(q, p)`: `book(b, p_b, f_b)` is body `b`'s
-    /// closed form for a momentum and a force, `force(b)` the flight's constant force on it.
-    /// `None`: keep the flight's own account.
-    fn removed(
-        &mut self,
-        t: f64,
-        q: &[f64],
-        p: &[f64],
-        force: &dyn Fn(usize) -> [f64; 3],
-        book: &BodyBook<'_>,
-    ) -> Option<f64>;
+    /// The dissipation of the flight of `t` from `(q, p)`, body `b`'s closed form and force
+    /// being `books.forms[b]` and `books.forces[b d..]`. `None`: keep the flight's own account.
+    fn removed(&mut self, t: f64, q: &[f64], p: &[f64], books: &BodyBooks) -> Option<f64>;
     /// Forgets what it keeps (the state was changed from outside a step).
     fn forget(&mut self);
 }
@@ -421,7 +454,11 @@ impl<T: Real> FreeFlight<T> {
 
     /// The same flight booking its damping through `account`.
     pub(crate) fn with_account(mut self, account: Box<dyn DampingAccount>) -> Self {
-        self.account = Some((account, Vec::new()));
+        self.account = Some(Accounting {
+            account,
+            before: Vec::new(),
+            books: BodyBooks::default(),
+        });
         self
     }
 
@@ -429,27 +466,32 @@ impl<T: Real> FreeFlight<T> {
     /// flight's own).
     #[cold]
     fn account_removed(&mut self, t: T) -> Option<f64> {
-        let (account, before) = self.account.as_mut()?;
+        let accounting = self.account.as_mut()?;
         let model = &*self.model;
-        let nq = model.dim * model.masses.len();
-        let (q, p) = before.split_at(nq);
-        let coefficients = &self.cache.coefficients;
-        let f64s = |v: [T; 3]| v.map(|x| x.to_f64_lossy());
-        let force = |b: usize| match model.flights[b] {
-            Flight::Fall { force } | Flight::DampedFall { force, .. } => f64s(force),
-            _ => [0.0; 3],
-        };
-        let book = |b: usize, pb: &[f64], fb: &[f64]| {
-            let cast = |v: &[f64]| -> [T; 3] {
-                core::array::from_fn(|k| v.get(k).map_or(T::lit(0.0), |&x| T::lit(x)))
+        let d = model.dim;
+        let nq = d * model.masses.len();
+        let (q, p) = accounting.before.split_at(nq);
+        let books = &mut accounting.books;
+        books.forms.clear();
+        books.forces.clear();
+        for ((flight, c), &w) in model
+            .flights
+            .iter()
+            .zip(&self.cache.coefficients)
+            .zip(&model.inv_masses)
+        {
+            books.forms.push(flight.form(c, w));
+            let force = match *flight {
+                Flight::Fall { force } | Flight::DampedFall { force, .. } => force,
+                _ => [T::lit(0.0); 3],
             };
-            let (pt, ft) = (cast(pb), cast(fb));
-            let d = pb.len();
-            model.flights[b]
-                .removed(&coefficients[b], model.inv_masses[b], &pt[..d], &ft[..d])
-                .to_f64_lossy()
-        };
-        account.removed(t.to_f64_lossy(), q, p, &force, &book)
+            books
+                .forces
+                .extend(force[..d].iter().map(|x| x.to_f64_lossy()));
+        }
+        accounting
+            .account
+            .removed(t.to_f64_lossy(), q, p, &accounting.books)
     }
 }
 
@@ -465,10 +507,15 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
         // last evaluation is that evaluation's (see `consistent.rs`): looked up before the
         // flight moves `x`, computed after it otherwise.
         let kept = match self.account.as_mut() {
-            Some((account, before)) => {
+            Some(Accounting {
+                account, before, ..
+            }) => {
                 let nq = self.model.dim * self.model.masses.len();
-                before.clear();
-                before.extend(x.as_slice().iter().map(|v| v.to_f64_lossy()));
+                let xs = x.as_slice();
+                before.resize(xs.len(), 0.0);
+                for (b, v) in before.iter_mut().zip(xs) {
+                    *b = v.to_f64_lossy();
+                }
                 Some(account.kept_for(h.to_f64_lossy(), &before[..nq]))
             }
             None => None,
@@ -499,18 +546,18 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
         self.model.is_dissipative()
     }
     fn prepare(&mut self, _x: &V) {
-        if let Some((account, _)) = self.account.as_mut() {
-            account.forget();
+        if let Some(accounting) = self.account.as_mut() {
+            accounting.account.forget();
         }
     }
     fn save_memory(&mut self, _out: &mut Vec<T>) {
-        if let Some((account, _)) = self.account.as_mut() {
-            account.forget();
+        if let Some(accounting) = self.account.as_mut() {
+            accounting.account.forget();
         }
     }
     fn restore_memory(&mut self, _from: &mut &[T]) {
-        if let Some((account, _)) = self.account.as_mut() {
-            account.forget();
+        if let Some(accounting) = self.account.as_mut() {
+            accounting.account.forget();
         }
     }
     /// The flight is affine in `x` (linear per body, with a constant force).
