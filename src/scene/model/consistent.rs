@@ -39,7 +39,7 @@
 
 use super::SceneModel;
 use super::dashpot::ConsistentMomentum;
-use super::flight::{BodyBooks, DampingAccount};
+use super::flight::{BodyBooks, DampingAccount, body3};
 use crate::real::Real;
 use crate::scene::gram::MassGram;
 use std::any::Any;
@@ -79,6 +79,11 @@ pub(crate) fn consistent_projector<T: Real>(
     Some(Box::new(ConsistentAccount::new(model.clone())))
 }
 
+#[inline]
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
 /// Workspace of the consistent account: the Gram matrix factored at the last positions.
 struct ConsistentAccount {
     model: Arc<SceneModel<f64>>,
@@ -94,6 +99,8 @@ struct ConsistentAccount {
     mu: Vec<f64>,
     /// The second right-hand side's multipliers and `S`'s diagonal (the diagonal path).
     nu: Vec<f64>,
+    /// The gradients' `(row, body, g_rb)` of the diagonal path.
+    walk: Vec<(usize, usize, [f64; 3])>,
     s: Vec<f64>,
     p: Vec<f64>,
     f: Vec<f64>,
@@ -119,6 +126,7 @@ impl ConsistentAccount {
             booked: 0.0,
             mu: Vec::new(),
             nu: Vec::new(),
+            walk: Vec::new(),
             s: Vec::new(),
             p: Vec::new(),
             f: Vec::new(),
@@ -149,7 +157,7 @@ impl ConsistentAccount {
     /// `g_rb ν_r` (`μ_r = G_r W⁻¹ p / S_rr`, `ν_r` likewise for the force), and the booking is
     /// `Σ_b Q_b(p_b, F_b) − Σ_(r,b) Q_b(g_rb μ_r, g_rb ν_r)`, clamped at zero: the same as
     /// [`make_consistent`](Self::make_consistent) and the body loop of `removed`, without
-    /// forming `p_c`, `F_c` (two passes over the gradients and one over the bodies).
+    /// forming `p_c`, `F_c` (one walk over the gradients, kept, and one over the bodies).
     fn removed_diagonal(&mut self, q: &[f64], p: &[f64], books: &BodyBooks) -> f64 {
         let model = &*self.model;
         let d = model.dim;
@@ -160,16 +168,15 @@ impl ConsistentAccount {
             .chain(nu.iter_mut())
             .chain(sr.iter_mut())
             .for_each(|x| *x = 0.0);
+        // One walk over the gradients, kept for the second sum.
+        let walk = &mut self.walk;
+        walk.clear();
         model.for_each_gradient(q, |r, b, g| {
-            let (mut gp, mut gf, mut gg) = (0.0, 0.0, 0.0);
-            for k in 0..d {
-                gp += g[k] * p[b * d + k];
-                gf += g[k] * forces[b * d + k];
-                gg += g[k] * g[k];
-            }
-            mu[r] += w[b] * gp;
-            nu[r] += w[b] * gf;
-            sr[r] += w[b] * gg;
+            let (pb, fb) = (body3(p, b, d), body3(forces, b, d));
+            mu[r] += w[b] * dot3(g, pb);
+            nu[r] += w[b] * dot3(g, fb);
+            sr[r] += w[b] * dot3(g, g);
+            walk.push((r, b, g));
         });
         for r in 0..model.m {
             mu[r] /= sr[r];
@@ -178,16 +185,18 @@ impl ConsistentAccount {
         // Q_b at the parts themselves (not |g|² times the form at μ, ν): a body whose
         // momentum and force are all along g books exactly zero.
         let mut inconsistent = 0.0;
-        model.for_each_gradient(q, |r, b, g| {
-            let pi: [f64; 3] = core::array::from_fn(|k| g[k] * mu[r]);
-            let fi: [f64; 3] = core::array::from_fn(|k| g[k] * nu[r]);
-            inconsistent += books.forms[b].eval(&pi[..d], &fi[..d]);
-        });
+        for &(r, b, g) in walk.iter() {
+            let (m, n) = (mu[r], nu[r]);
+            inconsistent += books.forms[b].eval(
+                [g[0] * m, g[1] * m, g[2] * m],
+                [g[0] * n, g[1] * n, g[2] * n],
+            );
+        }
         let own: f64 = books
             .forms
             .iter()
             .enumerate()
-            .map(|(b, form)| form.eval(&p[b * d..b * d + d], &forces[b * d..b * d + d]))
+            .map(|(b, form)| form.eval(body3(p, b, d), body3(forces, b, d)))
             .sum();
         (own - inconsistent).max(0.0)
     }
@@ -304,7 +313,8 @@ impl ConsistentAccount {
                 pi[k] = pb[k] - self.p[b * d + k];
                 fi[k] = fb[k] - self.f[b * d + k];
             }
-            booked += form.eval(pb, fb) - form.eval(&pi[..d], &fi[..d]);
+            booked += form.eval(body3(pb, 0, d), body3(fb, 0, d))
+                - form.eval(body3(&pi, 0, d), body3(&fi, 0, d));
         }
         Some(booked.max(0.0))
     }

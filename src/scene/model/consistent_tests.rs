@@ -1,7 +1,7 @@
 //! The diagonal account's closed form against the account through the consistent parts.
 
 use super::*;
-use crate::scene::model::flight::BodyForm;
+use crate::scene::model::flight::{BodyForm, body3};
 use crate::vector::Vector;
 
 /// Three bodies of different masses in 3D: `a` on a sphere, `b` and `c` joined by a rod, `d`
@@ -73,7 +73,11 @@ fn the_diagonal_closed_form_is_the_account_through_the_consistent_parts() {
                 f2: 1.0 + shape[3 * b + 2].abs(),
             })
             .collect();
-        let books = BodyBooks { forms, forces };
+        let books = BodyBooks {
+            forms,
+            forces,
+            t: None,
+        };
         assert_eq!(account.is_diagonal(&q), Some(true));
         let closed = account.removed_diagonal(&q, &p, &books);
         let through = general.removed_general(&q, &p, &books).unwrap();
@@ -105,11 +109,12 @@ fn the_diagonal_account_books_nothing_of_a_momentum_along_the_constraint_gradien
     let books = BodyBooks {
         forms: vec![form; bodies],
         forces,
+        t: None,
     };
     let mut account = ConsistentAccount::new(model.clone());
     assert_eq!(account.is_diagonal(&q), Some(true));
     let own: f64 = (0..bodies)
-        .map(|b| form.eval(&p[3 * b..3 * b + 3], &books.forces[3 * b..3 * b + 3]))
+        .map(|b| form.eval(body3(&p, b, 3), body3(&books.forces, b, 3)))
         .sum();
     let booked = account.removed_diagonal(&q, &p, &books);
     assert!(own > 1.0, "{own}");

@@ -407,25 +407,26 @@ pub(crate) struct BodyForm {
 }
 
 impl BodyForm {
-    /// The form at `p`, `f` (`d` entries each), clamped at zero.
+    /// The form at `p`, `f` (a planar body's third entries zero), clamped at zero.
     #[inline]
-    pub(crate) fn eval(&self, p: &[f64], f: &[f64]) -> f64 {
-        let (mut pp, mut pq, mut ff) = (0.0, 0.0, 0.0);
-        for (a, b) in p.iter().zip(f) {
-            pp += a * a;
-            pq += a * b;
-            ff += b * b;
-        }
-        (self.p2 * pp + self.pf * pq + self.f2 * ff).max(0.0)
+    pub(crate) fn eval(&self, p: [f64; 3], f: [f64; 3]) -> f64 {
+        (self.p2 * dot3(p, p) + self.pf * dot3(p, f) + self.f2 * dot3(f, f)).max(0.0)
     }
 }
 
+/// Body `b`'s `d` entries of `v` (stride `d`) as a 3-vector.
+#[inline]
+pub(crate) fn body3(v: &[f64], b: usize, d: usize) -> [f64; 3] {
+    load3(&v[b * d..b * d + d])
+}
+
 /// What the flight gives its account for each body: the closed form of its dissipation and the
-/// constant force on it (`d` entries per body).
+/// constant force on it (`d` entries per body), for the sub-step `t` they were made for.
 #[derive(Debug, Default)]
 pub(crate) struct BodyBooks {
     pub forms: Vec<BodyForm>,
     pub forces: Vec<f64>,
+    pub t: Option<f64>,
 }
 
 /// How a flight's damping is booked when it is not the flight's own account: the
@@ -472,26 +473,30 @@ impl<T: Real> FreeFlight<T> {
         let nq = d * model.masses.len();
         let (q, p) = accounting.before.split_at(nq);
         let books = &mut accounting.books;
-        books.forms.clear();
-        books.forces.clear();
-        for ((flight, c), &w) in model
-            .flights
-            .iter()
-            .zip(&self.cache.coefficients)
-            .zip(&model.inv_masses)
-        {
-            books.forms.push(flight.form(c, w));
-            let force = match *flight {
-                Flight::Fall { force } | Flight::DampedFall { force, .. } => force,
-                _ => [T::lit(0.0); 3],
-            };
-            books
-                .forces
-                .extend(force[..d].iter().map(|x| x.to_f64_lossy()));
+        let t64 = t.to_f64_lossy();
+        // The forms depend on the sub-step length only (a scheme takes few): made again when
+        // it changes.
+        if books.t != Some(t64) {
+            books.forms.clear();
+            books.forces.clear();
+            for ((flight, c), &w) in model
+                .flights
+                .iter()
+                .zip(&self.cache.coefficients)
+                .zip(&model.inv_masses)
+            {
+                books.forms.push(flight.form(c, w));
+                let force = match *flight {
+                    Flight::Fall { force } | Flight::DampedFall { force, .. } => force,
+                    _ => [T::lit(0.0); 3],
+                };
+                books
+                    .forces
+                    .extend(force[..d].iter().map(|x| x.to_f64_lossy()));
+            }
+            books.t = Some(t64);
         }
-        accounting
-            .account
-            .removed(t.to_f64_lossy(), q, p, &accounting.books)
+        accounting.account.removed(t64, q, p, &accounting.books)
     }
 }
 
