@@ -33,9 +33,9 @@
 //! constraints share a body (`S` diagonal: a pendulum, particles each on its sphere, a block on
 //! a floor) the account is summed in closed form without forming `p_c` (each body's
 //! inconsistent part is `g_rb μ_r`; `removed_diagonal`): on ten damped particles on a sphere
-//! extrapolated to order 12 that, with the flight's copy of its state, took the run's time
-//! from 1.13× to 1.0× of what it is now (`farm-bench` on `lieflow run` of
-//! `scenes/shell_damped.toml` at `order = 12`, `dt = 1`, `t_end = 30000`).
+//! extrapolated to order 12 the account was 31% of the run's instructions and is 17% with it
+//! (`valgrind --tool=callgrind lieflow run` of `scenes/shell_damped.toml` at `order = 12`,
+//! `dt = 1`, `t_end = 600`: 307.0M → 255.3M).
 
 use super::SceneModel;
 use super::dashpot::ConsistentMomentum;
@@ -77,6 +77,38 @@ pub(crate) fn consistent_projector<T: Real>(
     }
     let model = (model as &dyn Any).downcast_ref::<Arc<SceneModel<f64>>>()?;
     Some(Box::new(ConsistentAccount::new(model.clone())))
+}
+
+/// The diagonal case's multipliers of `p` and `f` at `q`: `μ_r = G_r W⁻¹ p / S_rr`, `ν_r`
+/// likewise for `f`, `S_rr = Σ_b w_b |g_rb|²` (in `scratch`: `μ`, `ν`, `S`'s diagonal), the
+/// gradients' `(row, body, g_rb)` left in `walk`.
+fn diagonal_multipliers<'a>(
+    model: &SceneModel<f64>,
+    q: &[f64],
+    p: &[f64],
+    f: &[f64],
+    scratch: [&'a mut Vec<f64>; 3],
+    walk: &mut Vec<(usize, usize, [f64; 3])>,
+) -> (&'a [f64], &'a [f64]) {
+    let (d, w) = (model.dim, &model.inv_masses);
+    let [mu, nu, sr] = scratch;
+    mu.iter_mut()
+        .chain(nu.iter_mut())
+        .chain(sr.iter_mut())
+        .for_each(|x| *x = 0.0);
+    walk.clear();
+    model.for_each_gradient(q, |r, b, g| {
+        let (pb, fb) = (body3(p, b, d), body3(f, b, d));
+        mu[r] += w[b] * dot3(g, pb);
+        nu[r] += w[b] * dot3(g, fb);
+        sr[r] += w[b] * dot3(g, g);
+        walk.push((r, b, g));
+    });
+    for r in 0..model.m {
+        mu[r] /= sr[r];
+        nu[r] /= sr[r];
+    }
+    (mu, nu)
 }
 
 #[inline]
@@ -161,27 +193,16 @@ impl ConsistentAccount {
     fn removed_diagonal(&mut self, q: &[f64], p: &[f64], books: &BodyBooks) -> f64 {
         let model = &*self.model;
         let d = model.dim;
-        let w = &model.inv_masses;
         let forces = &books.forces;
-        let (mu, nu, sr) = (&mut self.mu, &mut self.nu, &mut self.s);
-        mu.iter_mut()
-            .chain(nu.iter_mut())
-            .chain(sr.iter_mut())
-            .for_each(|x| *x = 0.0);
-        // One walk over the gradients, kept for the second sum.
         let walk = &mut self.walk;
-        walk.clear();
-        model.for_each_gradient(q, |r, b, g| {
-            let (pb, fb) = (body3(p, b, d), body3(forces, b, d));
-            mu[r] += w[b] * dot3(g, pb);
-            nu[r] += w[b] * dot3(g, fb);
-            sr[r] += w[b] * dot3(g, g);
-            walk.push((r, b, g));
-        });
-        for r in 0..model.m {
-            mu[r] /= sr[r];
-            nu[r] /= sr[r];
-        }
+        let (mu, nu) = diagonal_multipliers(
+            model,
+            q,
+            p,
+            forces,
+            [&mut self.mu, &mut self.nu, &mut self.s],
+            walk,
+        );
         // Q_b at the parts themselves (not |g|² times the form at μ, ν): a body whose
         // momentum and force are all along g books exactly zero.
         let mut inconsistent = 0.0;
@@ -208,7 +229,6 @@ impl ConsistentAccount {
             self.is_diagonal(q)?;
         }
         let model = &*self.model;
-        let (d, m) = (model.dim, model.m);
         if !self.factored || self.q.as_slice() != q {
             let gram = self.gram.as_mut()?;
             // A diagonal `S` (no two constraints share a body: a pendulum, particles each on
@@ -222,30 +242,15 @@ impl ConsistentAccount {
         }
         let gram = self.gram.as_mut()?;
         if gram.is_diagonal() {
-            // μ_r = (G_r W⁻¹ v)/S_rr, S_rr = Σ_b |g_rb|²/m_b, for both vectors in one pass,
-            // then v −= Gᵀμ in another.
-            let w = &model.inv_masses;
-            let (mu, nu, sr) = (&mut self.mu, &mut self.nu, &mut self.s);
-            mu.iter_mut()
-                .chain(nu.iter_mut())
-                .chain(sr.iter_mut())
-                .for_each(|x| *x = 0.0);
-            let (pv, fv) = (&self.p, &self.f);
-            model.for_each_gradient(q, |r, b, g| {
-                let (mut gp, mut gf, mut gg) = (0.0, 0.0, 0.0);
-                for k in 0..d {
-                    gp += g[k] * pv[b * d + k];
-                    gf += g[k] * fv[b * d + k];
-                    gg += g[k] * g[k];
-                }
-                mu[r] += w[b] * gp;
-                nu[r] += w[b] * gf;
-                sr[r] += w[b] * gg;
-            });
-            for r in 0..m {
-                mu[r] /= sr[r];
-                nu[r] /= sr[r];
-            }
+            // μ_r = (G_r W⁻¹ v)/S_rr for both vectors in one pass, then v −= Gᵀμ in another.
+            let (mu, nu) = diagonal_multipliers(
+                model,
+                q,
+                &self.p,
+                &self.f,
+                [&mut self.mu, &mut self.nu, &mut self.s],
+                &mut self.walk,
+            );
             model.gradient_transpose_add(q, mu, -1.0, &mut self.p);
             model.gradient_transpose_add(q, nu, -1.0, &mut self.f);
             return Some(());
