@@ -35,11 +35,11 @@
 //! inconsistent part is `g_rb μ_r`; `removed_diagonal`): on ten damped particles on a sphere
 //! extrapolated to order 12 the account was 31% of the run's instructions and is 17% with it
 //! (`valgrind --tool=callgrind lieflow run` of `scenes/shell_damped.toml` at `order = 12`,
-//! `dt = 1`, `t_end = 600`: 307.0M → 255.3M).
+//! `dt = 1`, `t_end = 600`: 307.0M → 255.6M).
 
 use super::SceneModel;
 use super::dashpot::ConsistentMomentum;
-use super::flight::{BodyBooks, DampingAccount, body3};
+use super::flight::{BodyBooks, DampingAccount, body3, dot3};
 use crate::real::Real;
 use crate::scene::gram::MassGram;
 use std::any::Any;
@@ -111,11 +111,6 @@ fn diagonal_multipliers<'a>(
     (mu, nu)
 }
 
-#[inline]
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// Workspace of the consistent account: the Gram matrix factored at the last positions.
 struct ConsistentAccount {
     model: Arc<SceneModel<f64>>,
@@ -128,12 +123,13 @@ struct ConsistentAccount {
     /// their booked dissipation.
     kept: Option<f64>,
     booked: f64,
+    /// The multipliers of `p`, of `f` (the diagonal path) and `S`'s diagonal (the diagonal
+    /// path).
     mu: Vec<f64>,
-    /// The second right-hand side's multipliers and `S`'s diagonal (the diagonal path).
     nu: Vec<f64>,
+    s: Vec<f64>,
     /// The gradients' `(row, body, g_rb)` of the diagonal path.
     walk: Vec<(usize, usize, [f64; 3])>,
-    s: Vec<f64>,
     p: Vec<f64>,
     f: Vec<f64>,
 }
@@ -158,8 +154,8 @@ impl ConsistentAccount {
             booked: 0.0,
             mu: Vec::new(),
             nu: Vec::new(),
-            walk: Vec::new(),
             s: Vec::new(),
+            walk: Vec::new(),
             p: Vec::new(),
             f: Vec::new(),
         }

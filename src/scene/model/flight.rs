@@ -253,7 +253,7 @@ fn load3<T: Real>(s: &[T]) -> [T; 3] {
 }
 
 #[inline]
-fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
+pub(super) fn dot3<T: Real>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
