@@ -287,7 +287,42 @@ fn bench(c: &mut Criterion) {
 
 criterion_group!(benches, bench);
 
+/// `RIGID_RATTLE_COUNT="<free_body|heavy_top>/<library|hand|hand_exact> N"`: only `N` steps of that one
+/// variant, for an instruction count that repeats where wall-clock times on a shared machine do
+/// not (`valgrind --tool=callgrind`, two `N` apart: the difference over the steps between them).
+fn count_only(spec: &str) {
+    let mut words = spec.split_whitespace();
+    let (which, n) = (words.next().unwrap_or(""), words.next().unwrap_or("1000"));
+    let n: usize = n.parse().expect("RIGID_RATTLE_COUNT: N is a step count");
+    let pivot = which.starts_with("heavy_top");
+    // `/hand` the simplified Newton (one Cholesky a step), `/hand_exact` the exact one.
+    let simplified = !which.ends_with("/hand_exact");
+    let mut x = if which.ends_with("/library") {
+        let (model, ..) = top(pivot);
+        let (mut flow, mut x) = library(&model);
+        for _ in 0..n {
+            flow.step(black_box(H), &mut x).unwrap();
+        }
+        x
+    } else if pivot {
+        let (mut hand, mut x) = hand::<9>(true, simplified);
+        (0..n).for_each(|_| hand.step(black_box(H), x.as_mut_slice()));
+        x
+    } else {
+        let (mut hand, mut x) = hand::<6>(false, simplified);
+        (0..n).for_each(|_| hand.step(black_box(H), x.as_mut_slice()));
+        x
+    };
+    println!(
+        "{which} after {n} steps: |x| = {:e}",
+        black_box(&mut x).amax()
+    );
+}
+
 fn main() {
+    if let Ok(spec) = std::env::var("RIGID_RATTLE_COUNT") {
+        return count_only(&spec);
+    }
     benches();
     Criterion::default().configure_from_args().final_summary();
     summary::<6>("free_body", false);

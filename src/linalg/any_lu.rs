@@ -122,6 +122,13 @@ impl<T: Real + faer::traits::RealField + nalgebra::Scalar> Sink<T> for AutoLu<T>
     fn add(&mut self, row: usize, col: usize, value: T) {
         each!(self, s => s.add(row, col, value))
     }
+    #[inline]
+    fn dense_columns(&mut self) -> Option<(&mut [T], usize, usize)> {
+        match self {
+            AutoLu::Stack(s) => s.dense_columns(),
+            _ => None,
+        }
+    }
 }
 
 impl<T: Real + faer::traits::RealField + nalgebra::Scalar> LinearSolver<T> for AutoLu<T> {

@@ -46,6 +46,14 @@ use crate::real::Real;
 pub trait Sink<T> {
     /// Adds `value` at `(row, col)`.
     fn add(&mut self, row: usize, col: usize, value: T);
+    /// The matrix being assembled as dense column-major storage — `(values, leading
+    /// dimension, order k)`, entry `(i, j)` at `values[j · ld + i]` for `i, j < k` — when the
+    /// sink keeps one; `None` (the default) otherwise. A caller that fills every entry of a
+    /// small system writes there instead of one [`add`](Self::add) call per entry; a sink that
+    /// returns it must accept such writes as additions would be.
+    fn dense_columns(&mut self) -> Option<(&mut [T], usize, usize)> {
+        None
+    }
 }
 
 /// A [`Sink`] that keeps the entries as `(row, col, value)` triplets, in the order added:

@@ -83,41 +83,20 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
                 self.lu[(i, j)] = v;
             }
         }
-        // Right-looking elimination by columns: the storage is column-major, so every inner
-        // loop runs down a contiguous column.
-        let a = self.lu.as_mut_slice();
-        for c in 0..k {
-            let col = c * N;
-            let mut p = c;
-            let mut best = a[col + c].abs();
-            for r in c + 1..k {
-                let v = a[col + r].abs();
-                if v > best {
-                    best = v;
-                    p = r;
-                }
-            }
-            self.piv[c] = p;
-            if p != c {
-                for j in 0..k {
-                    a.swap(j * N + c, j * N + p);
-                }
-            }
-            let d = a[col + c];
-            if d == T::zero() {
-                continue;
-            }
-            for r in c + 1..k {
-                a[col + r] = a[col + r] / d;
-            }
-            for j in c + 1..k {
-                let (left, right) = a.split_at_mut(j * N);
-                let multipliers = &left[col + c + 1..col + k];
-                let f = right[c];
-                for (x, &l) in right[c + 1..k].iter_mut().zip(multipliers) {
-                    *x = *x - l * f;
-                }
-            }
+        // A constant order per arm: the small systems' loops unroll and index without bounds
+        // checks (the multiplier systems of a body or two: six to twelve rows).
+        let (a, piv) = (self.lu.as_mut_slice(), &mut self.piv);
+        match k {
+            1 => eliminate::<T, N>(a, piv, 1),
+            2 => eliminate::<T, N>(a, piv, 2),
+            3 => eliminate::<T, N>(a, piv, 3),
+            4 => eliminate::<T, N>(a, piv, 4),
+            5 => eliminate::<T, N>(a, piv, 5),
+            6 => eliminate::<T, N>(a, piv, 6),
+            7 => eliminate::<T, N>(a, piv, 7),
+            8 => eliminate::<T, N>(a, piv, 8),
+            9 => eliminate::<T, N>(a, piv, 9),
+            _ => eliminate::<T, N>(a, piv, k),
         }
         check_pivots(k, |i| self.lu[(i, i)])?;
         self.factored = true;
@@ -129,14 +108,64 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
         if !self.factored {
             return Err(LinearSolveError::NotFactored);
         }
-        if self.k == N && b.len() >= N {
-            // The whole matrix: loop bounds known at compile time, so the substitutions
-            // unroll and index without bounds checks.
-            substitute::<T, N>(&self.lu, &self.piv, &mut b[..N], N);
-        } else {
-            substitute::<T, N>(&self.lu, &self.piv, b, self.k);
+        let (lu, piv, k) = (&self.lu, &self.piv, self.k);
+        // Loop bounds known at compile time (the whole matrix, or a small order): the
+        // substitutions unroll and index without bounds checks.
+        match k {
+            _ if k == N && b.len() >= N => substitute::<T, N>(lu, piv, &mut b[..N], N),
+            1 if !b.is_empty() => substitute::<T, N>(lu, piv, &mut b[..1], 1),
+            2 if b.len() >= 2 => substitute::<T, N>(lu, piv, &mut b[..2], 2),
+            3 if b.len() >= 3 => substitute::<T, N>(lu, piv, &mut b[..3], 3),
+            4 if b.len() >= 4 => substitute::<T, N>(lu, piv, &mut b[..4], 4),
+            5 if b.len() >= 5 => substitute::<T, N>(lu, piv, &mut b[..5], 5),
+            6 if b.len() >= 6 => substitute::<T, N>(lu, piv, &mut b[..6], 6),
+            7 if b.len() >= 7 => substitute::<T, N>(lu, piv, &mut b[..7], 7),
+            8 if b.len() >= 8 => substitute::<T, N>(lu, piv, &mut b[..8], 8),
+            9 if b.len() >= 9 => substitute::<T, N>(lu, piv, &mut b[..9], 9),
+            _ => substitute::<T, N>(lu, piv, b, k),
         }
         Ok(())
+    }
+}
+
+/// Doolittle elimination with partial pivoting of the leading `k × k` block of the
+/// column-major `N × N` storage `a`, in place: right-looking by columns, so that every inner
+/// loop runs down a contiguous column. A zero pivot is left for the caller's check.
+#[inline(always)]
+fn eliminate<T: Real, const N: usize>(a: &mut [T], piv: &mut [usize; N], k: usize) {
+    let a = &mut a[..N * N];
+    for c in 0..k {
+        let col = c * N;
+        let mut p = c;
+        let mut best = a[col + c].abs();
+        for r in c + 1..k {
+            let v = a[col + r].abs();
+            if v > best {
+                best = v;
+                p = r;
+            }
+        }
+        piv[c] = p;
+        if p != c {
+            for j in 0..k {
+                a.swap(j * N + c, j * N + p);
+            }
+        }
+        let d = a[col + c];
+        if d == T::zero() {
+            continue;
+        }
+        for r in c + 1..k {
+            a[col + r] = a[col + r] / d;
+        }
+        for j in c + 1..k {
+            let (left, right) = a.split_at_mut(j * N);
+            let multipliers = &left[col + c + 1..col + k];
+            let f = right[c];
+            for (x, &l) in right[c + 1..k].iter_mut().zip(multipliers) {
+                *x = *x - l * f;
+            }
+        }
     }
 }
 
@@ -181,5 +210,10 @@ impl<T: Real + nalgebra::Scalar, const N: usize> Sink<T> for StackLu<T, N> {
         } else if self.out_of_bounds.is_none() {
             self.out_of_bounds = Some((row, col));
         }
+    }
+    /// The `k × k` block in the stack storage (leading dimension `N`).
+    #[inline]
+    fn dense_columns(&mut self) -> Option<(&mut [T], usize, usize)> {
+        Some((self.a.as_mut_slice(), N, self.k))
     }
 }

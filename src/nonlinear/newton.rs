@@ -47,6 +47,12 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     /// The last solve converged after at most one update: a kept summed Jacobian is still
     /// good enough to start the next one with.
     one_update: bool,
+    /// [`solve_affine`](Self::solve_affine)'s kept-Jacobian attempts: solves to skip before the
+    /// next (`kept_wait`) and the wait after the next failure (`kept_backoff`, doubling to
+    /// [`affine::KEPT_BACKOFF_MAX`]). A system whose matrix turns with the state (a spinning body's
+    /// `G W⁻¹ Gᵀ`) fails them, and each failure costs an update and a residual.
+    kept_wait: u8,
+    kept_backoff: u8,
     /// Column groups for a sparse Jacobian.
     groups: Option<ColumnGroups>,
     /// Per row, the last group whose pattern covers it (scratch for the pattern check).
@@ -107,6 +113,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             analytic: false,
             summed: false,
             one_update: false,
+            kept_wait: 0,
+            kept_backoff: 0,
             row_scale: Vec::with_capacity(if options.equilibrate { k } else { 0 }),
             diagonal: match pattern {
                 Some(p) if k > 1 && p.iter().all(|&(r, c)| r == c) => vec![V::Real::zero(); k],
@@ -198,6 +206,8 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
     /// Forgets a kept Jacobian (the next solve builds a new one).
     pub fn invalidate_jacobian(&mut self) {
         self.have_jacobian = false;
+        self.kept_wait = 0;
+        self.kept_backoff = 0;
     }
 
     /// Broyden's rank-one secant update `J += F(z_new) Δzᵀ / (Δzᵀ Δz)` (the "good" update,

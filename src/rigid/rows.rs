@@ -4,10 +4,10 @@
 //! universal joints and sliders (bilinear).
 //!
 //! Each row keeps its gradient as an affine map, `∂g_r/∂q_i = Σ_j A_ij q_j + b_i`, over the
-//! columns it touches; the residual is `Σ_i q_i (∂g_r/∂q_i + b_i)/2 + c_r`, the Hessian the
-//! constant `A_r` (so [`HolonomicConstraint::hessian_form`] is exact and a projection around an
-//! affine free flight solves its multipliers from the exact quadratic model), and the sparse
-//! entries of `G` are those columns, the same for every state.
+//! columns it touches, and its value as monomials `Σ_{i≤j} c_ij q_i q_j + bᵀq + c_r`; the
+//! Hessian is the constant `A_r` (so [`HolonomicConstraint::hessian_form`] is exact and a
+//! projection around an affine free flight solves its multipliers from the exact quadratic
+//! model), and the sparse entries of `G` are those columns, the same for every state.
 
 use crate::linalg::Sink;
 use crate::real::Real;
@@ -15,20 +15,40 @@ use crate::system::HolonomicConstraint;
 use crate::vector::Vector;
 use std::collections::BTreeMap;
 
-/// One row: per touched column `i`, `b_i` and the range of its `(j, A_ij)` in `pairs`.
+/// One entry `∂g_r/∂q_col = b + a q_j + Σ_more c q_k` of a row's gradient: the first term of
+/// the affine map inline (every joint row of bodies-as-directors has at most one), the others
+/// in `pairs[more]`. A column the row touches only linearly has `a = 0`, `j = col`.
+#[derive(Debug, Clone, PartialEq)]
+struct Entry<T> {
+    col: usize,
+    b: T,
+    j: usize,
+    a: T,
+    more: core::ops::Range<usize>,
+}
+
+/// One row: its gradient's entries `entries[grad]` (increasing columns) and, for the residual,
+/// its monomials `c q_i q_j` (`products[prod]`), `b q_i` (`linear[lin]`) and constant.
 #[derive(Debug, Clone, PartialEq)]
 struct Row<T> {
-    columns: Vec<(usize, T, core::ops::Range<usize>)>,
+    grad: core::ops::Range<usize>,
+    prod: core::ops::Range<usize>,
+    lin: core::ops::Range<usize>,
     constant: T,
 }
 
 /// Rows of degree ≤ 2 on the positions `q` (the first `nq` entries of the state); see the
-/// module documentation.
+/// module documentation. Stored flat — every row's entries in one list, every extra pair in
+/// another — so that a pass over `G` is one walk of contiguous memory with no per-row
+/// allocation to chase.
 #[derive(Debug, Clone, PartialEq)]
 pub struct QuadraticRows<T> {
     nq: usize,
     rows: Vec<Row<T>>,
+    entries: Vec<Entry<T>>,
     pairs: Vec<(usize, T)>,
+    products: Vec<(usize, usize, T)>,
+    linear: Vec<(usize, T)>,
 }
 
 /// A row under construction: `Σ c q_i q_j + Σ b q_i + c₀`.
@@ -112,7 +132,10 @@ impl<T: Real> QuadraticRows<T> {
         Self {
             nq,
             rows: Vec::new(),
+            entries: Vec::new(),
             pairs: Vec::new(),
+            products: Vec::new(),
+            linear: Vec::new(),
         }
     }
 
@@ -147,35 +170,71 @@ impl<T: Real> QuadraticRows<T> {
                     .push((i, a));
             }
         }
-        let mut columns = Vec::with_capacity(by_column.len());
+        let grad_start = self.entries.len();
         for (i, (b, pairs)) in by_column {
             assert!(i < self.nq, "row column {i} outside {} positions", self.nq);
+            let (j, a) = pairs.first().copied().unwrap_or((i, T::zero()));
             let start = self.pairs.len();
-            self.pairs.extend(pairs);
-            columns.push((i, b, start..self.pairs.len()));
+            self.pairs.extend(pairs.into_iter().skip(1));
+            self.entries.push(Entry {
+                col: i,
+                b,
+                j,
+                a,
+                more: start..self.pairs.len(),
+            });
         }
+        // ½ qᵀAq + bᵀq + c as monomials: A_ij q_i q_j once for i < j, ½ A_ii q_i².
+        let prod_start = self.products.len();
+        let half = T::lit(0.5);
+        for (&(i, j), &a) in &row.a {
+            self.products
+                .push((i, j, if i == j { half * a } else { a }));
+        }
+        let lin_start = self.linear.len();
+        self.linear.extend(row.b.iter().map(|(&i, &b)| (i, b)));
         self.rows.push(Row {
-            columns,
+            grad: grad_start..self.entries.len(),
+            prod: prod_start..self.products.len(),
+            lin: lin_start..self.linear.len(),
             constant: row.constant.unwrap_or_else(T::zero),
         });
         self.rows.len() - 1
     }
 
-    /// `∂g_r/∂q_i` at `q` of the column entry `(i, b, range)`.
+    /// `∂g_r/∂q_col` at `q` of the entry `e`.
     #[inline(always)]
-    fn partial(&self, q: &[T], b: T, range: &core::ops::Range<usize>) -> T {
-        self.pairs[range.clone()]
+    fn partial(&self, q: &[T], e: &Entry<T>) -> T {
+        let first = e.b + e.a * q[e.j];
+        if e.more.is_empty() {
+            return first;
+        }
+        self.pairs[e.more.clone()]
             .iter()
-            .fold(b, |s, &(j, a)| s + a * q[j])
+            .fold(first, |s, &(j, a)| s + a * q[j])
     }
 
-    /// `g_r(q)` of row `r`.
+    /// The entries of row `r`'s gradient.
+    #[inline(always)]
+    fn row_entries(&self, r: usize) -> &[Entry<T>] {
+        &self.entries[self.rows[r].grad.clone()]
+    }
+
+    /// `g_r(q)` of row `r`: its monomials summed.
+    #[inline]
     pub fn row_residual(&self, q: &[T], r: usize) -> T {
         let row = &self.rows[r];
-        let half = T::lit(0.5);
-        row.columns.iter().fold(row.constant, |s, (i, b, range)| {
-            s + q[*i] * half * (self.partial(q, *b, range) + *b)
-        })
+        let quadratic = self.products[row.prod.clone()]
+            .iter()
+            .fold(row.constant, |s, &(i, j, c)| s + c * q[i] * q[j]);
+        self.linear[row.lin.clone()]
+            .iter()
+            .fold(quadratic, |s, &(i, b)| s + b * q[i])
+    }
+
+    /// The number of structurally non-zero entries of `G` (the row's touched columns, summed).
+    pub fn entry_count(&self) -> usize {
+        self.entries.len()
     }
 }
 
@@ -184,8 +243,8 @@ impl<T: Real> QuadraticRows<T> {
     #[inline]
     #[cfg_attr(not(feature = "scene"), allow(dead_code))]
     pub(crate) fn for_each_partial(&self, q: &[T], r: usize, mut f: impl FnMut(usize, T)) {
-        for (i, b, range) in &self.rows[r].columns {
-            f(*i, self.partial(q, *b, range));
+        for e in self.row_entries(r) {
+            f(e.col, self.partial(q, e));
         }
     }
 
@@ -193,23 +252,21 @@ impl<T: Real> QuadraticRows<T> {
     #[inline]
     #[cfg_attr(not(feature = "scene"), allow(dead_code))]
     pub(crate) fn row_hessian(&self, u: &[T], v: &[T], r: usize) -> T {
-        self.rows[r]
-            .columns
-            .iter()
-            .fold(T::zero(), |s, (i, _, range)| {
-                let av = self.pairs[range.clone()]
-                    .iter()
-                    .fold(T::zero(), |s, &(j, a)| s + a * v[j]);
-                s + u[*i] * av
-            })
+        self.row_entries(r).iter().fold(T::zero(), |s, e| {
+            let av = self.pairs[e.more.clone()]
+                .iter()
+                .fold(e.a * v[e.j], |s, &(j, a)| s + a * v[j]);
+            s + u[e.col] * av
+        })
     }
 
     /// `out = G(q) v` on position slices.
     pub fn apply_positions(&self, q: &[T], v: &[T], out: &mut [T]) {
-        for (row, o) in self.rows.iter().zip(out.iter_mut()) {
-            *o = row.columns.iter().fold(T::zero(), |s, (i, b, range)| {
-                s + self.partial(q, *b, range) * v[*i]
-            });
+        for (r, o) in out.iter_mut().enumerate().take(self.rows.len()) {
+            *o = self
+                .row_entries(r)
+                .iter()
+                .fold(T::zero(), |s, e| s + self.partial(q, e) * v[e.col]);
         }
     }
 
@@ -221,10 +278,23 @@ impl<T: Real> QuadraticRows<T> {
                 continue;
             }
             let c = alpha * m;
-            for (i, b, range) in &row.columns {
-                out[*i] = out[*i] + c * self.partial(q, *b, range);
+            for e in &self.entries[row.grad.clone()] {
+                out[e.col] = out[e.col] + c * self.partial(q, e);
             }
         }
+    }
+
+    /// Writes the entries of `G(q)` in the order [`HolonomicConstraint::jacobian_entries`]
+    /// lists them (by rows, increasing columns); `false` when `out` does not hold exactly
+    /// [`entry_count`](Self::entry_count) of them.
+    pub fn entry_values(&self, q: &[T], out: &mut [T]) -> bool {
+        if out.len() != self.entries.len() {
+            return false;
+        }
+        for (o, e) in out.iter_mut().zip(&self.entries) {
+            *o = self.partial(q, e);
+        }
+        true
     }
 }
 
@@ -234,17 +304,12 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for QuadraticRows<T> {
     }
     fn residual(&self, x: &V, out: &mut [T]) {
         let q = x.as_slice();
-        for (r, o) in out.iter_mut().enumerate() {
+        for (r, o) in out.iter_mut().enumerate().take(self.rows.len()) {
             *o = self.row_residual(q, r);
         }
     }
     fn jacobian_apply(&self, x: &V, v: &V, out: &mut [T]) {
-        let (q, v) = (x.as_slice(), v.as_slice());
-        for (row, o) in self.rows.iter().zip(out.iter_mut()) {
-            *o = row.columns.iter().fold(T::zero(), |s, (i, b, range)| {
-                s + self.partial(q, *b, range) * v[*i]
-            });
-        }
+        self.apply_positions(x.as_slice(), v.as_slice(), out);
     }
     fn jacobian_transpose_apply_add(&self, x: &V, mu: &[T], alpha: T, out: &mut V) {
         self.transpose_add_positions(x.as_slice(), mu, alpha, out.as_mut_slice());
@@ -252,23 +317,21 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for QuadraticRows<T> {
     /// `uᵀA_r v`: the rows are quadratic, their Hessians constant.
     fn hessian_form(&self, _x: &V, u: &V, v: &V, out: &mut [T]) -> bool {
         let (u, v) = (u.as_slice(), v.as_slice());
-        for (row, o) in self.rows.iter().zip(out.iter_mut()) {
-            *o = row.columns.iter().fold(T::zero(), |s, (i, _, range)| {
-                let av = self.pairs[range.clone()]
-                    .iter()
-                    .fold(T::zero(), |s, &(j, a)| s + a * v[j]);
-                s + u[*i] * av
-            });
+        for (r, o) in out.iter_mut().enumerate().take(self.rows.len()) {
+            *o = self.row_hessian(u, v, r);
         }
         true
     }
     fn jacobian_entries(&self, x: &V, sink: &mut dyn Sink<T>) -> bool {
         let q = x.as_slice();
         for (r, row) in self.rows.iter().enumerate() {
-            for (i, b, range) in &row.columns {
-                sink.add(r, *i, self.partial(q, *b, range));
+            for e in &self.entries[row.grad.clone()] {
+                sink.add(r, e.col, self.partial(q, e));
             }
         }
         true
+    }
+    fn jacobian_values(&self, x: &V, out: &mut [T]) -> bool {
+        self.entry_values(x.as_slice(), out)
     }
 }

@@ -44,6 +44,15 @@ pub trait HolonomicConstraint<V: Vector> {
         let _ = (x, sink);
         false
     }
+    /// Writes the values of the entries [`jacobian_entries`](Self::jacobian_entries) lists, in
+    /// its order, into `out` and returns `true`; `false` (the default) when the model does not
+    /// offer them this way or `out` does not hold exactly that many. The numeric half of the
+    /// pattern without a [`Sink`] call per entry: a projection that sums its multiplier
+    /// Jacobians from `G`'s entries refills them at every Jacobian.
+    fn jacobian_values(&self, x: &V, out: &mut [V::Real]) -> bool {
+        let _ = (x, out);
+        false
+    }
     /// Writes the hidden constraint `φ(x) = G(x) M(x) ∇H(x)` into `out` and returns `true`, for
     /// a model that knows it without `∇H`; the default returns `false` and `φ` is computed from
     /// `∇H`, `M` and `G`.

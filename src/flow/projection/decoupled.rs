@@ -57,8 +57,12 @@ where
             ..
         } = &mut self.w;
         let x = base.resolve(prev);
-        if let (Some(gram), Mode::LambdaK) = (self.gram.as_mut(), mode) {
-            gram.forget_x();
+        if let Some(gram) = self.gram.as_mut() {
+            if mode == Mode::LambdaK {
+                gram.forget_x();
+            }
+            // The base or `y` may have moved since the last fill (a fused stage swaps them).
+            gram.forget_y();
         }
         let mut problem = Stage {
             mode,
@@ -280,6 +284,15 @@ where
     #[inline(always)]
     pub(super) fn decoupling_guard<const K: usize>(&mut self, m: usize) -> Result<(), StepError> {
         let w = &mut self.w;
+        // A model of mechanical form whose second half-step moved momenta only (as it does
+        // through the gram's values): its constraint reads positions alone (the gram's
+        // pattern lists no momentum), so `g(x_{k+1}) = g(y)` exactly.
+        if let (Some(mass), Some(_)) = (self.inverse_mass.as_ref(), self.gram.as_ref()) {
+            let nq = mass.len();
+            if w.x_next.as_slice()[..nq] == w.y.as_slice()[..nq] {
+                return Ok(());
+            }
+        }
         let gx = &mut w.r.as_mut_slice()[..m];
         self.system.constraint().residual(&w.x_next, gx);
         // g(y) is the λ_k system's last residual.

@@ -40,10 +40,16 @@ pub(super) struct Gram<T> {
     at_x: Vec<T>,
     /// `G(y)` times the inverse mass of each entry's column.
     at_y: Vec<T>,
+    /// `G(y)` itself (the right factor of `G(y) W⁻¹ G(y)ᵀ`, without a division per pair).
+    raw_y: Vec<T>,
     /// `at_x` holds `G` at the present solve's `x`.
     x_fresh: bool,
+    /// `at_y` and `raw_y` hold `G` at the present `y` (see [`forget_y`](Self::forget_y)).
+    y_fresh: bool,
     /// The constraint listed the same entries at every point so far.
     usable: bool,
+    /// One more than the largest row or column of a product entry.
+    span: usize,
 }
 
 /// Which values of `G` the right factor of a product is taken at.
@@ -65,11 +71,15 @@ impl<T: Real> Gram<T> {
     {
         let pattern = EntryPairs::new(constraint, x0, nq)?;
         let nnz = pattern.rows.len();
+        let span = pattern.targets.iter().map(|&(i, j)| i.max(j) + 1).max();
         Some(Self {
+            span: span.unwrap_or(0),
             pattern,
             at_x: vec![T::zero(); nnz],
             at_y: vec![T::zero(); nnz],
+            raw_y: vec![T::zero(); nnz],
             x_fresh: false,
+            y_fresh: false,
             usable: true,
         })
     }
@@ -84,6 +94,39 @@ impl<T: Real> Gram<T> {
         self.x_fresh = false;
     }
 
+    /// `y` changed (a new iterate, a new solve): the values at `y` are stale until filled.
+    pub(super) fn forget_y(&mut self) {
+        self.y_fresh = false;
+    }
+
+    /// The values at `y` belong to the present `y`.
+    pub(super) fn y_fresh(&self) -> bool {
+        self.y_fresh && self.usable
+    }
+
+    /// `out = G(y) W⁻¹ p` (`p` the momenta, `m` rows): the hidden constraint of a model of
+    /// mechanical form at a point with `y`'s positions, from the values last filled at `y`.
+    pub(super) fn velocity(&self, p: &[T], out: &mut [T]) {
+        out.iter_mut().for_each(|o| *o = T::zero());
+        let pat = &self.pattern;
+        for ((&v, &r), &c) in self.at_y.iter().zip(&pat.rows).zip(&pat.cols) {
+            out[r] = out[r] + v * p[c];
+        }
+    }
+
+    /// `out += scale · G(·)ᵀ a` on the positions' columns (`out` as long as the positions),
+    /// from the values last filled at `x` or `y`: one pass over the entries.
+    pub(super) fn transpose_add(&self, at: Right, a: &[T], scale: T, out: &mut [T]) {
+        let vals = match at {
+            Right::AtX => &self.at_x,
+            Right::AtY => &self.raw_y,
+        };
+        let p = &self.pattern;
+        for ((&v, &r), &c) in vals.iter().zip(&p.rows).zip(&p.cols) {
+            out[c] = out[c] + scale * a[r] * v;
+        }
+    }
+
     /// Fills the values of `G` at the solve's start `x` (once a solve) or at `y` (`at_y`,
     /// scaled by the inverse masses `w`); `false` — then and from then on — when the
     /// constraint lists other entries than at construction.
@@ -95,55 +138,81 @@ impl<T: Real> Gram<T> {
         if !self.usable {
             return false;
         }
-        if !at_y && self.x_fresh {
+        if (!at_y && self.x_fresh) || (at_y && self.y_fresh) {
             return true;
         }
         let vals = if at_y { &mut self.at_y } else { &mut self.at_x };
         let nnz = vals.len();
-        let mut fill = PatternFill {
-            rows: &self.pattern.rows,
-            cols: &self.pattern.cols,
-            vals,
-            next: 0,
-            same: true,
-        };
-        self.usable = constraint.jacobian_entries(x, &mut fill) && fill.same && fill.next == nnz;
+        // The values alone where the constraint offers them (in the order it listed its
+        // entries, by contract); else every entry through a sink that checks its position.
+        if !constraint.jacobian_values(x, vals) {
+            let mut fill = PatternFill {
+                rows: &self.pattern.rows,
+                cols: &self.pattern.cols,
+                vals,
+                next: 0,
+                same: true,
+            };
+            self.usable =
+                constraint.jacobian_entries(x, &mut fill) && fill.same && fill.next == nnz;
+        }
         if at_y {
-            for (v, &d) in self.at_y.iter_mut().zip(&self.pattern.cols) {
+            for ((v, r), &d) in self
+                .at_y
+                .iter_mut()
+                .zip(&mut self.raw_y)
+                .zip(&self.pattern.cols)
+            {
+                *r = *v;
                 *v = *v * w[d];
             }
+            self.y_fresh = self.usable;
         } else {
             self.x_fresh = self.usable;
         }
         self.usable
     }
 
-    /// Adds `scale · G(y) W⁻¹ G(·)ᵀ` (`w` the inverse masses) into `sink`, from the values
-    /// last filled.
-    pub(super) fn add_to(&self, w: &[T], scale: T, right: Right, sink: &mut dyn Sink<T>) {
+    /// Adds `scale · G(y) W⁻¹ G(·)ᵀ` into `sink`, from the values last filled: into its dense
+    /// storage when it keeps one ([`Sink::dense_columns`]), else one addition per entry.
+    pub(super) fn add_to(&self, scale: T, right: Right, sink: &mut dyn Sink<T>) {
         let p = &self.pattern;
-        match right {
-            Right::AtX => {
-                for (t, &(i, j)) in p.targets.iter().enumerate() {
-                    let sum = p
-                        .group(t)
-                        .iter()
-                        .fold(T::zero(), |s, &(a, b)| s + self.at_y[a] * self.at_x[b]);
-                    sink.add(i, j, scale * sum);
+        // `G(y)` on the right is `raw_y` (`at_y` carries W⁻¹ already).
+        let other = match right {
+            Right::AtX => &self.at_x,
+            Right::AtY => &self.raw_y,
+        };
+        let sum = |t: usize| {
+            p.group(t)
+                .iter()
+                .fold(T::zero(), |s, &(a, b)| s + self.at_y[a] * other[b])
+        };
+        // Dense storage: no call per entry.
+        if let Some((values, ld, k)) = sink.dense_columns()
+            && self.span <= k
+        {
+            for (t, &(i, j)) in p.targets.iter().enumerate() {
+                // Symmetric at `y`: each entry above the diagonal summed once, put twice.
+                if right == Right::AtY && i > j {
+                    continue;
+                }
+                let v = scale * sum(t);
+                values[j * ld + i] = values[j * ld + i] + v;
+                if right == Right::AtY && i != j {
+                    values[i * ld + j] = values[i * ld + j] + v;
                 }
             }
-            // Symmetric: each entry above the diagonal summed once and added twice. `at_y`
-            // carries W⁻¹ already; `G(y)` on the right is `at_y / w`.
-            Right::AtY => {
-                for (t, &(i, j)) in p.targets.iter().enumerate().filter(|(_, (i, j))| i <= j) {
-                    let sum = p.group(t).iter().fold(T::zero(), |s, &(a, b)| {
-                        s + self.at_y[a] * self.at_y[b] / w[p.cols[a]]
-                    });
-                    sink.add(i, j, scale * sum);
-                    if i != j {
-                        sink.add(j, i, scale * sum);
-                    }
-                }
+            return;
+        }
+        for (t, &(i, j)) in p.targets.iter().enumerate() {
+            // Symmetric at `y`: each entry above the diagonal summed once and added twice.
+            if right == Right::AtY && i > j {
+                continue;
+            }
+            let v = scale * sum(t);
+            sink.add(i, j, v);
+            if right == Right::AtY && i != j {
+                sink.add(j, i, v);
             }
         }
     }

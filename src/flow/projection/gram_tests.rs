@@ -74,7 +74,7 @@ fn the_sums_are_the_products_with_g() {
     assert!(gram.fill(&c, &y, true, &w) && gram.fill(&c, &x, false, &w));
     for (right, b) in [(Right::AtX, &x), (Right::AtY, &y)] {
         let mut sums = Triplets::default();
-        gram.add_to(&w, -0.5, right, &mut sums);
+        gram.add_to(-0.5, right, &mut sums);
         let m = HolonomicConstraint::<Col<f64>>::dim(&c);
         let mut got = vec![vec![0.0; m]; m];
         for (i, j, v) in sums.entries {

@@ -102,12 +102,16 @@ where
             return Ok(());
         }
         *self.y_valid = false;
+        if let Some(gram) = self.gram.as_deref_mut() {
+            gram.forget_y();
+        }
         let half = self.h * V::Real::lit(0.5);
         // x̂ = x + h/2 M Gᵀ a, written straight into y (the inner flow then steps it in place);
-        // x̂ = x at a = 0 (a solve started from zero) without forming the zero force.
+        // x̂ = x at a = 0 (a solve started from zero) without forming the zero force; from
+        // the gram's values for a model of mechanical form.
         if a.iter().all(|v| v.is_zero()) {
             self.y.copy_from(self.x);
-        } else {
+        } else if !self.gram_force(Right::AtX, a) {
             self.system.constraint_force(self.x, a, self.t1, self.t2);
             ops::add_scaled(
                 self.y.as_mut_slice(),
@@ -147,6 +151,9 @@ where
             self.x_next.copy_from(self.y);
             return;
         }
+        if self.gram.as_deref().is_some_and(|g| g.y_fresh()) && self.gram_force(Right::AtY, b) {
+            return;
+        }
         let half = self.h * V::Real::lit(0.5);
         self.system.constraint_force(&*self.y, b, self.t1, self.t2);
         ops::add_scaled(
@@ -155,6 +162,48 @@ where
             half,
             self.t2.as_slice(),
         );
+    }
+
+    /// The `λ_{k+1}` residual of a model of mechanical form from the [`Gram`]'s values at `y`
+    /// (filled here once a solve, then read by the Jacobian): `x' = y + (h/2) M G(y)ᵀ b` moves
+    /// only momenta, so `G(x') = G(y)` and `φ(x') = G(y) W⁻¹ p'` — one pass over `G`'s entries
+    /// where the general residual evaluates `∇H`, `M` and the constraint. `false` (nothing
+    /// written) without a usable gram.
+    fn hidden_from_gram(&mut self, b: &[V::Real], f: &mut [V::Real]) -> bool {
+        let (Some(w), Some(gram)) = (self.inverse_mass, self.gram.as_deref_mut()) else {
+            return false;
+        };
+        if !gram.fill(self.system.constraint(), &*self.y, true, w) {
+            return false;
+        }
+        self.end_point_explicit(b);
+        let gram = self.gram.as_deref().expect("checked above");
+        gram.velocity(&self.x_next.as_slice()[w.len()..], f);
+        true
+    }
+
+    /// A half-step along the constraint force from the [`Gram`]'s values, for a model of
+    /// mechanical form (`M Gᵀa = (0, −G_qᵀa)` whatever its damping block): `y = x + (h/2) M
+    /// G(x)ᵀ a` (`AtX`, filling `G(x)` once a solve) or `x' = y + (h/2) M G(y)ᵀ a` (`AtY`, from
+    /// the values the caller checked fresh). One pass over `G`'s entries instead of the
+    /// constraint's own `Gᵀa` and `M`; `false` (nothing written) without a usable gram.
+    fn gram_force(&mut self, at: Right, a: &[V::Real]) -> bool {
+        let (Some(w), Some(gram)) = (self.inverse_mass, self.gram.as_deref_mut()) else {
+            return false;
+        };
+        let (from, to) = match at {
+            Right::AtX => {
+                if !gram.fill(self.system.constraint(), self.x, false, w) {
+                    return false;
+                }
+                (self.x, &mut *self.y)
+            }
+            Right::AtY => (&*self.y, &mut *self.x_next),
+        };
+        to.copy_from(from);
+        let half = self.h * V::Real::lit(0.5);
+        gram.transpose_add(at, a, -half, &mut to.as_mut_slice()[w.len()..]);
+        true
     }
 
     /// `x' = y + h/2 M(x') G(x')ᵀ b` by fixed-point iteration from the explicit guess.
@@ -348,7 +397,7 @@ where
             Right::AtX => -(half * h),
             Right::AtY => -half,
         };
-        gram.add_to(w, scale, right, sink);
+        gram.add_to(scale, right, sink);
         true
     }
 
@@ -384,8 +433,10 @@ where
                 }
             }
             Mode::LambdaK1 => {
-                self.end_point_explicit(z);
-                self.hidden(f);
+                if !self.hidden_from_gram(z, f) {
+                    self.end_point_explicit(z);
+                    self.hidden(f);
+                }
             }
             Mode::Coupled => {
                 self.compute_y(&z[..m])?;

@@ -2,6 +2,9 @@
 //! update.
 
 use super::Newton;
+
+/// The most solves [`Newton::solve_affine`] skips its kept Jacobian after failed attempts.
+pub(super) const KEPT_BACKOFF_MAX: u8 = 31;
 use crate::error::NewtonError;
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NonlinearProblem, SolveReport, effective_residual};
@@ -39,7 +42,10 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         // it, kept when the residual there meets the tolerance (the system drifts slowly from
         // step to step); otherwise the fresh one below, from where this update left `z`.
         let ratio = self.jacobian_scale / scale;
-        if self.have_jacobian && self.summed && self.one_update && ratio.is_finite() {
+        let kept = self.have_jacobian && self.summed && self.one_update && ratio.is_finite();
+        if kept && self.kept_wait > 0 {
+            self.kept_wait -= 1;
+        } else if kept {
             self.newton_step(z, ratio)?;
             let f = &mut self.f.as_mut_slice()[..k];
             problem.residual(z, f).map_err(NewtonError::Residual)?;
@@ -53,8 +59,11 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
                 problem.residual(z, f).map_err(NewtonError::Residual)?;
                 report.residual_evaluations += 1;
             } else if effective_residual(problem, f) <= self.options.ftol {
+                self.kept_backoff = 0;
                 return Ok(report);
             }
+            self.kept_backoff = (2 * self.kept_backoff + 1).min(KEPT_BACKOFF_MAX);
+            self.kept_wait = self.kept_backoff;
         }
         self.have_jacobian = false;
         self.jacobian(problem, z, scale, &mut report)?;

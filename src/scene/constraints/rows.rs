@@ -27,7 +27,8 @@ pub(crate) struct Rows<T = f64> {
     /// A joint's anchor in each end's frame and its axis in the first's, for a drawing (boxed:
     /// a body's own rows, the most common term, carry none).
     drawn: Option<Box<Drawn>>,
-    rows: QuadraticRows<T>,
+    /// Boxed: the flat row storage is the largest part of any constraint term.
+    rows: Box<QuadraticRows<T>>,
 }
 
 /// A joint's anchors and axis, as [`JointSketch`] has them.
@@ -74,7 +75,7 @@ impl Rows<f64> {
             source,
             declared,
             drawn: None,
-            rows,
+            rows: Box::new(rows),
         }
     }
 
@@ -104,7 +105,7 @@ impl Rows<f64> {
         let term = Self {
             source,
             declared,
-            rows,
+            rows: Box::new(rows),
             ..self.clone()
         };
         (term, gone)
@@ -135,7 +136,7 @@ impl Rows<f64> {
             source: self.source.clone(),
             declared: self.declared.clone(),
             drawn: self.drawn.clone(),
-            rows,
+            rows: Box::new(rows),
         }
     }
 }
