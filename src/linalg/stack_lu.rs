@@ -16,6 +16,9 @@ pub struct StackLu<T: Real + nalgebra::Scalar, const N: usize> {
     a: SMatrix<T, N, N>,
     lu: SMatrix<T, N, N>,
     piv: [usize; N],
+    /// The reciprocals of `U`'s diagonal: the back substitution multiplies (its divisions were
+    /// a chain of dependent latencies on every solve).
+    inv_diag: [T; N],
     factored: bool,
     /// The first entry added outside the matrix since the last `clear` (reported by `factor`).
     out_of_bounds: Option<(usize, usize)>,
@@ -34,6 +37,7 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
             a: SMatrix::from_element(T::zero()),
             lu: SMatrix::from_element(T::zero()),
             piv: [0; N],
+            inv_diag: [T::zero(); N],
             out_of_bounds: None,
             factored: false,
         })
@@ -99,6 +103,9 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
             _ => eliminate::<T, N>(a, piv, k),
         }
         check_pivots(k, |i| self.lu[(i, i)])?;
+        for (i, inv) in self.inv_diag.iter_mut().enumerate().take(k) {
+            *inv = T::one() / self.lu[(i, i)];
+        }
         self.factored = true;
         Ok(())
     }
@@ -108,21 +115,21 @@ impl<T: Real + nalgebra::Scalar, const N: usize> LinearSolver<T> for StackLu<T, 
         if !self.factored {
             return Err(LinearSolveError::NotFactored);
         }
-        let (lu, piv, k) = (&self.lu, &self.piv, self.k);
+        let (lu, piv, inv, k) = (&self.lu, &self.piv, &self.inv_diag, self.k);
         // Loop bounds known at compile time (the whole matrix, or a small order): the
         // substitutions unroll and index without bounds checks.
         match k {
-            _ if k == N && b.len() >= N => substitute::<T, N>(lu, piv, &mut b[..N], N),
-            1 if !b.is_empty() => substitute::<T, N>(lu, piv, &mut b[..1], 1),
-            2 if b.len() >= 2 => substitute::<T, N>(lu, piv, &mut b[..2], 2),
-            3 if b.len() >= 3 => substitute::<T, N>(lu, piv, &mut b[..3], 3),
-            4 if b.len() >= 4 => substitute::<T, N>(lu, piv, &mut b[..4], 4),
-            5 if b.len() >= 5 => substitute::<T, N>(lu, piv, &mut b[..5], 5),
-            6 if b.len() >= 6 => substitute::<T, N>(lu, piv, &mut b[..6], 6),
-            7 if b.len() >= 7 => substitute::<T, N>(lu, piv, &mut b[..7], 7),
-            8 if b.len() >= 8 => substitute::<T, N>(lu, piv, &mut b[..8], 8),
-            9 if b.len() >= 9 => substitute::<T, N>(lu, piv, &mut b[..9], 9),
-            _ => substitute::<T, N>(lu, piv, b, k),
+            _ if k == N && b.len() >= N => substitute::<T, N>(lu, piv, inv, &mut b[..N], N),
+            1 if !b.is_empty() => substitute::<T, N>(lu, piv, inv, &mut b[..1], 1),
+            2 if b.len() >= 2 => substitute::<T, N>(lu, piv, inv, &mut b[..2], 2),
+            3 if b.len() >= 3 => substitute::<T, N>(lu, piv, inv, &mut b[..3], 3),
+            4 if b.len() >= 4 => substitute::<T, N>(lu, piv, inv, &mut b[..4], 4),
+            5 if b.len() >= 5 => substitute::<T, N>(lu, piv, inv, &mut b[..5], 5),
+            6 if b.len() >= 6 => substitute::<T, N>(lu, piv, inv, &mut b[..6], 6),
+            7 if b.len() >= 7 => substitute::<T, N>(lu, piv, inv, &mut b[..7], 7),
+            8 if b.len() >= 8 => substitute::<T, N>(lu, piv, inv, &mut b[..8], 8),
+            9 if b.len() >= 9 => substitute::<T, N>(lu, piv, inv, &mut b[..9], 9),
+            _ => substitute::<T, N>(lu, piv, inv, b, k),
         }
         Ok(())
     }
@@ -155,8 +162,16 @@ fn eliminate<T: Real, const N: usize>(a: &mut [T], piv: &mut [usize; N], k: usiz
         if d == T::zero() {
             continue;
         }
-        for r in c + 1..k {
-            a[col + r] = a[col + r] / d;
+        // Scaled by the reciprocal, as LAPACK's dgetf2 does where it cannot overflow.
+        if d.abs() >= T::min_positive_value() {
+            let inv = T::one() / d;
+            for r in c + 1..k {
+                a[col + r] = a[col + r] * inv;
+            }
+        } else {
+            for r in c + 1..k {
+                a[col + r] = a[col + r] / d;
+            }
         }
         for j in c + 1..k {
             let (left, right) = a.split_at_mut(j * N);
@@ -175,6 +190,7 @@ fn eliminate<T: Real, const N: usize>(a: &mut [T], piv: &mut [usize; N], k: usiz
 fn substitute<T: Real + nalgebra::Scalar, const N: usize>(
     lu: &SMatrix<T, N, N>,
     piv: &[usize; N],
+    inv_diag: &[T; N],
     b: &mut [T],
     k: usize,
 ) {
@@ -190,7 +206,7 @@ fn substitute<T: Real + nalgebra::Scalar, const N: usize>(
         }
     }
     for j in (0..k).rev() {
-        let bj = b[j] / a[j * N + j];
+        let bj = b[j] * inv_diag[j];
         b[j] = bj;
         for (x, &u) in b[..j].iter_mut().zip(&a[j * N..j * N + j]) {
             *x = *x - u * bj;

@@ -173,6 +173,15 @@ impl<T: Real> Gram<T> {
         self.usable
     }
 
+    /// `Σ at_y[a] other[b]` over the pairs of entries that meet in a column for target `t`.
+    #[inline(always)]
+    fn pair_sum(&self, t: usize, other: &[T]) -> T {
+        self.pattern
+            .group(t)
+            .iter()
+            .fold(T::zero(), |s, &(a, b)| s + self.at_y[a] * other[b])
+    }
+
     /// Adds `scale · G(y) W⁻¹ G(·)ᵀ` into `sink`, from the values last filled: into its dense
     /// storage when it keeps one ([`Sink::dense_columns`]), else one addition per entry.
     pub(super) fn add_to(&self, scale: T, right: Right, sink: &mut dyn Sink<T>) {
@@ -181,11 +190,6 @@ impl<T: Real> Gram<T> {
         let other = match right {
             Right::AtX => &self.at_x,
             Right::AtY => &self.raw_y,
-        };
-        let sum = |t: usize| {
-            p.group(t)
-                .iter()
-                .fold(T::zero(), |s, &(a, b)| s + self.at_y[a] * other[b])
         };
         // Dense storage: no call per entry.
         if let Some((values, ld, k)) = sink.dense_columns()
@@ -196,7 +200,7 @@ impl<T: Real> Gram<T> {
                 if right == Right::AtY && i > j {
                     continue;
                 }
-                let v = scale * sum(t);
+                let v = scale * self.pair_sum(t, other);
                 values[j * ld + i] = values[j * ld + i] + v;
                 if right == Right::AtY && i != j {
                     values[i * ld + j] = values[i * ld + j] + v;
@@ -209,7 +213,7 @@ impl<T: Real> Gram<T> {
             if right == Right::AtY && i > j {
                 continue;
             }
-            let v = scale * sum(t);
+            let v = scale * self.pair_sum(t, other);
             sink.add(i, j, v);
             if right == Right::AtY && i != j {
                 sink.add(j, i, v);

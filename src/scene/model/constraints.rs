@@ -148,4 +148,20 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         });
         true
     }
+
+    /// The same walk as [`jacobian_entries`](Self::jacobian_entries), the values alone.
+    fn jacobian_values(&self, x: &V, out: &mut [T]) -> bool {
+        if !self.sparse {
+            return false;
+        }
+        let d = self.dim;
+        let mut next = 0;
+        self.for_each_gradient(x.as_slice(), |_, _, coef| {
+            if let Some(slots) = out.get_mut(next..next + d) {
+                slots.copy_from_slice(&coef[..d]);
+            }
+            next += d;
+        });
+        next == out.len()
+    }
 }
