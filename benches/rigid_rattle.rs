@@ -11,8 +11,11 @@
 //! cargo bench --bench rigid_rattle
 //! ```
 //!
-//! Besides criterion's groups it prints one line per model with the median ns/step of each
-//! (9 runs of about 0.25 s, same process) and their ratio.
+//! Besides criterion's groups it prints one line per model with the median ns/step of each and
+//! the median of their ratios over 15 interleaved rounds (same process; each round times one
+//! run of about 0.1 s of the library and of both hand-written steps, the faster of which is the
+//! baseline). `RIGID_RATTLE_COUNT` runs one variant alone, for instruction counts (see
+//! `count_only`).
 
 use criterion::{Criterion, criterion_group};
 use lieflow::prelude::*;
@@ -218,8 +221,8 @@ where
     );
 }
 
-/// Median ns/step over 9 runs of about 0.25 s.
-fn median_ns(mut step: impl FnMut()) -> f64 {
+/// Steps per timed run of `step`: about 0.1 s each.
+fn calibrate(step: &mut impl FnMut()) -> usize {
     for _ in 0..100 {
         step();
     }
@@ -228,20 +231,26 @@ fn median_ns(mut step: impl FnMut()) -> f64 {
         step();
     }
     let one = start.elapsed().as_secs_f64() / 100.0;
-    let per_run = ((0.25 / one) as usize).clamp(5, 1_000_000);
-    let mut runs: Vec<f64> = (0..9)
-        .map(|_| {
-            let start = Instant::now();
-            for _ in 0..per_run {
-                step();
-            }
-            start.elapsed().as_nanos() as f64 / per_run as f64
-        })
-        .collect();
-    runs.sort_by(f64::total_cmp);
-    runs[4]
+    ((0.1 / one) as usize).clamp(5, 1_000_000)
 }
 
+/// ns/step of one timed run of `n` steps.
+fn run_ns(step: &mut impl FnMut(), n: usize) -> f64 {
+    let start = Instant::now();
+    for _ in 0..n {
+        step();
+    }
+    start.elapsed().as_nanos() as f64 / n as f64
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The library's step against the faster of the two hand-written ones, in 15 rounds of one
+/// run each (about 0.1 s), interleaved so that a shared machine's drift moves both alike: the
+/// median ns/step of each and the median of the rounds' ratios.
 fn summary<const M: usize>(name: &str, pivot: bool)
 where
     Const<M>: DimMin<Const<M>, Output = Const<M>>,
@@ -251,15 +260,29 @@ where
     }
     let (model, ..) = top(pivot);
     let (mut flow, mut x) = library(&model);
-    let lib = median_ns(|| flow.step(black_box(H), &mut x).unwrap());
-    let mut best = f64::INFINITY;
-    for simplified in [false, true] {
-        let (mut hand, mut y) = hand::<M>(pivot, simplified);
-        best = best.min(median_ns(|| hand.step(black_box(H), y.as_mut_slice())));
+    let mut lib = || flow.step(black_box(H), &mut x).unwrap();
+    let (mut hand_s, mut ys) = hand::<M>(pivot, true);
+    let mut simplified = || hand_s.step(black_box(H), ys.as_mut_slice());
+    let (mut hand_e, mut ye) = hand::<M>(pivot, false);
+    let mut exact = || hand_e.step(black_box(H), ye.as_mut_slice());
+    let (n_lib, n_s, n_e) = (
+        calibrate(&mut lib),
+        calibrate(&mut simplified),
+        calibrate(&mut exact),
+    );
+    let (mut libs, mut hands, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..15 {
+        let l = run_ns(&mut lib, n_lib);
+        let h = run_ns(&mut simplified, n_s).min(run_ns(&mut exact, n_e));
+        libs.push(l);
+        hands.push(h);
+        ratios.push(l / h);
     }
     println!(
-        "{{\"bench\":\"rigid_rattle\",\"model\":\"{name}\",\"library_ns\":{lib:.0},\"hand_ns\":{best:.0},\"ratio\":{:.2}}}",
-        lib / best
+        "{{\"bench\":\"rigid_rattle\",\"model\":\"{name}\",\"library_ns\":{:.0},\"hand_ns\":{:.0},\"ratio\":{:.2}}}",
+        median(libs),
+        median(hands),
+        median(ratios)
     );
 }
 

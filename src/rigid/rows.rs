@@ -335,3 +335,7 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for QuadraticRows<T> {
         self.entry_values(x.as_slice(), out)
     }
 }
+
+#[cfg(test)]
+#[path = "rows_tests.rs"]
+mod tests;

@@ -42,10 +42,16 @@ pub(super) struct Gram<T> {
     at_y: Vec<T>,
     /// `G(y)` itself (the right factor of `G(y) W⁻¹ G(y)ᵀ`, without a division per pair).
     raw_y: Vec<T>,
+    /// The positions `raw_y` was filled at: `G` reads positions only, so a step that starts
+    /// where the last `λ_{k+1}` solve's `y` left them (every step after the first: the second
+    /// half-step moves momenta only) has its `G(x)` already.
+    y_positions: Vec<T>,
     /// `at_x` holds `G` at the present solve's `x`.
     x_fresh: bool,
     /// `at_y` and `raw_y` hold `G` at the present `y` (see [`forget_y`](Self::forget_y)).
     y_fresh: bool,
+    /// `raw_y` holds `G` at `y_positions` (from any earlier fill).
+    y_filled: bool,
     /// The constraint listed the same entries at every point so far.
     usable: bool,
     /// One more than the largest row or column of a product entry.
@@ -78,8 +84,10 @@ impl<T: Real> Gram<T> {
             at_x: vec![T::zero(); nnz],
             at_y: vec![T::zero(); nnz],
             raw_y: vec![T::zero(); nnz],
+            y_positions: vec![T::zero(); nq],
             x_fresh: false,
             y_fresh: false,
+            y_filled: false,
             usable: true,
         })
     }
@@ -141,6 +149,12 @@ impl<T: Real> Gram<T> {
         if (!at_y && self.x_fresh) || (at_y && self.y_fresh) {
             return true;
         }
+        let nq = self.y_positions.len();
+        if !at_y && self.y_filled && x.as_slice()[..nq] == self.y_positions[..] {
+            self.at_x.copy_from_slice(&self.raw_y);
+            self.x_fresh = true;
+            return true;
+        }
         let vals = if at_y { &mut self.at_y } else { &mut self.at_x };
         let nnz = vals.len();
         // The values alone where the constraint offers them (in the order it listed its
@@ -167,6 +181,8 @@ impl<T: Real> Gram<T> {
                 *v = *v * w[d];
             }
             self.y_fresh = self.usable;
+            self.y_filled = self.usable;
+            self.y_positions.copy_from_slice(&x.as_slice()[..nq]);
         } else {
             self.x_fresh = self.usable;
         }
