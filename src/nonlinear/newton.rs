@@ -53,6 +53,9 @@ pub struct Newton<V: Vector, L = <V as Vector>::Solver> {
     /// `G W⁻¹ Gᵀ`) fails them, and each failure costs an update and a residual.
     kept_wait: u8,
     kept_backoff: u8,
+    /// The last solve that started from a kept summed Jacobian converged in two updates or
+    /// fewer (see [`NonlinearSolver::solve`]).
+    kept_converges: bool,
     /// Column groups for a sparse Jacobian.
     groups: Option<ColumnGroups>,
     /// Per row, the last group whose pattern covers it (scratch for the pattern check).
@@ -115,6 +118,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
             one_update: false,
             kept_wait: 0,
             kept_backoff: 0,
+            kept_converges: true,
             row_scale: Vec::with_capacity(if options.equilibrate { k } else { 0 }),
             diagonal: match pattern {
                 Some(p) if k > 1 && p.iter().all(|&(r, c)| r == c) => vec![V::Real::zero(); k],
@@ -208,6 +212,7 @@ impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
         self.have_jacobian = false;
         self.kept_wait = 0;
         self.kept_backoff = 0;
+        self.kept_converges = true;
     }
 
     /// Broyden's rank-one secant update `J += F(z_new) Δzᵀ / (Δzᵀ Δz)` (the "good" update,
@@ -474,8 +479,20 @@ impl<V: Vector, L: LinearSolver<V::Real>> NonlinearSolver<V::Real> for Newton<V,
         problem: &mut P,
         z: &mut [V::Real],
     ) -> Result<SolveReport<V::Real>, NewtonError<P::Error>> {
+        let started_kept = self.have_jacobian && self.summed && self.one_update;
         let result = self.iterate(problem, z);
-        self.one_update = matches!(&result, Ok(r) if r.iterations <= 1);
+        // A summed Jacobian is also kept after two updates while a kept one last converged in
+        // two without a rebuild: that costs less than rebuilding it (a free body's rows),
+        // unless the kept one then needs more or is rebuilt anyway (a fast top's).
+        if started_kept && let Ok(r) = &result {
+            self.kept_converges = r.factorizations == 0 && r.iterations <= 2;
+        }
+        let updates = if self.summed && self.kept_converges {
+            2
+        } else {
+            1
+        };
+        self.one_update = matches!(&result, Ok(r) if r.iterations <= updates);
         result
     }
 }
