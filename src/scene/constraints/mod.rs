@@ -80,6 +80,17 @@ pub(crate) trait ConstraintOps<T: Real> {
     /// Calls `f(row, body, ∂g_row/∂q_body)` for every body a row touches, in a fixed order
     /// (the sparsity pattern of `G` is read from it).
     fn gradients(&self, q: &[T], d: usize, f: impl FnMut(usize, usize, [T; 3]));
+    /// Calls `f(row, column, ∂g_row/∂q_column)` for the entries of `G` the term can make
+    /// non-zero, in a fixed order: by default every component of every body
+    /// [`gradients`](Self::gradients) names; a term that knows its columns lists only those
+    /// (a joint's rows touch some components of a slot).
+    fn entries(&self, q: &[T], d: usize, mut f: impl FnMut(usize, usize, T)) {
+        self.gradients(q, d, |row, body, g| {
+            for (k, &gk) in g.iter().enumerate().take(d) {
+                f(row, body * d + k, gk);
+            }
+        });
+    }
     /// `out_row = uᵀ ∇²g_row v` (every scene constraint is at most quadratic: the Hessian is
     /// constant).
     fn hessian_form(&self, u: &[T], v: &[T], d: usize, out: &mut [T]);
@@ -206,6 +217,13 @@ macro_rules! terms {
             pub(crate) fn gradients(&self, q: &[T], d: usize, f: impl FnMut(usize, usize, [T; 3])) {
                 match self {
                     $( Self::$Variant(c) => c.gradients(q, d, f), )+
+                }
+            }
+            /// See [`ConstraintOps::entries`].
+            #[inline(always)]
+            pub(crate) fn entries(&self, q: &[T], d: usize, f: impl FnMut(usize, usize, T)) {
+                match self {
+                    $( Self::$Variant(c) => c.entries(q, d, f), )+
                 }
             }
             /// See [`ConstraintOps::hessian_form`].

@@ -193,6 +193,13 @@ impl<T: Real> ConstraintOps<T> for Rows<T> {
         let n = self.rows.count();
         self.rows.transpose_add_positions(q, &mu[..n], alpha, out);
     }
+    /// The columns the rows touch, no other component of their slots.
+    #[inline]
+    fn entries(&self, q: &[T], _d: usize, mut f: impl FnMut(usize, usize, T)) {
+        for r in 0..self.rows.count() {
+            self.rows.for_each_partial(q, r, |i, g| f(r, i, g));
+        }
+    }
     /// One call per slot a row touches: the row's columns come in increasing order, so a
     /// slot's `d` are consecutive.
     #[inline]

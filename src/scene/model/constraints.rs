@@ -26,6 +26,17 @@ impl<T: Real> SceneModel<T> {
     /// [`ConstraintOps::gradients`](crate::scene::constraints::ConstraintOps::gradients)).
     /// `G v`, `Gᵀ μ` and the Jacobian entries are all written through the same terms, so
     /// they cannot disagree.
+    /// Calls `f(row, column, value)` for every entry of `G` a term can make non-zero (see
+    /// [`ConstraintOps::entries`](crate::scene::constraints::ConstraintOps::entries)): the
+    /// sparsity pattern and its values.
+    #[inline]
+    pub(crate) fn for_each_entry(&self, q: &[T], mut f: impl FnMut(usize, usize, T)) {
+        for c in &self.constraints {
+            let r = c.row;
+            c.kind.entries(q, self.dim, |i, col, v| f(r + i, col, v));
+        }
+    }
+
     #[inline]
     pub(crate) fn for_each_gradient(&self, q: &[T], mut f: impl FnMut(usize, usize, [T; 3])) {
         for c in &self.constraints {
@@ -140,12 +151,7 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         if !self.sparse {
             return false;
         }
-        let d = self.dim;
-        self.for_each_gradient(x.as_slice(), |row, body, coef| {
-            for k in 0..d {
-                sink.add(row, body * d + k, coef[k]);
-            }
-        });
+        self.for_each_entry(x.as_slice(), |row, col, v| sink.add(row, col, v));
         true
     }
 
@@ -154,13 +160,12 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         if !self.sparse {
             return false;
         }
-        let d = self.dim;
         let mut next = 0;
-        self.for_each_gradient(x.as_slice(), |_, _, coef| {
-            if let Some(slots) = out.get_mut(next..next + d) {
-                slots.copy_from_slice(&coef[..d]);
+        self.for_each_entry(x.as_slice(), |_, _, v| {
+            if let Some(o) = out.get_mut(next) {
+                *o = v;
             }
-            next += d;
+            next += 1;
         });
         next == out.len()
     }
