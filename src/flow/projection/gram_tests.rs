@@ -31,6 +31,15 @@ fn model() -> Multibody {
     model
 }
 
+/// The model, its initial state `x` and another configuration `y`: every director perturbed
+/// (the rows need not hold for the sums).
+fn points() -> (Multibody, Col<f64>, Col<f64>) {
+    let model = model();
+    let x: Col<f64> = model.initial_state();
+    let y = Col::<f64>::from_fn(x.nrows(), |i| x[i] + 0.01 * ((i * 7 % 11) as f64 - 5.0));
+    (model, x, y)
+}
+
 /// `G(a) diag(w) G(b)ᵀ`, column by column from `G(b)ᵀ e_j` and products with `G(a)`.
 fn dense(
     c: &impl HolonomicConstraint<Col<f64>>,
@@ -62,12 +71,8 @@ fn dense(
 
 #[test]
 fn the_sums_are_the_products_with_g() {
-    let model = model();
-    let x: Col<f64> = model.initial_state();
-    let n = x.nrows();
-    let nq = n / 2;
-    // Another configuration: every director perturbed (the rows need not hold for the sums).
-    let y = Col::<f64>::from_fn(n, |i| x[i] + 0.01 * ((i * 7 % 11) as f64 - 5.0));
+    let (model, x, y) = points();
+    let nq = x.nrows() / 2;
     let w: Vec<f64> = (0..nq).map(|i| 0.5 + (i % 5) as f64).collect();
     let c = model.quadratic_rows::<f64>();
     let mut gram = Gram::new(&c, &x, nq).expect("the rows list their entries");
@@ -99,11 +104,8 @@ fn the_sums_are_the_products_with_g() {
 #[test]
 fn the_dense_sums_and_the_passes_over_g_agree_with_the_constraint() {
     use crate::linalg::{LinearSolver, StackLu};
-    let model = model();
-    let x: Col<f64> = model.initial_state();
-    let n = x.nrows();
-    let nq = n / 2;
-    let y = Col::<f64>::from_fn(n, |i| x[i] + 0.01 * ((i * 7 % 11) as f64 - 5.0));
+    let (model, x, y) = points();
+    let (n, nq) = (x.nrows(), x.nrows() / 2);
     let w: Vec<f64> = (0..nq).map(|i| 0.5 + (i % 5) as f64).collect();
     let c = model.quadratic_rows::<f64>();
     let m = HolonomicConstraint::<Col<f64>>::dim(&c);
@@ -156,11 +158,8 @@ fn the_dense_sums_and_the_passes_over_g_agree_with_the_constraint() {
 /// momenta), and filled afresh when a position differs.
 #[test]
 fn g_at_x_is_reused_from_y_only_at_the_same_positions() {
-    let model = model();
-    let x: Col<f64> = model.initial_state();
-    let n = x.nrows();
-    let nq = n / 2;
-    let y = Col::<f64>::from_fn(n, |i| x[i] + 0.01 * ((i * 7 % 11) as f64 - 5.0));
+    let (model, x, y) = points();
+    let (n, nq) = (x.nrows(), x.nrows() / 2);
     let w = vec![1.0; nq];
     let c = model.quadratic_rows::<f64>();
     let fresh = |point: &Col<f64>| {
