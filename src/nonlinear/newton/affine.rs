@@ -2,14 +2,14 @@
 //! update.
 
 use super::Newton;
-
-/// The most solves [`Newton::solve_affine`] skips its kept Jacobian after failed attempts.
-pub(super) const KEPT_BACKOFF_MAX: u8 = 31;
 use crate::error::NewtonError;
 use crate::linalg::LinearSolver;
 use crate::nonlinear::{NonlinearProblem, SolveReport, effective_residual};
 use crate::vector::{Vector, ops};
 use num_traits::{Float as _, One, Zero};
+
+/// The most solves [`Newton::solve_affine`] skips its kept Jacobian after failed attempts.
+pub(super) const KEPT_BACKOFF_MAX: u8 = 31;
 
 impl<V: Vector, L: LinearSolver<V::Real>> Newton<V, L> {
     /// Solves a system whose residual is affine in `z`, `F(z) = F(0) + J z`: from `z = 0`, one
