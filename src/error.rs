@@ -150,6 +150,18 @@ pub enum NewtonError<E = core::convert::Infallible> {
     /// Evaluating the residual failed (for instance an inner flow or fixed point failed).
     #[error("residual evaluation failed: {0}")]
     Residual(E),
+    /// The residual is exactly quadratic in its one unknown and has no real root: no iterate
+    /// meets the tolerance (a projection's constraint cannot be reached along its direction
+    /// at this step size; a smaller step can).
+    #[error(
+        "the residual (quadratic in its unknown) has no real root: its least value exceeds the tolerance (residual {residual:.3e}, discriminant {discriminant:.3e} of J^2)"
+    )]
+    NoRoot {
+        /// Max-norm of the residual at the iterate where it was found.
+        residual: f64,
+        /// The discriminant `J² − 2 c F` relative to `J²` (negative).
+        discriminant: f64,
+    },
 }
 
 impl<E> NewtonError<E> {
@@ -166,6 +178,13 @@ impl<E> NewtonError<E> {
             }),
             NewtonError::Linear(e) => Ok(NewtonError::Linear(e)),
             NewtonError::NonFinite { iteration } => Ok(NewtonError::NonFinite { iteration }),
+            NewtonError::NoRoot {
+                residual,
+                discriminant,
+            } => Ok(NewtonError::NoRoot {
+                residual,
+                discriminant,
+            }),
             NewtonError::Residual(e) => Err(e),
         }
     }

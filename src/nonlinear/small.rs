@@ -143,14 +143,14 @@ fn quadratic_root<T: Real, P: NonlinearProblem<T>, const K: usize>(
     f: &[T; K],
     newton: &[T; K],
     ftol: T,
-) -> Option<[T; K]> {
+) -> ModelRoot<T, K> {
     // c[j][k][i] = ∂²F_i/∂z_j∂z_k (symmetric in j, k; indices across the three axes).
     let mut c = [[[T::zero(); K]; K]; K];
     for j in 0..K {
         for k in j..K {
             let mut col = [T::zero(); K];
             if !problem.second_derivative(z, j, k, &mut col) {
-                return None;
+                return ModelRoot::Newton;
             }
             c[j][k] = col;
             c[k][j] = col;
@@ -171,7 +171,10 @@ fn quadratic_root<T: Real, P: NonlinearProblem<T>, const K: usize>(
         left = left.max((half * q).abs());
     }
     if left <= half * ftol {
-        return None;
+        return ModelRoot::Newton;
+    }
+    if K == 1 {
+        return scalar_root(f[0], jac[0][0], c[0][0][0], newton[0]);
     }
     let mut delta = *newton;
     let mut last = T::infinity();
@@ -190,21 +193,61 @@ fn quadratic_root<T: Real, P: NonlinearProblem<T>, const K: usize>(
             }
         }
         let mut step = p.map(|v| -v);
-        solve_dense(&mut jp, &mut step).ok()?;
+        if solve_dense(&mut jp, &mut step).is_err() {
+            return ModelRoot::Newton;
+        }
         for (d, &s) in delta.iter_mut().zip(&step) {
             *d = *d + s;
         }
         if !delta.iter().all(|d| d.is_finite()) {
-            return None;
+            return ModelRoot::Newton;
         }
         last = norm_inf(&step);
         if last <= T::lit(4.0) * T::epsilon() * norm_inf(&delta) {
-            return Some(delta);
+            return ModelRoot::Root(delta);
         }
     }
     // At the rounding floor of the model's residual the last correction need not fall below
     // 4ε|δ|; a settled iteration is still the root to working precision.
-    (last <= T::epsilon().sqrt() * norm_inf(&delta)).then_some(delta)
+    if last <= T::epsilon().sqrt() * norm_inf(&delta) {
+        ModelRoot::Root(delta)
+    } else {
+        ModelRoot::Newton
+    }
+}
+
+/// What [`quadratic_root`] found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum ModelRoot<T, const K: usize> {
+    /// The model's root nearest the Newton step.
+    Root([T; K]),
+    /// No second derivatives, a Newton step that leaves less than the tolerance, or a model
+    /// iteration that did not settle: the Newton step stands.
+    Newton,
+    /// One unknown, a residual exactly quadratic in it, and no real root: `F` never vanishes,
+    /// wherever Newton would go (the discriminant `J² − 2 c F`, with its value at the
+    /// current iterate in the weighted norm below).
+    Unreachable(T),
+}
+
+/// The root of `f + j δ + ½ c δ² = 0` nearest the Newton step `δ₀ = −f/j`, in the form that
+/// does not cancel, `δ = −2f / (j + sign(j) √(j² − 2cf))` (it tends to `δ₀` as `c → 0`;
+/// Press et al., *Numerical Recipes*, §5.6). A discriminant below `−8ε j²` (not rounding at a
+/// double root) proves there is no real root; between that and zero the double root `−j/c`.
+#[inline(always)]
+fn scalar_root<T: Real, const K: usize>(f: T, j: T, c: T, newton: T) -> ModelRoot<T, K> {
+    let two = T::lit(2.0);
+    let disc = j * j - two * c * f;
+    let root = if disc >= T::zero() {
+        -two * f / (j + disc.sqrt().copysign(j))
+    } else if disc >= -T::lit(8.0) * T::epsilon() * j * j {
+        -j / c
+    } else {
+        return ModelRoot::Unreachable(disc / (j * j));
+    };
+    let mut out = [T::zero(); K];
+    out[0] = if root.is_finite() { root } else { newton };
+    ModelRoot::Root(out)
 }
 
 /// `max |v_i|`, NaN-propagating (a NaN entry makes the norm NaN).
@@ -298,11 +341,22 @@ impl<T: Real> SmallNewton<T> {
             solve_dense(&mut jac, &mut dz)?;
             // A residual quadratic in z (closed-form second derivatives): the root of its
             // exact quadratic model nearest the Newton step instead.
-            if !differenced
-                && let Some(root) = quadratic_root(problem, z, &jac0, &f, &dz, opts.ftol)
-            {
-                dz = root;
-                report.quadratic_steps += 1;
+            if !differenced {
+                match quadratic_root(problem, z, &jac0, &f, &dz, opts.ftol) {
+                    ModelRoot::Root(root) => {
+                        dz = root;
+                        report.quadratic_steps += 1;
+                    }
+                    ModelRoot::Newton => {}
+                    // No iterate can meet the tolerance: fail now, not after every iteration
+                    // and halving Newton allows (an adaptive caller shrinks the step at once).
+                    ModelRoot::Unreachable(discriminant) => {
+                        return Err(NewtonError::NoRoot {
+                            residual: r.to_f64_lossy(),
+                            discriminant: discriminant.to_f64_lossy(),
+                        });
+                    }
+                }
             }
             for (zi, &d) in z.iter_mut().zip(&dz) {
                 *zi = *zi + d;

@@ -172,6 +172,70 @@ fn small_newton_solves_a_quadratic_residual_in_one_iteration() {
     assert!(plain.iterations >= 4, "{plain:?}");
 }
 
+/// `F(z) = ½ a z² + b z + c` with its exact derivatives: one unknown, exactly quadratic.
+struct Parabola {
+    a: f64,
+    b: f64,
+    c: f64,
+}
+
+impl NonlinearProblem<f64> for Parabola {
+    type Error = StepError;
+    fn dim(&self) -> usize {
+        1
+    }
+    fn residual(&mut self, z: &[f64], f: &mut [f64]) -> Result<(), StepError> {
+        f[0] = 0.5 * self.a * z[0] * z[0] + self.b * z[0] + self.c;
+        Ok(())
+    }
+    fn jacobian_column(&mut self, z: &[f64], _j: usize, out: &mut [f64]) -> bool {
+        out[0] = self.a * z[0] + self.b;
+        true
+    }
+    fn second_derivative(&mut self, _z: &[f64], _j: usize, _k: usize, out: &mut [f64]) -> bool {
+        out[0] = self.a;
+        true
+    }
+}
+
+/// One unknown, exactly quadratic: the root nearest the Newton step in closed form, one
+/// iteration; and where the parabola has no real root (`b² < 2ac`), a [`NewtonError::NoRoot`]
+/// after one evaluation and no iteration — where Newton used to iterate and halve to its
+/// limit (25 iterations) before failing.
+#[test]
+fn small_newton_takes_a_scalar_quadratics_root_or_fails_at_once() {
+    let mut newton = SmallNewton::new(1, NewtonOptions::default()).unwrap();
+    // ½ z² − 3z + 2 = 0: roots 3 ± √5; from 0 the Newton step is 2/3, nearest 3 − √5.
+    let mut z = [0.0];
+    let mut p = Parabola {
+        a: 1.0,
+        b: -3.0,
+        c: 2.0,
+    };
+    let report = newton.solve(&mut p, &mut z).unwrap();
+    let root = 3.0 - 5f64.sqrt();
+    assert!((z[0] - root).abs() <= 2.0 * f64::EPSILON, "{z:?}");
+    assert_eq!((report.iterations, report.quadratic_steps), (1, 1));
+    // ½ z² + 1 = 0 has no real root: refused at once, with its numbers.
+    let mut z = [0.5];
+    let mut p = Parabola {
+        a: 1.0,
+        b: 0.0,
+        c: 1.0,
+    };
+    match newton.solve(&mut p, &mut z) {
+        Err(NewtonError::NoRoot {
+            residual,
+            discriminant,
+        }) => {
+            assert!((residual - 1.125).abs() <= 1e-15);
+            // J² − 2cF = 0.25 − 2.25 = −2, over J² = 0.25.
+            assert!((discriminant + 8.0).abs() <= 1e-14, "{discriminant}");
+        }
+        other => panic!("expected NoRoot, got {other:?}"),
+    }
+}
+
 #[test]
 fn small_newton_falls_back_to_differences_for_a_poor_jacobian() {
     let mut newton = SmallNewton::new(2, NewtonOptions::default()).unwrap();

@@ -259,7 +259,9 @@ fn until_accepted<V: Vector, M: MacroStep<V>>(
             proposal
         };
         let t = ledger.t;
-        let cause = match m.attempt(ledger, sign * big, x) {
+        // Why the attempt was not accepted, put into words only if it ends the run (a
+        // rejection is routine: no message, no allocation).
+        let failure = match m.attempt(ledger, sign * big, x) {
             Ok(Outcome::Accepted) => {
                 // A step shortened to fit the interval says nothing against the longer one
                 // proposed before it.
@@ -272,24 +274,27 @@ fn until_accepted<V: Vector, M: MacroStep<V>>(
                 return Ok(big);
             }
             Ok(Outcome::Rejected(next)) => {
-                let c = m.control();
-                c.h_next = Some(next.abs());
-                format!(
-                    "the error estimate stayed above the tolerance ({:.3e} of it, in the weighted norm)",
-                    c.rejected_error
-                )
+                m.control().h_next = Some(next.abs());
+                None
             }
             Err(e) => {
                 let c = m.control();
                 c.stats.failed += 1;
                 c.rejected_last = true;
                 c.h_next = Some(big * V::Real::lit(0.5));
-                e.to_string()
+                Some(e)
             }
         };
         let c = m.control();
         let next = c.h_next.unwrap_or(big);
         if next <= c.options.h_min || t + sign * next == t {
+            let cause = match failure {
+                Some(e) => e.to_string(),
+                None => format!(
+                    "the error estimate stayed above the tolerance ({:.3e} of it, in the weighted norm)",
+                    c.rejected_error
+                ),
+            };
             return Err(StepError::StepSizeTooSmall {
                 t: t.to_f64_lossy(),
                 h: next.to_f64_lossy(),
