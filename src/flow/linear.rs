@@ -1,5 +1,6 @@
 //! The exact flow of an affine system `x' = A x + b` by the matrix exponential.
 
+use super::linear_drift::Drift;
 use super::{EXACT, Flow};
 use crate::error::{SetupError, StepError};
 use crate::real::Real;
@@ -30,6 +31,12 @@ pub const LINEAR_FLOW_CACHE: usize = 8;
 /// a step is one dense matrix–vector product (`n²` multiply–adds, no allocation); a new step size
 /// costs `O(n³ log ‖hA‖)`. This is a dense method: use it for small `n`.
 ///
+/// When `A` is a damped drift — `x = (q, p)`, `q_i' = w_i p_i`, `p_i' = −c_i p_i` (plus
+/// the forcing), a mechanical model's free motion with diagonal masses and viscous damping —
+/// the flow is taken in closed form coordinate by coordinate instead (`e^{−ch}` and two
+/// integrals of it per coordinate and step size, `O(n)` a step): the same exact flow, with
+/// no matrix exponential to form for each new step size.
+///
 /// The flow reports [`Flow::dissipates`] when `trace A < 0` (it contracts volume, so a backward
 /// sub-step expands it exponentially), or when marked with [`dissipative`](Self::dissipative).
 #[derive(Debug, Clone)]
@@ -52,6 +59,8 @@ pub struct LinearFlow<T> {
     dissipative: bool,
     /// The cache slot of the last step (its tangent map).
     last: Option<usize>,
+    /// The closed form when `A` is a damped drift (see the type docs).
+    drift: Option<Drift<T>>,
 }
 
 #[derive(Debug, Clone)]
@@ -103,6 +112,7 @@ impl<T: Real> LinearFlow<T> {
             tmp: vec![T::zero(); n],
             dissipative: trace < T::zero(),
             last: None,
+            drift: Drift::detect(n, a, &vec![T::zero(); n]),
         };
         flow.form_series();
         Ok(flow)
@@ -176,6 +186,12 @@ impl<T: Real> LinearFlow<T> {
         for c in &mut self.cache {
             c.valid = false;
         }
+        if self.drift.is_some() {
+            let a: Vec<T> = (0..self.n * self.n)
+                .map(|k| self.generator[(k / self.n) * n1 + k % self.n])
+                .collect();
+            self.drift = Drift::detect(self.n, &a, b);
+        }
         self.form_series();
         Ok(self)
     }
@@ -189,6 +205,12 @@ impl<T: Real> LinearFlow<T> {
     /// The dimension `n`.
     pub fn dim(&self) -> usize {
         self.n
+    }
+
+    /// `true` when the flow is a damped drift taken in closed form, coordinate by coordinate,
+    /// instead of by the matrix exponential (see the type docs).
+    pub fn is_drift(&self) -> bool {
+        self.drift.is_some()
     }
 
     /// The cache slot holding `e^{h·generator}`, computing it if needed.
@@ -287,6 +309,12 @@ impl<V: Vector> Flow<V> for LinearFlow<V::Real> {
         if !super::check_step(h, x)? {
             return Ok(());
         }
+        // The closed form; a non-finite result is located by the product below.
+        if let Some(drift) = self.drift.as_mut()
+            && drift.step(h, x.as_mut_slice())
+        {
+            return Ok(());
+        }
         let slot = self.slot(h)?;
         self.last = Some(slot);
         let n1 = self.n + 1;
@@ -323,6 +351,11 @@ impl<V: Vector> Flow<V> for LinearFlow<V::Real> {
     }
     /// `DΦ_h v = e^{hA} v`: the last step's exponential without its affine column.
     fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
+        if let Some(drift) = self.drift.as_ref() {
+            return v.len() == self.n
+                && out.len() == self.n
+                && drift.tangent(v.as_slice(), out.as_mut_slice());
+        }
         let Some(slot) = self.last else {
             return false;
         };

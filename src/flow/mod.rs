@@ -21,6 +21,7 @@ mod forcing;
 mod implicit;
 mod ledger;
 mod linear;
+mod linear_drift;
 mod petrov_galerkin;
 mod predictor;
 mod projection;
