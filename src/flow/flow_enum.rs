@@ -101,6 +101,11 @@ macro_rules! flow_enum {
             fn lead_is_affine(&self) -> bool {
                 match self { $($name::$variant(f) => $crate::flow::Flow::<V>::lead_is_affine(f)),+ }
             }
+            fn lead_ledger_is_constant(&self) -> bool {
+                match self {
+                    $($name::$variant(f) => $crate::flow::Flow::<V>::lead_ledger_is_constant(f)),+
+                }
+            }
             fn is_affine_in_momenta(&self) -> bool {
                 match self {
                     $($name::$variant(f) => $crate::flow::Flow::<V>::is_affine_in_momenta(f)),+

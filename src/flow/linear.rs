@@ -346,6 +346,10 @@ impl<V: Vector> Flow<V> for LinearFlow<V::Real> {
     fn lead_is_affine(&self) -> bool {
         true
     }
+    /// It books no energy in the ledger.
+    fn lead_ledger_is_constant(&self) -> bool {
+        true
+    }
     fn is_affine_in_momenta(&self) -> bool {
         true
     }

@@ -201,6 +201,14 @@ pub trait Flow<V: Vector> {
     fn lead_is_affine(&self) -> bool {
         false
     }
+    /// `true` when the lead ([`step_lead`](Self::step_lead)) leaves the [`Ledger`]'s energies
+    /// as they are, whatever the state (it books nothing: a linear flow). With
+    /// [`lead_is_affine`](Self::lead_is_affine), a projection then forms the lead at a new
+    /// multiplier from the last one along the tangent map instead of running it again.
+    /// Default `false`.
+    fn lead_ledger_is_constant(&self) -> bool {
+        false
+    }
     /// `true` when the whole step is affine along the directions a [kick](Self::is_kick)
     /// moves — the coordinates no holonomic constraint reads, a mechanical model's momenta:
     /// `Φ_h(x + v) = Φ_h(x) + DΦ_h v` for every `x` and every such `v`. A potential's kick
@@ -426,6 +434,9 @@ macro_rules! forward_flow {
             }
             fn lead_is_affine(&self) -> bool {
                 (**self).lead_is_affine()
+            }
+            fn lead_ledger_is_constant(&self) -> bool {
+                (**self).lead_ledger_is_constant()
             }
             fn is_affine_in_momenta(&self) -> bool {
                 (**self).is_affine_in_momenta()

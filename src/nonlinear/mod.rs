@@ -68,6 +68,21 @@ pub trait NonlinearProblem<T: Real> {
         let _ = (z, j, k, out);
         false
     }
+    /// After Newton moved from the point of the last evaluation by `dz` to `z`, writes `F(z)`
+    /// into `f` and returns `Ok(true)` when the problem forms it without a full evaluation —
+    /// its state is affine in `z` along columns it holds exactly (a projection around an
+    /// affine inner flow moves `y` by `Σ dz_j DL d_j` and evaluates the constraint there,
+    /// not the flow). The problem is then at `z` as after [`residual`](Self::residual).
+    /// Default `Ok(false)`: Newton evaluates.
+    fn residual_after_shift(
+        &mut self,
+        z: &[T],
+        dz: &[T],
+        f: &mut [T],
+    ) -> Result<bool, Self::Error> {
+        let _ = (z, dz, f);
+        Ok(false)
+    }
     /// Writes `J(z) Σ_{j ∈ cols} e_j` — the sum of the Jacobian's columns `cols` — into `out`
     /// and returns `true`, when the problem forms Jacobian–vector products in closed form.
     /// Newton with a sparsity pattern calls it once per group of structurally orthogonal

@@ -362,7 +362,18 @@ impl<T: Real> SmallNewton<T> {
                 *zi = *zi + d;
             }
             report.iterations += 1;
-            let mut r_new = evaluate(problem, z, &mut f, &mut report)?;
+            // The problem may form the residual at the new iterate from the last one (an
+            // affine inner map): no full evaluation. Differences moved its state: evaluate.
+            let shifted = !differenced
+                && problem
+                    .residual_after_shift(z, &dz, &mut f)
+                    .map_err(NewtonError::Residual)?;
+            let mut r_new = if shifted {
+                report.residual_evaluations += 1;
+                norm_inf(&f)
+            } else {
+                evaluate(problem, z, &mut f, &mut report)?
+            };
             // The common case contracts by at least half; anything else (slow contraction,
             // growth, NaN) takes this branch.
             if r_new.is_nan() || r_new > half * r {

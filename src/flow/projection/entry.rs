@@ -9,12 +9,17 @@ use crate::vector::{Vector, ops};
 use num_traits::Float as _;
 
 /// The check of a step's starting state (see [`ProjectionOptions::manifold_tol`]): skipped when
-/// the state equals the flow's own last result (as floats).
+/// the state equals the flow's own last result, or the last state that passed the check (as
+/// floats) — an extrapolation starts each row from the same state, a rejected step retries
+/// from it.
 pub(super) struct EntryCheck<V: Vector> {
     tol: Option<V::Real>,
     /// A copy of the last result (`valid`), or nothing yet.
     last: V,
     valid: bool,
+    /// The last state that passed [`check`](Self::check) (`passed_valid`).
+    passed: V,
+    passed_valid: bool,
 }
 
 impl<V: Vector> EntryCheck<V> {
@@ -25,13 +30,17 @@ impl<V: Vector> EntryCheck<V> {
             tol,
             last: x0.clone(),
             valid: tol.is_some(),
+            passed: x0.clone(),
+            passed_valid: false,
         }
     }
 
-    /// `true` when `x` is, float for float, the flow's own last result.
+    /// `true` when `x` is, float for float, the flow's own last result or the last state that
+    /// passed the check.
     #[inline]
     pub(super) fn is_last(&self, x: &V) -> bool {
-        self.valid && ops::equal(x.as_slice(), self.last.as_slice())
+        (self.valid && ops::equal(x.as_slice(), self.last.as_slice()))
+            || (self.passed_valid && ops::equal(x.as_slice(), self.passed.as_slice()))
     }
 
     /// A step must start on the manifold (`‖g‖∞`, and with `check_phi` `‖φ‖∞`, within the
@@ -39,7 +48,7 @@ impl<V: Vector> EntryCheck<V> {
     /// one residual evaluation (two with `φ`) when the caller changed the state between
     /// steps. `r` has the constraint's length; `t1`, `t2` are workspace of the state's length.
     pub(super) fn check<Sys>(
-        &self,
+        &mut self,
         system: &Sys,
         x: &V,
         check_phi: bool,
@@ -71,6 +80,8 @@ impl<V: Vector> EntryCheck<V> {
                 return Err(off("phi", phi));
             }
         }
+        self.passed.copy_from(x);
+        self.passed_valid = true;
         Ok(())
     }
 

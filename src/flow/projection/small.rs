@@ -226,6 +226,32 @@ where
         }
         Ok(())
     }
+    /// `y ← y + Σ dz_j a_j` with the exact columns' directions `a_j = DL_h d_j` and `g` there:
+    /// `L_h(x + Σ z_j d_j)` without running the inner flow, when its lead is affine and leaves
+    /// the ledger as it is whatever the state ([`Flow::lead_ledger_is_constant`]).
+    #[inline(always)]
+    fn residual_after_shift(
+        &mut self,
+        _z: &[V::Real],
+        dz: &[V::Real],
+        f: &mut [V::Real],
+    ) -> Result<bool, StepError> {
+        if self.w_state != Columns::Tangents
+            || !self.inner.lead_is_affine()
+            || !self.inner.lead_ledger_is_constant()
+        {
+            return Ok(false);
+        }
+        let y = self.y.as_mut_slice();
+        for (j, wj) in self.w.iter().enumerate() {
+            ops::axpy(y, dz[j], wj.as_slice());
+        }
+        self.system.constraint().residual(&*self.y, f);
+        for (g, &v) in self.g.iter_mut().zip(&*f) {
+            *g = v;
+        }
+        Ok(true)
+    }
     /// `∂g(y)/∂λ_j = G(y) DL_h d_j`: exact when the inner flow applies its own tangent map
     /// ([`Flow::lead_tangent_apply`], at the point of the last evaluation). Otherwise
     /// `DL_h ≈ I + h M ∇²H` at `x`: exact for a drift, or a kick–drift–kick with a potential
