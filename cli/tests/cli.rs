@@ -189,11 +189,9 @@ fn a_failing_run_exits_1_and_keeps_what_it_computed() {
         "7",
     ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("Newton did not converge"),
-        "{}",
-        stderr(&o)
-    );
+    // The rod's one multiplier is the root of a quadratic (the free fall is affine): at this
+    // step it has none, and the solve says so at once.
+    assert!(stderr(&o).contains("has no real root"), "{}", stderr(&o));
     let j = summary(&o);
     let steps = j["steps"].as_u64().unwrap();
     assert!(steps < 40, "{steps}");
