@@ -306,13 +306,15 @@ impl<V: Vector> Flow<V> for LinearFlow<V::Real> {
                 got: x.len(),
             });
         }
-        if !super::check_step(h, x)? {
-            return Ok(());
-        }
-        // The closed form; a non-finite result is located by the product below.
-        if let Some(drift) = self.drift.as_mut()
+        // The closed form, whose result's check covers the state's (a non-finite state or
+        // result is located below, by the scan and the product).
+        if super::check_step_size(h)?
+            && let Some(drift) = self.drift.as_mut()
             && drift.step(h, x.as_mut_slice())
         {
+            return Ok(());
+        }
+        if !super::check_step(h, x)? {
             return Ok(());
         }
         let slot = self.slot(h)?;

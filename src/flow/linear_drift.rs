@@ -21,6 +21,9 @@ use crate::real::Real;
 /// `3d` coefficients per step size and `O(d)` work per step, where the series and squarings
 /// of the exponential of the `(2d+1)²` augmented matrix cost `O(d³)` per step size and a
 /// dense product `O(d²)` per step. The same map to rounding: both are exact flows.
+/// Coordinates mapped through a stack buffer in one pass (more are mapped twice).
+const STACK: usize = 8;
+
 #[derive(Debug, Clone)]
 pub(super) struct Drift<T> {
     coordinates: Vec<Coordinate<T>>,
@@ -106,15 +109,31 @@ impl<T: Real> Drift<T> {
         self.h = Some(h);
     }
 
-    /// `x ← Φ_h(x)`; `false` (and `x` unchanged) when the result is not finite.
+    /// `x ← Φ_h(x)`; `false` (and `x` unchanged) when the result is not finite (a
+    /// non-finite `x` gives one: every coordinate's map has a nonzero coefficient on itself).
     #[inline]
     pub(super) fn step(&mut self, h: T, x: &mut [T]) -> bool {
         self.update(h);
         let d = self.coordinates.len();
         let (q, p) = x.split_at_mut(d);
         // Checked before writing (`v · 0` is zero exactly when `v` is finite): a non-finite
-        // result leaves `x` as it was.
+        // result leaves `x` as it was. A few coordinates go through a stack buffer (one pass),
+        // more are mapped twice.
         let mut check = T::zero();
+        if d <= STACK {
+            let mut out = [(T::zero(), T::zero()); STACK];
+            for (((k, &qi), &pi), o) in self.coordinates.iter().zip(&*q).zip(&*p).zip(&mut out) {
+                *o = k.map(h, qi, pi);
+                check = check + (o.0 + o.1) * T::zero();
+            }
+            if check != T::zero() {
+                return false;
+            }
+            for ((o, qi), pi) in out.iter().zip(q).zip(p) {
+                (*qi, *pi) = *o;
+            }
+            return true;
+        }
         for ((k, &qi), &pi) in self.coordinates.iter().zip(&*q).zip(&*p) {
             let (a, b) = k.map(h, qi, pi);
             check = check + (a + b) * T::zero();
@@ -282,6 +301,39 @@ mod tests {
                 assert!((ty[i] - tx[perm[i]]).abs() <= 1e-14 * (1.0 + tx[perm[i]].abs()));
             }
         }
+    }
+
+    /// A non-finite state, or a result that overflows, is an error that names the component
+    /// and leaves the state as it was (the flow contract), as on the exponential's path.
+    #[test]
+    fn a_non_finite_state_or_result_is_refused_and_leaves_the_state() {
+        use crate::error::StepError;
+        use crate::flow::{Flow, LinearFlow};
+        use nalgebra::SVector;
+        type V = SVector<f64, 4>;
+        let a = [
+            0.0, 0.0, 1.0, 0.0, //
+            0.0, 0.0, 0.0, 1.0, //
+            0.0, 0.0, -0.5, 0.0, //
+            0.0, 0.0, 0.0, -0.5,
+        ];
+        let mut flow = LinearFlow::try_new(4, &a).unwrap();
+        assert!(flow.is_drift());
+        let nan = V::new(0.1, f64::NAN, 0.0, 1.0);
+        let mut x = nan;
+        match Flow::<V>::step(&mut flow, 0.1, &mut x) {
+            Err(StepError::NonFinite { component: 1 }) => {}
+            other => panic!("expected NonFinite at 1, got {other:?}"),
+        }
+        assert!(x[0] == 0.1 && x[1].is_nan() && x[3] == 1.0);
+        // q + h p overflows in the first coordinate.
+        let big = V::new(f64::MAX, 0.0, f64::MAX, 0.0);
+        let mut x = big;
+        match Flow::<V>::step(&mut flow, 1.0, &mut x) {
+            Err(StepError::NonFinite { component: 0 }) => {}
+            other => panic!("expected NonFinite at 0, got {other:?}"),
+        }
+        assert_eq!(x, big);
     }
 
     #[test]
