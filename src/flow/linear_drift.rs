@@ -170,9 +170,9 @@ impl<T: Real> Drift<T> {
     }
 }
 
-/// `(e^{−ch}, φ, ψ)` with `φ = (1 − e^{−ch})/c`, `ψ = (h − φ)/c`: by `exp_m1` (no
-/// cancellation in `φ`), and `ψ = h² Σ_{n≥2} (−ch)^{n−2}/n!` below `|ch| = 1/2`, where
-/// `h − φ` cancels.
+/// `(e^{−ch}, φ, ψ)` with `φ = (1 − e^{−ch})/c` by `exp_m1` (no cancellation) and
+/// `ψ = (h − φ)/c = h² (x − 1 + e^{−x})/x²` at `x = ch` ([`fall_series`], by its Taylor series
+/// where the closed form cancels).
 pub(super) fn drift_coefficients<T: Real>(c: T, h: T) -> [T; 3] {
     let x = c * h;
     let e = (-x).exp();
@@ -180,22 +180,43 @@ pub(super) fn drift_coefficients<T: Real>(c: T, h: T) -> [T; 3] {
         return [e, h, T::lit(0.5) * h * h];
     }
     let phi = -(-x).exp_m1() / c;
-    let psi = if x.abs() >= T::lit(0.5) {
-        (h - phi) / c
+    [e, phi, h * h * fall_series(x, 2)]
+}
+
+/// `(x − 1 + e^{−x})/x²` (`k = 2`) or `(x − 2(1 − e^{−x}) + (1 − e^{−2x})/2)/x³` (`k = 3`),
+/// the free fall's `ψ/t²` and `∫φ²/t³` at `x = γt`: by their Taylor series below `|x| = 1/2`,
+/// where the closed forms cancel, `Σ_{n≥k} cₙ (−x)^{n−k}/n!` with `cₙ = 1` (`k = 2`) or
+/// `cₙ = 2^{n−1} − 2` (`k = 3`), summed to the scalar's round-off.
+pub(crate) fn fall_series<T: Real>(x: T, k: u32) -> T {
+    let one = T::one();
+    if x.abs() >= T::lit(0.5) {
+        let e1 = (-x).exp_m1();
+        return if k == 2 {
+            (x + e1) / (x * x)
+        } else {
+            (x + T::lit(2.0) * e1 - T::lit(0.5) * (T::lit(-2.0) * x).exp_m1()) / (x * x * x)
+        };
+    }
+    // term = (−x)^{n−k}/n!, starting at n = k.
+    let mut term = if k == 2 {
+        T::lit(0.5)
     } else {
-        // term = (−x)^{n−2}/n!, from n = 2.
-        let (mut term, mut sum, mut n) = (T::lit(0.5), T::zero(), 2u32);
-        loop {
-            sum = sum + term;
-            if term.abs() <= T::epsilon() * sum.abs() || n > 40 {
-                break;
-            }
-            n += 1;
-            term = -term * x / T::lit(f64::from(n));
-        }
-        h * h * sum
+        one / T::lit(6.0)
     };
-    [e, phi, psi]
+    let mut pow2 = if k == 2 { one } else { T::lit(4.0) }; // 2^{n−1}
+    let mut sum = T::lit(0.0);
+    let mut n = k;
+    loop {
+        let coefficient = if k == 2 { one } else { pow2 - T::lit(2.0) };
+        let add = coefficient * term;
+        sum = sum + add;
+        if add.abs() <= T::epsilon() * sum.abs() || n > 80 {
+            return sum;
+        }
+        n += 1;
+        term = -term * x / T::lit(f64::from(n));
+        pow2 = pow2 * T::lit(2.0);
+    }
 }
 
 #[cfg(test)]

@@ -22,6 +22,7 @@ mod implicit;
 mod ledger;
 mod linear;
 mod linear_drift;
+pub(crate) use linear_drift::fall_series;
 mod petrov_galerkin;
 mod predictor;
 mod projection;

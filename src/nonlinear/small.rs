@@ -225,8 +225,7 @@ enum ModelRoot<T, const K: usize> {
     /// iteration that did not settle: the Newton step stands.
     Newton,
     /// One unknown, a residual exactly quadratic in it, and no real root: `F` never vanishes,
-    /// wherever Newton would go (the discriminant `J² − 2 c F`, with its value at the
-    /// current iterate in the weighted norm below).
+    /// wherever Newton would go. Carries the discriminant `J² − 2cF` relative to `J²`.
     Unreachable(T),
 }
 

@@ -4,6 +4,7 @@
 
 use super::SceneModel;
 use crate::error::StepError;
+use crate::flow::fall_series;
 use crate::flow::{EXACT, Flow, Ledger};
 use crate::real::Real;
 use crate::vector::Vector;
@@ -202,42 +203,6 @@ impl<T: Real> Flight<T> {
                 removed.max(zero)
             }
         }
-    }
-}
-
-/// `(x − 1 + e^{−x})/x²` (`k = 2`) or `(x − 2(1 − e^{−x}) + (1 − e^{−2x})/2)/x³` (`k = 3`),
-/// the free fall's `ψ/t²` and `∫φ²/t³` at `x = γt`: by their Taylor series below `x = 1/2`,
-/// where the closed forms cancel, `Σ_{n≥k} cₙ (−x)^{n−k}/n!` with `cₙ = 1` (`k = 2`) or
-/// `cₙ = 2^{n−1} − 2` (`k = 3`), summed to the scalar's round-off.
-fn fall_series<T: Real>(x: T, k: u32) -> T {
-    let one = T::one();
-    if x >= T::lit(0.5) {
-        let e1 = (-x).exp_m1();
-        return if k == 2 {
-            (x + e1) / (x * x)
-        } else {
-            (x + T::lit(2.0) * e1 - T::lit(0.5) * (T::lit(-2.0) * x).exp_m1()) / (x * x * x)
-        };
-    }
-    // term = (−x)^{n−k}/n!, starting at n = k.
-    let mut term = if k == 2 {
-        T::lit(0.5)
-    } else {
-        one / T::lit(6.0)
-    };
-    let mut pow2 = if k == 2 { one } else { T::lit(4.0) }; // 2^{n−1}
-    let mut sum = T::lit(0.0);
-    let mut n = k;
-    loop {
-        let coefficient = if k == 2 { one } else { pow2 - T::lit(2.0) };
-        let add = coefficient * term;
-        sum = sum + add;
-        if add.abs() <= T::epsilon() * sum.abs() || n > 80 {
-            return sum;
-        }
-        n += 1;
-        term = -term * x / T::lit(f64::from(n));
-        pow2 = pow2 * T::lit(2.0);
     }
 }
 
