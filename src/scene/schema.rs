@@ -254,7 +254,8 @@ pub struct IntegratorSpec {
     pub order: Option<u32>,
     /// Step size, positive; with `tol`, the interval the run reports at (CSV rows, outputs,
     /// progress, an FMU's communication step), inside which the steps are chosen, and the
-    /// first step tried — optional then: left out, it is `t_end / 1000`
+    /// longest first step (the first is estimated from the scene's derivatives) — optional
+    /// then: left out, it is `t_end / 1000`
     /// ([`step`](Self::step)). Read as NaN when the file leaves it out.
     #[serde(default = "missing_step")]
     pub dt: f64,
@@ -344,7 +345,7 @@ impl IntegratorSpec {
     }
 
     /// The step size: `dt`, or with a tolerance and no `dt`, `t_end / 1000` (the interval the
-    /// run reports at and the first step tried); NaN without either (refused when compiled,
+    /// run reports at and the longest first step); NaN without either (refused when compiled,
     /// naming `integrator.dt`).
     pub fn step(&self) -> f64 {
         if self.dt.is_nan() && self.has_tolerance() {

@@ -105,6 +105,16 @@ pub(crate) trait MacroStep<V: Vector> {
     fn restore_all(&mut self, from: &mut &[V::Real]);
     /// Allocates the workspace for states like `x`.
     fn prepare_all(&mut self, x: &V);
+    /// The first step to try from `x`, at most `span` long in the direction `sign`, when none
+    /// was given ([`first_step::estimate`](super::first_step::estimate)), and the base steps
+    /// it took; `None`: the span.
+    fn first_step(
+        &mut self,
+        ledger: &Ledger<V::Real>,
+        sign: V::Real,
+        span: V::Real,
+        x: &V,
+    ) -> (Option<V::Real>, u64);
 }
 
 /// The [`Flow`](crate::flow::Flow) of an error-controlled flow `$ty<V, F, P>` with fields `base:
@@ -240,6 +250,17 @@ fn until_accepted<V: Vector, M: MacroStep<V>>(
     loop {
         let c = m.control();
         let h_max = c.options.h_max.map_or_else(V::Real::infinity, |v| v.abs());
+        // No step taken and none given: the first is estimated from the flow's derivatives
+        // (not below the smallest step allowed).
+        let estimated = if c.h_next.is_none() && c.options.first_step.is_none() {
+            let (h, steps) = m.first_step(ledger, sign, left.min(h_max), x);
+            let c = m.control();
+            c.stats.base_steps += steps;
+            h.map(|h| h.max(c.options.h_min))
+        } else {
+            None
+        };
+        let c = m.control();
         // The controller's proposal taken down to the ladder 2^{k/4}: successive steps then
         // often share a size, and so do their sub-steps, whose per-size work a base flow keeps
         // (an exact linear flow's exponentials, a kept Newton matrix).
@@ -247,6 +268,7 @@ fn until_accepted<V: Vector, M: MacroStep<V>>(
             .h_next
             .map(ladder)
             .or(c.options.first_step)
+            .or(estimated)
             .map_or(left, |v| v.abs())
             .min(h_max);
         // Up to the end of the interval: in one step when the proposal reaches it, in two equal

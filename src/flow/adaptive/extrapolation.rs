@@ -34,6 +34,11 @@ use num_traits::{One as _, Zero as _};
 /// step, so a dissipative sub-flow never runs backwards. The extended coordinates of the
 /// [`Ledger`] (supplied and dissipated energy) are extrapolated with the state.
 ///
+/// Without a first step in the options, the first is estimated from the base step's
+/// derivatives (Hairer, Nørsett & Wanner's starting step, for order `2 k_c`; three base steps):
+/// a macro step over the whole interval would be rejected, or fail in Newton's solve, down to
+/// the problem's time scale.
+///
 /// `step(h, x)` advances by exactly `h`, with as many macro steps as the tolerance needs (the
 /// last clipped to land on `t + h`); the controller's proposal for the next step and its column
 /// carry over from one call to the next and are part of the flow's memory

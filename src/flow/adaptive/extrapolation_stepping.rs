@@ -4,6 +4,7 @@
 use super::AdaptiveExtrapolation;
 use crate::error::StepError;
 use crate::flow::adaptive::control::{Control, MacroStep, Outcome, controlled_flow};
+use crate::flow::adaptive::first_step;
 use crate::flow::adaptive::{AcceptStep, AdaptiveStats};
 use crate::flow::{Flow, FlowStats, Ledger, Multipliers};
 use crate::vector::Vector;
@@ -39,6 +40,19 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for AdaptiveExtrapola
             self.cur = (0..self.kmax).map(|_| x.zeros_like()).collect();
         }
         self.base.prepare(x);
+    }
+
+    /// Estimated for the order the controller starts at, `2 k_c`.
+    fn first_step(
+        &mut self,
+        ledger: &Ledger<V::Real>,
+        sign: V::Real,
+        span: V::Real,
+        x: &V,
+    ) -> (Option<V::Real>, u64) {
+        let p = 2 * self.kc as u32;
+        let tolerances = &self.control.options.tolerances;
+        first_step::estimate(&mut self.base, tolerances, p, ledger, sign, span, x)
     }
 }
 

@@ -24,6 +24,7 @@
 mod accept;
 mod control;
 mod extrapolation;
+mod first_step;
 mod options;
 mod reversible;
 mod step_density;

@@ -232,6 +232,25 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for StepDoubling<V, F
         }
         self.base.prepare(x);
     }
+
+    fn first_step(
+        &mut self,
+        ledger: &Ledger<V::Real>,
+        sign: V::Real,
+        span: V::Real,
+        x: &V,
+    ) -> (Option<V::Real>, u64) {
+        let tolerances = &self.control.options.tolerances;
+        super::first_step::estimate(
+            &mut self.base,
+            tolerances,
+            self.order,
+            ledger,
+            sign,
+            span,
+            x,
+        )
+    }
 }
 
 controlled_flow!(StepDoubling, |s| s.order);

@@ -48,8 +48,6 @@ pub struct Control {
     pub h_max: f64,
     /// The highest order.
     pub max_order: u32,
-    /// The first step tried.
-    pub first_step: f64,
     /// The state's scales for the absolute tolerance (empty: 1 for every component): 1 for a
     /// position, the slot's mass for a momentum, so that `atol` holds positions and
     /// velocities alike.
@@ -69,7 +67,6 @@ impl Control {
         o.h_min = T::lit(self.h_min);
         o.h_max = Some(T::lit(self.h_max));
         o.max_order = self.max_order;
-        o.first_step = Some(T::lit(self.first_step));
         Ok(o)
     }
 }

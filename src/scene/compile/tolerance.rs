@@ -88,7 +88,6 @@ pub(super) fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
         h_min,
         h_max,
         max_order,
-        first_step: dt.min(h_max),
         scales: Vec::new(),
     }))
 }
