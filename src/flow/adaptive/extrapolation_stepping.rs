@@ -50,9 +50,15 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for AdaptiveExtrapola
         span: V::Real,
         x: &V,
     ) -> (Option<V::Real>, u64) {
-        let p = 2 * self.kc as u32;
-        let tolerances = &self.control.options.tolerances;
-        first_step::estimate(&mut self.base, tolerances, p, ledger, sign, span, x)
+        let start = first_step::Start {
+            tolerances: &self.control.options.tolerances,
+            order: 2 * self.kc as u32,
+            ledger,
+            sign,
+            span,
+            x,
+        };
+        first_step::estimate(&mut self.base, &start)
     }
 }
 

@@ -9,7 +9,8 @@ use crate::vector::Vector;
 use num_traits::{Float as _, Zero as _};
 
 /// An estimate of the first step, at most `span` long, for a method of order `p` built on
-/// `base` (a step `S_h`), from `x` at the ledger's time, in the direction `sign`.
+/// `base` (a step `S_h`), from `x` at the ledger's time, in the direction `sign` (all in
+/// [`Start`]).
 ///
 /// With `‖·‖` the weighted norm of `tolerances` (scales from `x`), the derivatives are
 /// difference quotients of the flow: `d₀ = ‖x‖`; a probe `S_{h_p} x` with `h_p = span/1000`
@@ -33,19 +34,12 @@ use num_traits::{Float as _, Zero as _};
 /// the estimate is not a positive finite number. The second value counts the base steps taken.
 pub(crate) fn estimate<V: Vector, F: Flow<V>>(
     base: &mut F,
-    tolerances: &Tolerances<V::Real>,
-    p: u32,
-    ledger: &Ledger<V::Real>,
-    sign: V::Real,
-    span: V::Real,
-    x: &V,
+    start: &Start<'_, V>,
 ) -> (Option<V::Real>, u64) {
     let mut memory = Vec::new();
     base.save_memory(&mut memory);
     let mut steps = 0;
-    let found = probe(
-        base, tolerances, p, ledger, sign, span, x, &memory, &mut steps,
-    );
+    let found = probe(base, start, &memory, &mut steps);
     let mut from = memory.as_slice();
     base.restore_memory(&mut from);
     (
@@ -54,19 +48,38 @@ pub(crate) fn estimate<V: Vector, F: Flow<V>>(
     )
 }
 
-/// The estimate of [`estimate`], leaving the base flow's memory changed.
-#[allow(clippy::too_many_arguments)]
+/// Where and for what the first step is estimated.
+pub(crate) struct Start<'a, V: Vector> {
+    /// The weighted norm.
+    pub(crate) tolerances: &'a Tolerances<V::Real>,
+    /// The order of the method the first step is taken with.
+    pub(crate) order: u32,
+    /// The ledger at the start (its time).
+    pub(crate) ledger: &'a Ledger<V::Real>,
+    /// The direction of time, `±1`.
+    pub(crate) sign: V::Real,
+    /// The longest first step.
+    pub(crate) span: V::Real,
+    /// The state.
+    pub(crate) x: &'a V,
+}
+
+/// The estimate of [`estimate`], leaving the base flow's memory changed; `steps` counts the base
+/// steps taken.
 fn probe<V: Vector, F: Flow<V>>(
     base: &mut F,
-    tolerances: &Tolerances<V::Real>,
-    p: u32,
-    ledger: &Ledger<V::Real>,
-    sign: V::Real,
-    span: V::Real,
-    x: &V,
+    start: &Start<'_, V>,
     memory: &[V::Real],
     steps: &mut u64,
 ) -> Option<V::Real> {
+    let Start {
+        tolerances,
+        order: p,
+        ledger,
+        sign,
+        span,
+        x,
+    } = *start;
     let zero = x.zeros_like();
     let norm = |a: &V, b: &V| {
         tolerances

@@ -38,6 +38,25 @@ impl Flow<X> for Decay {
     }
 }
 
+/// The estimate's inputs.
+fn start<'a>(
+    tolerances: &'a Tolerances<f64>,
+    order: u32,
+    ledger: &'a Ledger<f64>,
+    sign: f64,
+    span: f64,
+    x: &'a X,
+) -> Start<'a, X> {
+    Start {
+        tolerances,
+        order,
+        ledger,
+        sign,
+        span,
+        x,
+    }
+}
+
 fn decay(longest: f64) -> Decay {
     Decay {
         taken: 7.0,
@@ -55,19 +74,19 @@ fn the_estimate_is_the_textbook_step_with_the_exact_derivatives() {
     let d0 = (2.5f64).sqrt() * 1e6;
     for p in [2u32, 4, 8, 12, 40] {
         let mut base = decay(f64::INFINITY);
-        let (h, steps) = estimate(&mut base, &tol, p, &Ledger::at(0.0), 1.0, 1.0, &x);
+        let (h, steps) = estimate(&mut base, &start(&tol, p, &Ledger::at(0.0), 1.0, 1.0, &x));
         let want = (0.01 / d0).powf(1.0 / f64::from(p)).min(1.0);
         let h = h.unwrap();
         assert!((h / want - 1.0).abs() < 0.01, "p {p}: {h} against {want}");
         assert_eq!(steps, 3);
         // Backwards the same step.
-        let (hb, _) = estimate(&mut base, &tol, p, &Ledger::at(0.0), -1.0, 1.0, &x);
+        let (hb, _) = estimate(&mut base, &start(&tol, p, &Ledger::at(0.0), -1.0, 1.0, &x));
         let hb = hb.unwrap();
         assert!((hb / want - 1.0).abs() < 0.011, "p {p} backwards: {hb}");
     }
     // Never beyond the span.
     let mut base = decay(f64::INFINITY);
-    let (h, _) = estimate(&mut base, &tol, 30, &Ledger::at(0.0), 1.0, 0.05, &x);
+    let (h, _) = estimate(&mut base, &start(&tol, 30, &Ledger::at(0.0), 1.0, 0.05, &x));
     assert_eq!(h, Some(0.05));
 }
 
@@ -76,7 +95,7 @@ fn the_probes_leave_the_state_and_the_memory_as_they_were() {
     let tol = Tolerances::new(1e-8, 1e-8).unwrap();
     let x = X::new(1.0, 2.0);
     let mut base = decay(f64::INFINITY);
-    let (h, _) = estimate(&mut base, &tol, 8, &Ledger::at(3.0), 1.0, 10.0, &x);
+    let (h, _) = estimate(&mut base, &start(&tol, 8, &Ledger::at(3.0), 1.0, 10.0, &x));
     assert!(h.is_some());
     assert_eq!(base.taken, 7.0);
     assert_eq!(x, X::new(1.0, 2.0));
@@ -88,13 +107,16 @@ fn a_probe_that_fails_is_retried_shorter_and_a_flow_that_always_fails_gives_none
     let x = X::new(1.0, 2.0);
     // Span 1000: the probe of 1 and of 0.1 fail, 0.01 is taken; h₀ = 0.01 as above.
     let mut base = decay(0.05);
-    let (h, steps) = estimate(&mut base, &tol, 4, &Ledger::at(0.0), 1.0, 1000.0, &x);
+    let (h, steps) = estimate(
+        &mut base,
+        &start(&tol, 4, &Ledger::at(0.0), 1.0, 1000.0, &x),
+    );
     assert_eq!(steps, 5);
     let want = (0.01 / ((2.5f64).sqrt() * 1e6)).powf(0.25);
     assert!((h.unwrap() / want - 1.0).abs() < 0.01);
     assert_eq!(base.taken, 7.0);
     let mut never = decay(0.0);
-    let (h, steps) = estimate(&mut never, &tol, 4, &Ledger::at(0.0), 1.0, 1.0, &x);
+    let (h, steps) = estimate(&mut never, &start(&tol, 4, &Ledger::at(0.0), 1.0, 1.0, &x));
     assert_eq!((h, steps), (None, 3));
     assert_eq!(never.taken, 7.0);
 }

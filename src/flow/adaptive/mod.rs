@@ -16,7 +16,8 @@
 //! ([`AdaptiveExtrapolation`]: order- and step-size-controlled extrapolation of a symmetric
 //! base step, ODEX's controller), `step_doubling.rs` ([`StepDoubling`]: step-size control of a
 //! fixed-order scheme by step doubling and a PI controller), `control.rs` (the state and the
-//! stepping every error-controlled flow shares), `reversible.rs` ([`ReversibleSteps`]: time-reversible
+//! stepping every error-controlled flow shares), `first_step.rs` (the first step when none is
+//! given, estimated from the base step), `reversible.rs` ([`ReversibleSteps`]: time-reversible
 //! variable steps along a [`StepDensity`] (`step_density.rs`), for conservative symmetric
 //! schemes), `accept.rs` ([`AcceptStep`]: what runs after each accepted
 //! step — the projection onto the manifold, or nothing).

@@ -240,16 +240,15 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for StepDoubling<V, F
         span: V::Real,
         x: &V,
     ) -> (Option<V::Real>, u64) {
-        let tolerances = &self.control.options.tolerances;
-        super::first_step::estimate(
-            &mut self.base,
-            tolerances,
-            self.order,
+        let start = super::first_step::Start {
+            tolerances: &self.control.options.tolerances,
+            order: self.order,
             ledger,
             sign,
             span,
             x,
-        )
+        };
+        super::first_step::estimate(&mut self.base, &start)
     }
 }
 
