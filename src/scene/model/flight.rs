@@ -534,6 +534,10 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
     fn lead_is_affine(&self) -> bool {
         true
     }
+    /// Without damping the flight books nothing, whatever the state.
+    fn lead_ledger_is_constant(&self) -> bool {
+        !self.model.is_dissipative()
+    }
     fn is_affine_in_momenta(&self) -> bool {
         true
     }
