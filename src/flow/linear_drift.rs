@@ -3,6 +3,9 @@
 
 use crate::real::Real;
 
+/// Coordinates mapped through a stack buffer in one pass (more are mapped twice).
+const STACK: usize = 8;
+
 /// The affine system `x' = A x + b` when it is, for a state `x = (q, p)` of `2d` entries,
 ///
 /// ```text
@@ -21,9 +24,6 @@ use crate::real::Real;
 /// `3d` coefficients per step size and `O(d)` work per step, where the series and squarings
 /// of the exponential of the `(2d+1)²` augmented matrix cost `O(d³)` per step size and a
 /// dense product `O(d²)` per step. The same map to rounding: both are exact flows.
-/// Coordinates mapped through a stack buffer in one pass (more are mapped twice).
-const STACK: usize = 8;
-
 #[derive(Debug, Clone)]
 pub(super) struct Drift<T> {
     coordinates: Vec<Coordinate<T>>,

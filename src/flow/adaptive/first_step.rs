@@ -25,8 +25,9 @@ use num_traits::{Float as _, Zero as _};
 /// (`max(10⁻⁶, 10⁻³ h₀)` in place of the middle term when both derivatives vanish): the step at
 /// which a method of order `p` whose error constants are those of the first two derivatives
 /// would make an error of about the tolerance; at high order the first term, the time over
-/// which `x` changes by about itself, is the one that binds. It costs three base steps, against a first
-/// macro step tried over the whole interval and rejected down to the problem's scale.
+/// which `x` changes by about itself, is the one that binds. It costs three base steps,
+/// against a first macro step tried over the whole interval and rejected down to the
+/// problem's scale.
 ///
 /// The base flow's memory is saved first and restored after, the state and the ledger are not
 /// touched: the estimate changes nothing the run then does but its first step. `None` when a

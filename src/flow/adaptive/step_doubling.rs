@@ -233,6 +233,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for StepDoubling<V, F
         self.base.prepare(x);
     }
 
+    /// Estimated for the scheme's order.
     fn first_step(
         &mut self,
         ledger: &Ledger<V::Real>,
