@@ -28,7 +28,8 @@ pub(crate) struct CsvRows {
     w: BufWriter<File>,
     columns: Columns,
     every: usize,
-    steps: usize,
+    /// The steps planned (`None`: not known before, the controller's own steps).
+    steps: Option<usize>,
     /// The last sample seen was written (a run that stops early ends with its last state).
     last_written: bool,
     error: Option<std::io::Error>,
@@ -41,7 +42,7 @@ impl CsvRows {
         columns: Columns,
         a: &Assembly,
         every: usize,
-        steps: usize,
+        steps: Option<usize>,
     ) -> Result<Self, String> {
         let f = File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
         let mut rows = Self {
@@ -61,7 +62,7 @@ impl CsvRows {
     /// Writes `s` if it is an `every`-th step or the last planned one.
     pub(crate) fn observe(&mut self, s: &Sample<'_>) {
         self.last_written = false;
-        if s.step.is_multiple_of(self.every) || s.step == self.steps {
+        if s.step.is_multiple_of(self.every) || Some(s.step) == self.steps {
             self.last_written = true;
             self.write(s);
         }

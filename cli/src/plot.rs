@@ -47,9 +47,23 @@ pub fn check_target(path: &Path) -> Result<(), String> {
         .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
+/// Which samples of a run become points.
+#[derive(Debug, Clone, Copy)]
+pub enum Spacing {
+    /// A run of this many steps: every `steps / POINTS`-th.
+    Steps(usize),
+    /// A run over `(t₀, t_end)` of steps not counted before (the controller's own): the first
+    /// sample at or after each of `POINTS` evenly spaced times.
+    Time((f64, f64)),
+}
+
 /// Decimated samples of a run.
 pub struct Series {
     every: usize,
+    /// With [`Spacing::Time`]: the interval between points and the time of the next one.
+    timed: Option<(f64, f64)>,
+    /// The step of the last point recorded.
+    recorded: Option<usize>,
     /// `(t, H − H₀)`.
     energy: Vec<(f64, f64)>,
     /// `(t, H − H₀ + dissipated − supplied)`, when the run books either.
@@ -73,9 +87,9 @@ pub struct Series {
 }
 
 impl Series {
-    /// A series for a run of `steps` steps of `bodies = (dim, count)` named `names`.
+    /// A series for a run spaced by `spacing` of `bodies = (dim, count)` named `names`.
     pub fn new(
-        steps: usize,
+        spacing: Spacing,
         bodies: Option<(usize, usize)>,
         names: &[String],
         outputs: &[String],
@@ -86,8 +100,14 @@ impl Series {
             .take(PATHS)
             .collect();
         let drawn = slots.len();
+        let (every, timed) = match spacing {
+            Spacing::Steps(steps) => ((steps / POINTS).max(1), None),
+            Spacing::Time((t0, t_end)) => (1, Some(((t_end - t0) / POINTS as f64, t0))),
+        };
         Self {
-            every: (steps / POINTS).max(1),
+            every,
+            timed,
+            recorded: None,
             energy: Vec::new(),
             balance: Vec::new(),
             g: Vec::new(),
@@ -113,14 +133,28 @@ impl Series {
     /// rest every `every`-th, or with `force` (the last one of a run) unless it is already the
     /// last recorded.
     pub fn push(&mut self, s: &Sample<'_>, force: bool) {
-        let due = s.step.is_multiple_of(self.every);
-        if !force {
+        if force {
+            if self.recorded == Some(s.step) {
+                return;
+            }
+        } else {
             self.bucket.0 = self.bucket.0.max(s.g.unwrap_or(0.0));
             self.bucket.1 = self.bucket.1.max(s.phi.unwrap_or(0.0));
+            let due = match &mut self.timed {
+                None => s.step.is_multiple_of(self.every),
+                Some((interval, next)) => {
+                    let due = s.t >= *next;
+                    if due {
+                        *next = s.t + *interval;
+                    }
+                    due
+                }
+            };
+            if !due {
+                return;
+            }
         }
-        if !(due || force) || (force && due) {
-            return;
-        }
+        self.recorded = Some(s.step);
         if let Some(e) = s.energy {
             let e0 = *self.e0.get_or_insert(e);
             self.energy.push((s.t, e - e0));

@@ -41,6 +41,7 @@ fn headline(a: &Assembly, plan: &RunPlan, dt: f64) -> String {
         ),
     };
     let steps = match plan.last_step {
+        _ if plan.own_steps => format!("steps chosen to t_end = {}", num(plan.t_end, 12)),
         None => count(plan.steps, "step", "steps"),
         Some(last) => format!(
             "{} (the last {} long, to end at t_end = {})",
@@ -79,9 +80,14 @@ pub(crate) struct RunArgs {
     /// Write the trajectory (t, x, and the diagnostics) as CSV.
     #[arg(long, value_name = "FILE")]
     csv: Option<PathBuf>,
-    /// Write every K-th step to the CSV (default: about 1000 rows).
+    /// Write every K-th step to the CSV (default: about 1000 rows; with --accepted-steps,
+    /// every accepted step).
     #[arg(long, value_name = "K")]
     every: Option<usize>,
+    /// Take the steps the controller chooses (a scene with a tolerance) and write a CSV row
+    /// and plot point at each accepted step, instead of stepping to every `dt`.
+    #[arg(long)]
+    accepted_steps: bool,
     /// Plot energy and constraint residual over time (and the paths, for 2D scenes) as SVG
     /// (the file must end in `.svg`; it is checked writable before the run).
     #[arg(long, value_name = "FILE.svg")]
@@ -170,6 +176,16 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         Ok(c) => c,
         Err(e) => return bad_scene(&e),
     };
+    if args.accepted_steps {
+        if compiled.simulation.adaptive_stats().is_none() {
+            eprintln!(
+                "error: --accepted-steps: the scheme takes fixed steps of dt = {}; give the scene a tolerance (`[integrator] tol`) to have its steps chosen",
+                num(dt, 12)
+            );
+            return ExitCode::from(2);
+        }
+        compiled.plan.own_steps = true;
+    }
     println!("{}", headline(&compiled.assembly, &compiled.plan, dt));
     let a = &compiled.assembly;
     for note in &a.notes {
@@ -184,12 +200,16 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
             a.dropped_constraints.join(", ")
         );
     }
-    let steps = compiled.plan.total_steps();
+    // Without a count known before (the controller's steps), every step is a row; a plot and
+    // a progress bar follow the time instead.
+    let steps = (!args.accepted_steps).then(|| compiled.plan.total_steps());
     if args.every == Some(0) {
         eprintln!("error: --every must be at least 1");
         return ExitCode::from(2);
     }
-    let every = args.every.unwrap_or((steps / 1000).max(1));
+    let every = args
+        .every
+        .unwrap_or_else(|| steps.map_or(1, |n| (n / 1000).max(1)));
     let mut csv = match &args.csv {
         Some(p) => {
             let sim = compiled.simulation.as_ref();
@@ -224,8 +244,9 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         .iter()
         .filter_map(|n| n.strip_prefix("q.")?.strip_suffix(".x").map(str::to_owned))
         .collect();
+    let span = (compiled.simulation.time(), compiled.plan.t_end);
     let mut series = plot::Series::new(
-        steps,
+        steps.map_or(plot::Spacing::Time(span), plot::Spacing::Steps),
         bodies,
         &body_names,
         &compiled.simulation.output_names(),
@@ -237,7 +258,10 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let mut progress = Progress::new(steps);
+    let mut progress = match steps {
+        Some(n) => Progress::new(n),
+        None => Progress::over_time(span),
+    };
     // The last state seen: a run that stops early still ends its CSV and plot with it.
     // The scalars of the last sample seen (its slices are copied beside it).
     let mut last = Scalars::default();
@@ -326,11 +350,14 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         code = ExitCode::from(1);
     }
     if summary.interrupted {
+        let done = if args.accepted_steps {
+            count(summary.steps, "accepted step", "accepted steps")
+        } else {
+            format!("{} of {} steps", summary.steps, summary.steps_planned)
+        };
         eprintln!(
-            "interrupted at t = {} after {} of {} steps: the CSV, plot and summary hold the run so far",
+            "interrupted at t = {} after {done}: the CSV, plot and summary hold the run so far",
             num(summary.t, 12),
-            summary.steps,
-            summary.steps_planned
         );
         code = ExitCode::from(interrupt::EXIT_INTERRUPTED);
     }

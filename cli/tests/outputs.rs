@@ -201,3 +201,86 @@ fn fmu_refuses_a_file_that_is_not_an_fmu_and_a_bad_scene() {
     // Help names the subcommand.
     assert!(stdout(&lieflow(&["--help"])).contains("fmu"));
 }
+
+#[test]
+fn accepted_steps_writes_a_row_at_each_step_the_controller_chose() {
+    // Kepler at e = 0.9 (tol 1e-8): a row per accepted step, at the times the controller
+    // chose (short at perihelion, long at aphelion), the last at t_end; `--every 2` keeps
+    // every second and the last.
+    let scene = repo("scenes/kepler.toml");
+    let csv = scratch("kepler_steps.csv");
+    let plot = scratch("kepler_steps.svg");
+    let o = lieflow(&[
+        "run",
+        &scene,
+        "--accepted-steps",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        plot.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let j = summary(&o);
+    let steps = j["steps"].as_u64().unwrap() as usize;
+    assert_eq!(j["steps"], j["adaptive"]["accepted"]);
+    assert_eq!(j["steps_planned"], j["steps"]);
+    assert!(
+        stdout(&o)
+            .lines()
+            .next()
+            .unwrap()
+            .contains("steps chosen to t_end = 62.8")
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let times: Vec<f64> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(times.len(), steps + 1);
+    assert_eq!(*times.last().unwrap(), j["t"].as_f64().unwrap());
+    let lengths: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+    assert!(lengths.iter().all(|&h| h > 0.0));
+    let (short, long) = lengths
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), &h| (a.min(h), b.max(h)));
+    assert!(long > 10.0 * short, "steps {short} … {long}");
+    // The longest row-to-row interval is the controller's longest step (to the rounding of
+    // the times' difference).
+    let largest = j["adaptive"]["largest_step"].as_f64().unwrap();
+    assert!(
+        (largest - long).abs() <= 1e-13 * 62.8,
+        "{largest} vs {long}"
+    );
+    assert!(std::fs::read_to_string(&plot).unwrap().contains("<svg"));
+    let o = lieflow(&[
+        "run",
+        &scene,
+        "--accepted-steps",
+        "--every",
+        "2",
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .count();
+    assert_eq!(rows, 1 + steps / 2 + steps % 2);
+    // A fixed-step scene has no steps of its own to write: refused, saying what to give.
+    let o = lieflow(&[
+        "run",
+        &repo("scenes/damped_pendulum.toml"),
+        "--accepted-steps",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--accepted-steps: the scheme takes fixed steps of dt = 0.01"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -249,10 +249,28 @@ impl Simulation {
     /// the command's JSON fields, with the trajectory: `"times"` (rows,) and `"states"`
     /// (rows, len(state)) as numpy arrays holding the initial state, every `every`-th step and
     /// the last. A failed step ends the run; the summary's `"error"` says why (the arrays hold
-    /// the run up to the last good state).
-    #[pyo3(signature = (every = 1))]
-    fn run<'py>(&mut self, py: Python<'py>, every: usize) -> PyResult<Bound<'py, PyDict>> {
-        self.run_observed(py, every, &mut |_| {})
+    /// the run up to the last good state). With `accepted_steps` (a scene with a tolerance),
+    /// the run takes the steps its controller chooses instead of stepping to every `dt`, and
+    /// the rows are its accepted steps (`lieflow run --accepted-steps`); a scene of fixed steps
+    /// raises `ValueError`.
+    #[pyo3(signature = (every = 1, accepted_steps = false))]
+    fn run<'py>(
+        &mut self,
+        py: Python<'py>,
+        every: usize,
+        accepted_steps: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        if accepted_steps && self.sim.adaptive_stats().is_none() {
+            return Err(PyValueError::new_err(format!(
+                "accepted_steps: the scheme takes fixed steps of dt = {}; give the scene a tolerance (`[integrator] tol`) to have its steps chosen",
+                self.sim.dt()
+            )));
+        }
+        let reports = self.plan.own_steps;
+        self.plan.own_steps = accepted_steps;
+        let dict = self.run_observed(py, every, &mut |_| {});
+        self.plan.own_steps = reports;
+        dict
     }
 
     /// Runs as `run()` does and writes the run's animation to `path`: one self-contained HTML
@@ -340,9 +358,14 @@ impl Simulation {
 
 /// Loads the scene file at `path` and runs it to its end (`Simulation.run`).
 #[pyfunction]
-#[pyo3(signature = (path, every = 1))]
-pub fn run<'py>(py: Python<'py>, path: PathBuf, every: usize) -> PyResult<Bound<'py, PyDict>> {
-    Simulation::load(py, path)?.run(py, every)
+#[pyo3(signature = (path, every = 1, accepted_steps = false))]
+pub fn run<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    every: usize,
+    accepted_steps: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    Simulation::load(py, path)?.run(py, every, accepted_steps)
 }
 
 /// The text of the default scene (`lieflow scene`), a starting point for one's own.

@@ -46,11 +46,13 @@ t_end = 2.0
 """
 
 
-def command(scene):
-    """The command's JSON summary of ``lieflow run scene``."""
+def command(scene, *flags):
+    """The command's JSON summary of ``lieflow run scene flags…``."""
     if not BIN.exists():
         pytest.skip(f"the command is not built at {BIN} (cargo build --release)")
-    out = subprocess.run([str(BIN), "run", str(scene)], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [str(BIN), "run", str(scene), *flags], capture_output=True, text=True, check=True
+    )
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -79,6 +81,20 @@ def test_a_run_equals_the_command_bit_for_bit(scene):
     if scene == "kepler.toml":
         assert mine["adaptive"]["accepted"] > mine["steps"]
         assert mine["adaptive"]["smallest_step"] < mine["adaptive"]["largest_step"] / 10
+
+
+def test_a_run_at_the_accepted_steps_has_a_row_per_step_as_the_command_does():
+    mine = lieflow.run(SCENES / "kepler.toml", accepted_steps=True)
+    theirs = command(SCENES / "kepler.toml", "--accepted-steps")
+    assert mine["x"] == theirs["x"]
+    assert mine["adaptive"] == theirs["adaptive"]
+    # A row per accepted step and the initial state, the controller's steps between them.
+    assert mine["steps"] == mine["adaptive"]["accepted"]
+    assert mine["times"].shape == (mine["steps"] + 1,)
+    steps = np.diff(mine["times"])
+    assert steps.min() > 0 and steps.max() > 10 * steps.min()
+    with pytest.raises(ValueError, match="fixed steps of dt"):
+        lieflow.run(SCENES / "damped_pendulum.toml", accepted_steps=True)
 
 
 def test_the_paper_example_keeps_its_constraint_and_energy():

@@ -73,7 +73,7 @@ pub use model::{
 };
 pub use run::{
     AdaptiveSummary, Advanced, BUDGET_WARNING_FRACTION, EffectReport, RunFailure, RunPlan,
-    RunSummary, Sample, Simulation, SimulationCheckpoint, advance, advance_plan,
+    RunSummary, Sample, Simulation, SimulationCheckpoint, advance, advance_own_until, advance_plan,
     advance_plan_until, advance_until, run, run_until,
 };
 pub use schema::SceneFile;

@@ -39,6 +39,18 @@ pub trait Simulation {
     fn dt(&self) -> f64;
     /// One step. On error the state is unchanged (the last good state).
     fn step(&mut self) -> Result<(), StepError>;
+    /// One step of the scheme's own size toward `t_end`: an adaptive scheme's next accepted
+    /// step (see [`Stepper::step_own`]), with the events located in it as [`step`](Self::step)
+    /// locates them. Returns the step taken; `None` when the time is `t_end` already or the
+    /// scheme has no steps of its own (a fixed step size: [`step`](Self::step) and
+    /// [`advance_to`](Self::advance_to) take its steps).
+    ///
+    /// # Errors
+    /// The step's error (the state is the last good one).
+    fn step_own(&mut self, t_end: f64) -> Result<Option<f64>, StepError> {
+        let _ = t_end;
+        Ok(None)
+    }
     /// `H(x)`.
     fn energy(&self) -> f64;
     /// The dissipated power `∇Hᵀ R ∇H` at `x` (`None` without dissipation).
@@ -228,12 +240,35 @@ impl<V: Vector<Real = f64>, Sys> ModelRun<V, Sys> {
     /// A step of `h` (`None`) or of `short` off the grid, watching the events if any.
     fn watched_step(&mut self, short: Option<f64>) -> Result<(), StepError> {
         self.events_step(short)?;
+        self.unwrap_joints();
+        Ok(())
+    }
+
+    /// Joint angles unwrap against the last step's (less than half a turn a step).
+    fn unwrap_joints(&self) {
         if let Some(w) = &self.watch {
-            // Joint angles unwrap against the last step's (less than half a turn a step).
             w.joints
                 .advance(&self.stepper.state().as_slice()[..self.stepper.state().len() / 2]);
         }
-        Ok(())
+    }
+
+    /// A step of the flow's own size toward `t_end`, locating the events if any; the step
+    /// taken, `None` when none was.
+    fn events_own_step(&mut self, t_end: f64) -> Result<Option<f64>, StepError> {
+        let Some(Watch {
+            events: Some(events),
+            ..
+        }) = self.watch.as_mut()
+        else {
+            return self.stepper.step_own(t_end);
+        };
+        let Some((taken, hit)) = self.stepper.step_own_with_events(t_end, events)? else {
+            return Ok(None);
+        };
+        if let (Some(hit), Some(w)) = (hit, self.watch.as_mut()) {
+            w.record(hit, self.stepper.steps_taken());
+        }
+        Ok(Some(taken))
     }
 
     /// A step of `h` (`None`) or of `short`, locating the events if any.
@@ -275,6 +310,13 @@ where
     }
     fn step(&mut self) -> Result<(), StepError> {
         self.watched_step(None)
+    }
+    fn step_own(&mut self, t_end: f64) -> Result<Option<f64>, StepError> {
+        let taken = self.events_own_step(t_end)?;
+        if taken.is_some() {
+            self.unwrap_joints();
+        }
+        Ok(taken)
     }
     fn input_names(&self) -> Vec<String> {
         self.model
@@ -516,74 +558,5 @@ where
         }
         let gram = self.gram.as_mut()?;
         Some(gram.condition_estimate(model, q))
-    }
-}
-
-impl SceneModel {
-    /// The assembled terms with their evaluation counts (and time shares when profiling).
-    pub fn reports(&self) -> Vec<EffectReport> {
-        // A free flight evaluates the kinetic term, the damping, the field and the gravity
-        // joined to it at once (one count for all of them).
-        let flights = self.flight_counter.evaluations();
-        let mut out = vec![EffectReport {
-            name: "kinetic".into(),
-            kind: "kinetic",
-            evaluations: self.kinetic.evaluations() + flights,
-            time_share: None,
-        }];
-        for t in &self.potentials {
-            let joined = if self.gravity_in_flight() && t.is_gravity() {
-                flights
-            } else {
-                0
-            };
-            out.push(EffectReport {
-                name: t.label.clone(),
-                kind: t.kind.name(),
-                evaluations: t.counter.evaluations() + joined,
-                time_share: self.profile.then(|| t.counter.nanos() as f64),
-            });
-        }
-        if let Some(t) = &self.damping {
-            out.push(EffectReport {
-                name: t.label.clone(),
-                kind: "damping",
-                evaluations: t.counter.evaluations() + flights,
-                time_share: None,
-            });
-        }
-        if let Some(t) = &self.dashpots {
-            out.push(EffectReport {
-                name: t.label.clone(),
-                kind: "dashpot",
-                evaluations: t.counter.evaluations(),
-                time_share: None,
-            });
-        }
-        if let Some(t) = &self.hinge_dampers {
-            out.push(EffectReport {
-                name: t.label.clone(),
-                kind: t.kind(),
-                evaluations: t.counter.evaluations(),
-                time_share: None,
-            });
-        }
-        if let Some(t) = &self.magnetic {
-            out.push(EffectReport {
-                name: t.label.clone(),
-                kind: "magnetic",
-                evaluations: t.counter.evaluations() + flights,
-                time_share: None,
-            });
-        }
-        if !self.constraints.is_empty() {
-            out.push(EffectReport {
-                name: "constraints".into(),
-                kind: "constraints",
-                evaluations: self.constraint_counter.evaluations(),
-                time_share: self.profile.then(|| self.constraint_counter.nanos() as f64),
-            });
-        }
-        out
     }
 }

@@ -10,6 +10,18 @@ use num_traits::Float as _;
 use num_traits::{One, Zero};
 use std::borrow::BorrowMut;
 
+/// The step a watched step takes: one of the grid, one of `h` off it, or one of the flow's
+/// own size toward a time.
+#[derive(Clone, Copy)]
+enum Take<R> {
+    Grid,
+    OffGrid(R),
+    Own(R),
+}
+
+/// A watched step of the flow's own size: its length and the earliest event in it.
+pub type WatchedStep<R> = (R, Option<EventHit<R>>);
+
 /// Which crossings of zero count.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Direction {
@@ -168,7 +180,9 @@ where
         &mut self,
         events: &mut Events<V>,
     ) -> Result<Option<EventHit<V::Real>>, StepError> {
-        self.watched_step(events, None)
+        Ok(self
+            .watched_step(events, Take::Grid)?
+            .and_then(|(_, hit)| hit))
     }
 
     /// As [`step_with_events`](Self::step_with_events), with a step of size `h` off the grid
@@ -178,23 +192,50 @@ where
         h: V::Real,
         events: &mut Events<V>,
     ) -> Result<Option<EventHit<V::Real>>, StepError> {
-        self.watched_step(events, Some(h))
+        Ok(self
+            .watched_step(events, Take::OffGrid(h))?
+            .and_then(|(_, hit)| hit))
     }
 
+    /// As [`step_with_events`](Self::step_with_events), with a step of the flow's own size
+    /// toward `t_end` ([`step_own`](Self::step_own): an adaptive flow's next accepted step);
+    /// the crossing is located on the dense output of that step. Returns the step taken and
+    /// the event found in it; `None` when no step was taken (the time is `t_end`, or the flow
+    /// has no steps of its own).
+    ///
+    /// # Errors
+    /// The step's [`StepError`] (the stepper is then at the start of the step).
+    pub fn step_own_with_events(
+        &mut self,
+        t_end: V::Real,
+        events: &mut Events<V>,
+    ) -> Result<Option<WatchedStep<V::Real>>, StepError> {
+        self.watched_step(events, Take::Own(t_end))
+    }
+
+    /// The step `take` watching `events`: the step's length and the earliest event in it,
+    /// `None` when no step was taken.
     fn watched_step(
         &mut self,
         events: &mut Events<V>,
-        off_grid: Option<V::Real>,
-    ) -> Result<Option<EventHit<V::Real>>, StepError> {
+        take: Take<V::Real>,
+    ) -> Result<Option<WatchedStep<V::Real>>, StepError> {
         if !events.started {
             let (t, x) = (self.time(), self.x.borrow());
             events.evaluate_all(t, x);
             events.started = true;
         }
-        match off_grid {
-            Some(h) => self.step_off_grid(h)?,
-            None => self.step()?,
+        let start = self.time();
+        match take {
+            Take::OffGrid(h) => self.step_off_grid(h)?,
+            Take::Grid => self.step()?,
+            Take::Own(t_end) => {
+                if self.step_own(t_end)?.is_none() {
+                    return Ok(None);
+                }
+            }
         }
+        let taken = self.time() - start;
         let t1 = self.time();
         let t0 = self.previous_time();
         let mut earliest: Option<EventHit<V::Real>> = None;
@@ -247,7 +288,7 @@ where
             }
         };
         events.scratch = Some(scratch);
-        Ok(result)
+        Ok(Some((taken, result)))
     }
 
     /// Locates the crossing of event `i` in `[t0, t1]` (values `e0`, `e1` of opposite signs, or

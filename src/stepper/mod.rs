@@ -28,7 +28,7 @@ mod dense;
 mod event;
 
 pub use checkpoint::{Checkpoint, CheckpointError};
-pub use event::{Direction, Event, EventHit, Events};
+pub use event::{Direction, Event, EventHit, Events, WatchedStep};
 
 use crate::error::{IntegrateError, StepError};
 use crate::flow::{Flow, FlowStats, Ledger};

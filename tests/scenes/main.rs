@@ -14,6 +14,7 @@ mod kick_tail;
 mod mechanical_discrete_gradient;
 mod mechanical_form;
 mod scene;
+mod scene_accepted_steps;
 mod scene_bricard;
 mod scene_controllers;
 mod scene_damping_account;

@@ -143,6 +143,7 @@ pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(RunPlan, bo
             energy: energy && flags.energy,
             residuals: residuals && flags.residuals,
             multipliers: false,
+            own_steps: false,
         },
         profile,
     ))

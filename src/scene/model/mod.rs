@@ -25,6 +25,7 @@ mod flight;
 mod hamiltonian;
 mod hinge_damper;
 mod potential;
+mod reports;
 mod scalar;
 mod splitting;
 mod structure;

@@ -129,9 +129,54 @@ fn overflowing_input(sim: &dyn Simulation) -> Option<String> {
     })
 }
 
+/// Takes the scheme's own steps (an adaptive scheme's accepted steps, [`Simulation::step_own`])
+/// until the time is `t_end`, calling `observer` after each; stops before the next step once
+/// `interrupt` is raised. Failing and stopped like [`advance`]. A scheme without steps of its
+/// own takes none.
+pub fn advance_own_until(
+    sim: &mut dyn Simulation,
+    t_end: f64,
+    observer: &mut dyn RunObserver,
+    interrupt: &AtomicBool,
+) -> Advanced {
+    let mut steps = 0;
+    loop {
+        if interrupt.load(Ordering::Relaxed) {
+            return Advanced {
+                steps,
+                error: None,
+                interrupted: true,
+            };
+        }
+        match sim.step_own(t_end) {
+            Ok(None) => break,
+            Ok(Some(_)) => {
+                steps += 1;
+                observer.observe(steps, sim);
+                if sim.stopped().is_some() {
+                    break;
+                }
+            }
+            Err(e) => {
+                return Advanced {
+                    steps,
+                    error: Some(failure(steps, sim, &e)),
+                    interrupted: false,
+                };
+            }
+        }
+    }
+    Advanced {
+        steps,
+        error: None,
+        interrupted: false,
+    }
+}
+
 /// Takes the steps of `plan`: its full steps of `dt`, then, when `dt` does not divide `t_end`,
-/// the shorter last step that lands on `t_end` ([`Simulation::advance_to`]). Observed, failing
-/// and stopped like [`advance`].
+/// the shorter last step that lands on `t_end` ([`Simulation::advance_to`]) — or, when the
+/// plan asks for [`own_steps`](RunPlan::own_steps) and the scheme has them, the scheme's own
+/// steps to `t_end` ([`advance_own_until`]). Observed, failing and stopped like [`advance`].
 pub fn advance_plan(
     sim: &mut dyn Simulation,
     plan: &RunPlan,
@@ -147,6 +192,9 @@ pub fn advance_plan_until(
     observer: &mut dyn RunObserver,
     interrupt: &AtomicBool,
 ) -> Advanced {
+    if plan.own_steps && sim.adaptive_stats().is_some() {
+        return advance_own_until(sim, plan.t_end, observer, interrupt);
+    }
     let done = advance_until(sim, plan.steps, observer, interrupt);
     if done.error.is_some()
         || done.interrupted
@@ -231,6 +279,7 @@ pub fn run_until(
         clock.start();
     };
     each(0, sim);
+    let own = plan.own_steps && sim.adaptive_stats().is_some();
     let done = advance_plan_until(sim, plan, &mut each, interrupt);
     let stats = sim.stats();
     let run_ns = run_start.elapsed().as_nanos() as f64;
@@ -249,8 +298,10 @@ pub fn run_until(
     RunSummary {
         t: sim.time(),
         steps: taken,
-        steps_planned: plan.total_steps(),
-        last_step: plan.last_step.filter(|_| taken == plan.total_steps()),
+        steps_planned: if own { taken } else { plan.total_steps() },
+        last_step: plan
+            .last_step
+            .filter(|_| !own && taken == plan.total_steps()),
         dt: sim.dt(),
         x: sim.state().to_vec(),
         max_abs_g: residuals.as_ref().and_then(|r| r.max_g),

@@ -19,6 +19,11 @@ pub struct RunPlan {
     pub energy: bool,
     /// Evaluate `|g|` and `|φ|` after every step.
     pub residuals: bool,
+    /// Take the scheme's own steps to `t_end` — an adaptive scheme's accepted steps — with
+    /// the observer called after each, instead of the steps of `dt` (for a scene with a
+    /// tolerance, `dt` is the interval its states are reported at, each report time a step
+    /// lands on). A scheme without steps of its own takes the steps of `dt`.
+    pub own_steps: bool,
     /// Pass the step's multipliers `(λ_k + λ_{k+1})/2` to the observer (a copy per step: for
     /// writing them out, off by default).
     pub multipliers: bool,
@@ -79,7 +84,8 @@ pub struct RunSummary {
     pub t: f64,
     /// Steps taken.
     pub steps: usize,
-    /// Steps planned.
+    /// Steps planned; in a run of the scheme's own steps ([`RunPlan::own_steps`]), whose
+    /// number is not known before, the steps taken.
     pub steps_planned: usize,
     /// Step size.
     pub dt: f64,
