@@ -144,8 +144,8 @@ impl Series {
                 None => s.step.is_multiple_of(self.every),
                 Some((interval, next)) => {
                     let due = s.t >= *next;
-                    if due {
-                        *next = s.t + *interval;
+                    while *interval > 0.0 && *next <= s.t {
+                        *next += *interval;
                     }
                     due
                 }

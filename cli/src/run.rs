@@ -350,7 +350,7 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
         code = ExitCode::from(1);
     }
     if summary.interrupted {
-        let done = if args.accepted_steps {
+        let done = if summary.own_steps {
             count(summary.steps, "accepted step", "accepted steps")
         } else {
             format!("{} of {} steps", summary.steps, summary.steps_planned)
@@ -381,11 +381,14 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
 
 pub(crate) fn print_summary(s: &RunSummary) {
     let opt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| num(v, 4));
+    let steps = if s.own_steps {
+        count(s.steps, "accepted step", "accepted steps")
+    } else {
+        format!("{} of {} steps", s.steps, s.steps_planned)
+    };
     println!(
-        "  t = {}, {} of {} steps, {} ns/step",
+        "  t = {}, {steps}, {} ns/step",
         num(s.t, 12),
-        s.steps,
-        s.steps_planned,
         num(s.ns_per_step.round(), 6)
     );
     if s.max_abs_g.is_some() || s.max_abs_phi.is_some() {

@@ -144,3 +144,46 @@ fn ctrl_c_stops_a_sweep_and_writes_the_members_that_ran() {
     let jsonl = std::fs::read_to_string(out.join("members.jsonl")).unwrap();
     assert_eq!(jsonl.lines().count() as u64, members);
 }
+
+#[test]
+fn ctrl_c_stops_a_run_at_the_accepted_steps_and_keeps_its_rows() {
+    // The damped pendulum under a tolerance, endless, at its controller's own steps: the CSV
+    // ends with the last accepted step the summary reports.
+    let text = std::fs::read_to_string(repo("scenes/damped_pendulum.toml")).unwrap();
+    let scene = common::scene_file(
+        "endless_tol.toml",
+        &text
+            .replace("dt = 0.01", "dt = 1e4\ntol = 1e-10")
+            .replace("t_end = 10.0", "t_end = 1e7"),
+    );
+    let csv = scratch("interrupted_steps.csv");
+    let (_, j, err) = interrupt(
+        &[
+            "run",
+            &scene,
+            "--accepted-steps",
+            "--csv",
+            csv.to_str().unwrap(),
+        ],
+        true,
+        Duration::from_millis(300),
+    );
+    assert!(
+        err.contains(" accepted step") && err.contains("the CSV"),
+        "{err}"
+    );
+    let steps = j["steps"].as_u64().unwrap();
+    assert!(steps > 0);
+    assert_eq!(j["adaptive"]["accepted"].as_u64().unwrap(), steps);
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    let data: Vec<&str> = rows
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .collect();
+    assert_eq!(data.len() as u64, steps + 1);
+    assert_eq!(
+        data.last().unwrap().split(',').next().unwrap(),
+        steps.to_string()
+    );
+}

@@ -199,8 +199,8 @@ where
 
     /// As [`step_with_events`](Self::step_with_events), with a step of the flow's own size
     /// toward `t_end` ([`step_own`](Self::step_own): an adaptive flow's next accepted step);
-    /// the crossing is located on the dense output of that step. Returns the step taken and
-    /// the event found in it; `None` when no step was taken (the time is `t_end`, or the flow
+    /// the crossing is located on the dense output of that step. Returns the step taken (to a
+    /// terminal event, when one stopped it there) and the event found in it; `None` when no step was taken (the time is `t_end`, or the flow
     /// has no steps of its own).
     ///
     /// # Errors
@@ -235,7 +235,6 @@ where
                 }
             }
         }
-        let taken = self.time() - start;
         let t1 = self.time();
         let t0 = self.previous_time();
         let mut earliest: Option<EventHit<V::Real>> = None;
@@ -288,7 +287,8 @@ where
             }
         };
         events.scratch = Some(scratch);
-        Ok(Some((taken, result)))
+        // After a terminal event, the step to it.
+        Ok(Some((self.time() - start, result)))
     }
 
     /// Locates the crossing of event `i` in `[t0, t1]` (values `e0`, `e1` of opposite signs, or

@@ -131,8 +131,8 @@ fn overflowing_input(sim: &dyn Simulation) -> Option<String> {
 
 /// Takes the scheme's own steps (an adaptive scheme's accepted steps, [`Simulation::step_own`])
 /// until the time is `t_end`, calling `observer` after each; stops before the next step once
-/// `interrupt` is raised. Failing and stopped like [`advance`]. A scheme without steps of its
-/// own takes none.
+/// `interrupt` is raised. Failing and stopped like [`advance`]; a simulation stopped by an event
+/// before takes no step. A scheme without steps of its own takes none.
 pub fn advance_own_until(
     sim: &mut dyn Simulation,
     t_end: f64,
@@ -140,12 +140,15 @@ pub fn advance_own_until(
     interrupt: &AtomicBool,
 ) -> Advanced {
     let mut steps = 0;
-    loop {
+    while sim.stopped().is_none() {
         if interrupt.load(Ordering::Relaxed) {
+            // Raised after the last step: the run is complete, not interrupted.
+            let t = sim.time();
+            let done = (t_end - t).abs() <= 8.0 * f64::EPSILON * (t_end.abs() + t.abs());
             return Advanced {
                 steps,
                 error: None,
-                interrupted: true,
+                interrupted: !done,
             };
         }
         match sim.step_own(t_end) {
@@ -153,9 +156,6 @@ pub fn advance_own_until(
             Ok(Some(_)) => {
                 steps += 1;
                 observer.observe(steps, sim);
-                if sim.stopped().is_some() {
-                    break;
-                }
             }
             Err(e) => {
                 return Advanced {
@@ -299,6 +299,7 @@ pub fn run_until(
         t: sim.time(),
         steps: taken,
         steps_planned: if own { taken } else { plan.total_steps() },
+        own_steps: own,
         last_step: plan
             .last_step
             .filter(|_| !own && taken == plan.total_steps()),

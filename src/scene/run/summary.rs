@@ -84,9 +84,12 @@ pub struct RunSummary {
     pub t: f64,
     /// Steps taken.
     pub steps: usize,
-    /// Steps planned; in a run of the scheme's own steps ([`RunPlan::own_steps`]), whose
-    /// number is not known before, the steps taken.
+    /// Steps planned; in a run of the scheme's own steps ([`own_steps`](Self::own_steps)),
+    /// whose number is not known before, the steps taken.
     pub steps_planned: usize,
+    /// The steps were the scheme's own (an adaptive scheme's accepted steps,
+    /// [`RunPlan::own_steps`]), not steps to every `dt`.
+    pub own_steps: bool,
     /// Step size.
     pub dt: f64,
     /// The length of the last step when it was shortened to end at `t_end` (`dt` does not
