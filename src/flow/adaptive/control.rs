@@ -115,6 +115,10 @@ pub(crate) trait MacroStep<V: Vector> {
         span: V::Real,
         x: &V,
     ) -> (Option<V::Real>, u64);
+    /// The longest macro step the flow takes now, beside `h_max` (unbounded by default).
+    fn longest(&self) -> V::Real {
+        V::Real::infinity()
+    }
 }
 
 /// The [`Flow`](crate::flow::Flow) of an error-controlled flow `$ty<V, F, P>` with fields `base:
@@ -248,8 +252,13 @@ fn until_accepted<V: Vector, M: MacroStep<V>>(
     x: &mut V,
 ) -> Result<V::Real, StepError> {
     loop {
+        let longest = m.longest();
         let c = m.control();
-        let h_max = c.options.h_max.map_or_else(V::Real::infinity, |v| v.abs());
+        let h_max = c
+            .options
+            .h_max
+            .map_or_else(V::Real::infinity, |v| v.abs())
+            .min(longest);
         // No step taken and none given: the first is estimated from the flow's derivatives
         // (not below the smallest step allowed).
         let estimated = if c.h_next.is_none() && c.options.first_step.is_none() {

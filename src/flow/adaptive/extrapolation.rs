@@ -34,6 +34,11 @@ use num_traits::{One as _, Zero as _};
 /// step, so a dissipative sub-flow never runs backwards. The extended coordinates of the
 /// [`Ledger`] (supplied and dissipated energy) are extrapolated with the state.
 ///
+/// With [`AdaptiveOptions::resolve`], a step aimed at column `k` is at most `k · resolve`
+/// long: the sub-steps resolve a time the base step needs resolved (a stiff damping's
+/// relaxation time, over which a splitting's error is not the expansion in `h²` the table
+/// assumes).
+///
 /// Without a first step in the options, the first is estimated from the base step's
 /// derivatives (Hairer, Nørsett & Wanner's starting step, for order `2 k_c`; three base steps):
 /// a macro step over the whole interval would be rejected, or fail in Newton's solve, down to
@@ -235,6 +240,10 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
                 fac.clamp(0.02, 4.0)
             };
             h_opt[j] = hf * fac;
+            if let Some(r) = self.control.options.resolve {
+                // Column j's finest sub-steps resolve the time asked for (its work follows).
+                h_opt[j] = h_opt[j].min(j as f64 * r.to_f64_lossy());
+            }
             work[j] = (j * (j + 1) / 2) as f64 / h_opt[j];
             // Rows are tested in the window k − 1 … k + 1 only; above `hopeless` the estimate
             // cannot fall below 1 by the window's last row (ODEX), so the step is rejected now.

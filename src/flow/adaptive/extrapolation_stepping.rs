@@ -7,7 +7,9 @@ use crate::flow::adaptive::control::{Control, MacroStep, Outcome, controlled_flo
 use crate::flow::adaptive::first_step;
 use crate::flow::adaptive::{AcceptStep, AdaptiveStats};
 use crate::flow::{Flow, FlowStats, Ledger, Multipliers};
+use crate::real::Real;
 use crate::vector::Vector;
+use num_traits::Float as _;
 
 impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for AdaptiveExtrapolation<V, F, P> {
     const NAME: &'static str = "adaptive extrapolation (per-component tolerances)";
@@ -59,6 +61,14 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for AdaptiveExtrapola
             x,
         };
         first_step::estimate(&mut self.base, &start)
+    }
+
+    /// `k_c · resolve`: the finest row's sub-steps resolve the time asked for.
+    fn longest(&self) -> V::Real {
+        self.control
+            .options
+            .resolve
+            .map_or_else(V::Real::infinity, |r| r * V::Real::lit(self.kc as f64))
     }
 }
 

@@ -103,3 +103,34 @@ fn a_run_backwards_retraces_the_run_forwards() {
     assert!(s.smallest > 0.0 && s.largest >= s.smallest, "{s:?}");
     assert!(f.next_step().is_some_and(|h| h > 0.0));
 }
+
+#[test]
+fn steps_resolve_the_time_asked_for() {
+    // Without `resolve` the oscillator at 1e-6 takes steps of about 0.5 or more; with
+    // `resolve = 0.01` every step is at most k·0.01 for the column k it aimed at, and is
+    // accepted at row k − 1 at the earliest: at most (rows + 1)·0.01 for the most rows it was
+    // accepted at — the first one too (its estimate capped), backwards alike.
+    let mut free = flow(1e-6);
+    let mut x = X::new(1.0, 0.0);
+    free.step(2.0, &mut x).unwrap();
+    assert!(free.adaptive_stats().unwrap().largest > 0.3);
+    let mut options = AdaptiveOptions::new(Tolerances::new(1e-6, 1e-6).unwrap());
+    options.resolve = Some(0.01);
+    let mut f = AdaptiveExtrapolation::try_new(Verlet::default(), (), options).unwrap();
+    let mut y = X::new(1.0, 0.0);
+    f.step(2.0, &mut y).unwrap();
+    f.step(-1.0, &mut y).unwrap();
+    let s = f.adaptive_stats().unwrap();
+    let most_rows = (1..=MAX_ROWS).rev().find(|&k| s.orders[k] > 0).unwrap();
+    assert!(
+        s.largest <= (most_rows + 1) as f64 * 0.01 * (1.0 + 1e-12),
+        "{s:?}"
+    );
+    assert!((y[0] - 1f64.cos()).abs() < 1e-5, "{y:?}");
+    // A time to resolve is positive and finite.
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let mut options = AdaptiveOptions::new(Tolerances::new(1e-6, 1e-6).unwrap());
+        options.resolve = Some(bad);
+        assert!(AdaptiveExtrapolation::try_new(Verlet::default(), (), options).is_err());
+    }
+}

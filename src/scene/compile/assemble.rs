@@ -199,11 +199,14 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
             x0[nq + b * dim + k] = body.mass * body.v[k];
         }
     }
-    let (raise, order) = choose_scheme(
+    let (mut raise, order) = choose_scheme(
         &file.integrator,
         model.is_dissipative() && !backward,
         Some(&bodies),
     )?;
+    if let Raise::Adaptive(control) = &mut raise {
+        control.resolve = model.stiff_relaxation();
+    }
     let m = model.m;
     let mut initial_projection = None;
     let mut notes = gravity_notes(file);

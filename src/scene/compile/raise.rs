@@ -52,6 +52,9 @@ pub struct Control {
     /// position, the slot's mass for a momentum, so that `atol` holds positions and
     /// velocities alike.
     pub scales: Vec<f64>,
+    /// The damping's shortest relaxation time, when the splitting's impulses act on damped
+    /// momenta: the sub-steps resolve it ([`AdaptiveOptions::resolve`]).
+    pub resolve: Option<f64>,
 }
 
 impl Control {
@@ -67,6 +70,7 @@ impl Control {
         o.h_min = T::lit(self.h_min);
         o.h_max = Some(T::lit(self.h_max));
         o.max_order = self.max_order;
+        o.resolve = self.resolve.map(T::lit);
         Ok(o)
     }
 }
@@ -137,8 +141,13 @@ impl Raise {
             Raise::Base => base.to_owned(),
             Raise::Compose(t) => format!("{base} composed by {} ({} stages)", t.name, t.stages),
             Raise::Adaptive(c) => format!(
-                "{base}, extrapolated adaptively (orders 4 to {}, rtol {:e}, atol {:e}; any constraints projected after every accepted step)",
-                c.max_order, c.rtol, c.atol
+                "{base}, extrapolated adaptively (orders 4 to {}, rtol {:e}, atol {:e}{}; any constraints projected after every accepted step)",
+                c.max_order,
+                c.rtol,
+                c.atol,
+                c.resolve.map_or_else(String::new, |r| format!(
+                    "; sub-steps within the damping's relaxation time {r:.3e}"
+                ))
             ),
             Raise::Doubling(c, t) => format!(
                 "{}, steps by step doubling with a PI controller (rtol {:e}, atol {:e}, per unit step)",

@@ -89,6 +89,7 @@ pub(super) fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
         h_max,
         max_order,
         scales: Vec::new(),
+        resolve: None,
     }))
 }
 

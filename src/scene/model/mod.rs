@@ -231,6 +231,31 @@ impl<T: Real> SceneModel<T> {
         self.gravity_in_flight
     }
 
+    /// The shortest relaxation time `m_b / c_b` of a body under damping, when something the
+    /// free flight does not integrate acts on the damped momenta — a constraint's projection,
+    /// a kick, an input, a dashpot or a hinge damper: the flight damps the impulses they give,
+    /// and over sub-steps longer than this the splitting's error is first order in the step
+    /// (docs/method.md §12d). `None` without damping, or when the flight is the whole motion
+    /// (exact).
+    pub fn stiff_relaxation(&self) -> Option<T> {
+        let damping = self.damping.as_ref()?;
+        let impulses = self.m > 0
+            || self.has_kick()
+            || self.inputs.is_some()
+            || self.dashpots.is_some()
+            || self.hinge_dampers.is_some();
+        if !impulses {
+            return None;
+        }
+        damping
+            .per_body
+            .iter()
+            .zip(&self.inv_masses)
+            .filter(|(c, w)| **c > T::zero() && **w > T::zero())
+            .map(|(&c, &w)| T::one() / (c * w))
+            .reduce(|a, b| a.min(b))
+    }
+
     /// `true` if the kick has terms: a potential that is not joined to the free flight.
     pub fn has_kick(&self) -> bool {
         self.potentials
