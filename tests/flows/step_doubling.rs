@@ -2,7 +2,8 @@
 //! error follows the tolerance; the Petrov–Galerkin scheme keeps its exact discrete energy
 //! balance under variable steps (dissipation never negative, the constraints at round-off); a
 //! composition of order 4 is controlled at its order; a rejected step leaves nothing behind; a
-//! continuation from saved memory is bit-identical; an exact flow is refused.
+//! continuation from saved memory is bit-identical; an exact flow is refused; a tolerance near
+//! the round-off is met to rounding, not refused.
 
 use crate::common::log_slope as slope;
 use lieflow::flow::{
@@ -80,6 +81,36 @@ fn petrov_galerkin_keeps_its_energy_balance_under_variable_steps() {
     for (&tol, &e) in tols.iter().zip(&errs) {
         assert!(e <= 5.0 * T_END * tol, "tol {tol:e}: error {e:e}");
     }
+}
+
+#[test]
+fn a_tolerance_near_the_round_off_is_met_to_rounding_not_refused() {
+    // At rtol = atol = 1e-13 the error per unit step asks a step of length H for an error
+    // below 1e-13 H, less than rounding gives once H ≲ 2e-3 (ε |x| ≈ 2e-16): the estimate of
+    // such a step is its round-off, which per unit step grows as 1/H, so halving never ended
+    // (StepSizeTooSmall). Below four times the state's round-off the span is held there.
+    let m = DampedPendulum::try_new(0.5).unwrap();
+    let x0: V = m.state(THETA0, 0.0);
+    let t_end = 0.5;
+    let r = m.reference(THETA0, 0.0, t_end, 2e-4);
+    let tol = 1e-13;
+    let pg: PetrovGalerkin<V, _> =
+        PetrovGalerkin::try_new(m.system(), &x0, 2, ProjectionOptions::default()).unwrap();
+    let mut flow = StepDoubling::try_new(pg, (), options(tol)).unwrap();
+    let mut x = x0;
+    flow.step(t_end, &mut x).unwrap();
+    let s = flow.adaptive_stats().unwrap();
+    let e = error(&x, &r);
+    // Each accepted step's weighted error ≤ max(H, 4ρ), ρ = ε ‖x‖ ≤ ε / rtol; a max-norm error
+    // ≤ 2 × the weighted RMS (4 components) × the weight ≤ 2.5 tol (as above): the sum over
+    // the steps ≤ 5 tol (T + 4 N ε / tol). The reference (RK4 at 2e-4) is good to ~1e-15.
+    let n = s.accepted as f64;
+    let bound = 5.0 * tol * (t_end + 4.0 * n * f64::EPSILON / tol);
+    eprintln!(
+        "Petrov–Galerkin 2 at tol {tol:.0e}: error {e:.2e} (bound {bound:.1e}), {} steps, h {:.1e} … {:.1e}",
+        s.accepted, s.smallest, s.largest
+    );
+    assert!(e <= bound, "error {e:e} above {bound:e}");
 }
 
 #[test]

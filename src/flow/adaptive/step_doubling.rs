@@ -7,6 +7,11 @@ use crate::flow::{EXACT, Flow, FlowStats, Ledger, Multipliers};
 use crate::real::Real;
 use crate::vector::Vector;
 
+/// The shortest span, in units of the state's round-off (weighted norm), over which
+/// [`StepDoubling`] measures its error per unit step: a step shorter than
+/// `ROUNDOFF_STEPS · ε ‖x‖` is held to an error per step of that size instead.
+const ROUNDOFF_STEPS: f64 = 4.0;
+
 /// Step-size control for any one-step scheme `S_h` of fixed order `p` — the Petrov–Galerkin
 /// scheme, the (projected) midpoint rule, the discrete gradients, a composition — by step
 /// doubling: each step of size `H` is taken once whole and once as two halves, and
@@ -23,7 +28,13 @@ use crate::vector::Vector;
 /// in every step adds up to a global error `∝ tol^{p/(p+1)}`; the error is therefore
 /// controlled **per unit step**, `err/|H| ≤ 1` (`H` in the model's time unit), so that the
 /// global error over a span `T` is about `tol · T` and proportional to the tolerance
-/// (Shampine, *Numerical Solution of ODEs*, §7.1). With `err_n = ‖…‖/((2^p − 1)|H_n|) = O(H^p)`,
+/// (Shampine, *Numerical Solution of ODEs*, §7.1). The span is never taken shorter than
+/// four times the state's round-off `ε ‖x‖` in the weighted norm
+/// ([`Tolerances::roundoff`](super::Tolerances::roundoff)): a tolerance near the round-off
+/// (`rtol` ≈ 1e-12 lets `tol · H` fall below `ε |x|` for `H` ≲ 1e-3) would otherwise ask every
+/// step for less than rounding gives, and the estimate of a shrinking step — its round-off
+/// over `H` — would reject it for ever; there, steps are held to an error per step at a few
+/// times the rounding, the best a step can do. With `err_n = ‖…‖/((2^p − 1)|H_n|) = O(H^p)`,
 /// a step with `err ≤ 1` is accepted and the next one is chosen by Gustafsson's PI controller,
 ///
 /// ```text
@@ -153,9 +164,18 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> StepDoubling<V, F, P> {
             )
             .to_f64_lossy()
             / scale;
-        // Per unit step: the local error over the step's length.
+        // Per unit step: the local error over the step's length — but over no less than
+        // `ROUNDOFF_STEPS` times the state's round-off, below which the criterion would ask a
+        // step for less than rounding gives (the estimate of a tiny step is its round-off,
+        // which grows as `1/H` per unit step: halving would never end).
         let hf = big.to_f64_lossy().abs();
-        let err = err / hf;
+        let roundoff = self
+            .control
+            .options
+            .tolerances
+            .roundoff(self.start.as_slice(), x.as_slice())
+            .to_f64_lossy();
+        let err = err / hf.max(ROUNDOFF_STEPS * roundoff);
         let p = f64::from(self.order);
         if err > 1.0 || err.is_nan() {
             self.undo(ledger, l0, x);

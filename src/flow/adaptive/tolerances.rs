@@ -101,6 +101,23 @@ impl<T: Real> Tolerances<T> {
         }
         (sum / T::lit(n as f64)).sqrt()
     }
+
+    /// `ε ‖max(|x₀|, |x₁|)‖`, the state's own round-off in the weighted norm: what two
+    /// computations of the same step may differ by when each is exact to rounding. At most
+    /// `ε / min rtol`.
+    pub fn roundoff(&self, x0: &[T], x1: &[T]) -> T {
+        let n = x0.len();
+        if n == 0 {
+            return T::zero();
+        }
+        let mut sum = T::zero();
+        for i in 0..n {
+            let size = x0[i].abs().max(x1[i].abs());
+            let e = size / (self.atol(i) + self.rtol(i) * size);
+            sum = sum + e * e;
+        }
+        T::epsilon() * (sum / T::lit(n as f64)).sqrt()
+    }
 }
 
 fn pick<T: Copy>(v: &[T], i: usize) -> T {
