@@ -383,3 +383,60 @@ fn the_scheme_says_when_its_sub_steps_resolve_the_damping() {
         c.assembly.scheme
     );
 }
+
+#[test]
+fn step_doubling_under_stiff_damping_starts_within_the_relaxation_time() {
+    // Petrov–Galerkin of order 4 (two stages, Gauss-like: its stability function tends to +1
+    // at infinity) keeps a stiff mode's deviation undamped over a step many relaxation times
+    // long, in the whole step and in its halves alike, so step doubling does not see it. The
+    // estimated first step (~0.04 s here, 4000 relaxation times: the estimate's root
+    // `1/(p+1)` hardly feels the stiffness) stepped over the chain's start from rest, and the
+    // velocities kept 4 % of their terminal value as an error: 4.1e-5 at tol 1e-6, the
+    // positions right to 4e-10. The first step now resolves m/c = 1e-5 s, and the
+    // controller, growing at most 5× a step, sees the stiff mode while it is still there.
+    let reference = run_scene(&parse(&stiff_chain("1e4", 2.5e-4, "order = 12")));
+    // m = 0.1: velocities are momenta × 10; positions are the first 20 components.
+    let gaps = |s: &lieflow::scene::RunSummary| {
+        let gap = |range: std::ops::Range<usize>, scale: f64| {
+            range
+                .map(|k| scale * (s.x[k] - reference.x[k]).abs())
+                .fold(0.0, f64::max)
+        };
+        (gap(0..20, 1.0), gap(20..40, 10.0))
+    };
+    let scheme = "scheme = \"petrov-galerkin\"\norder = 4";
+    let compiled = parse(&stiff_chain("1e4", 0.1, &format!("{scheme}\ntol = 1e-6")))
+        .compile()
+        .unwrap();
+    assert!(
+        compiled
+            .assembly
+            .scheme
+            .contains("the first step within the damping's relaxation time 1.000e-5"),
+        "{}",
+        compiled.assembly.scheme
+    );
+    for tol in [1e-4, 1e-6, 1e-8] {
+        let s = run_scene(&parse(&stiff_chain(
+            "1e4",
+            0.1,
+            &format!("{scheme}\ntol = {tol}"),
+        )));
+        assert!(s.error.is_none(), "{:?}", s.error);
+        let a = s.adaptive.as_ref().expect("the controller's report");
+        let (q, v) = gaps(&s);
+        eprintln!(
+            "Petrov–Galerkin 4, stiff chain c = 1e4, tol {tol:e}: positions {q:.2e}, velocities {v:.2e}, \
+             {} accepted, {} rejected, steps {:.1e} … {:.1e}",
+            a.accepted,
+            a.rejected,
+            a.smallest_step.unwrap_or(f64::NAN),
+            a.largest_step.unwrap_or(f64::NAN)
+        );
+        // The error per unit step at the tolerance over T = 1 (docs/method.md §12d).
+        assert!(
+            q <= tol && v <= tol,
+            "tol {tol:e}: positions {q:e}, velocities {v:e}"
+        );
+    }
+}

@@ -31,6 +31,15 @@ pub struct AdaptiveOptions<T> {
     /// base step's error is no longer an expansion in `h²` with moderate coefficients — the
     /// damping swallows the impulses a symmetric step balances, and the error behaves as first
     /// order in `h` — and the table's estimate does not see it (docs/method.md §12d).
+    ///
+    /// Under [`StepDoubling`](super::StepDoubling) it bounds the estimated first step (a given
+    /// [`first_step`](Self::first_step) is taken as it is): a first step many relaxation times
+    /// long steps over the transient from the initial state, and a scheme whose stability
+    /// function tends to `+1` at infinity (Petrov–Galerkin of orders 4 and 8, Gauss-like with
+    /// an even number of stages) keeps the stiff mode's deviation undamped in the whole step
+    /// and in its halves alike, so the estimate does not see it. From a first step within the
+    /// relaxation time the controller grows by at most 5× a step, and over a few relaxation
+    /// times the whole step and its halves differ where the deviation remains.
     pub resolve: Option<T>,
 }
 

@@ -6,6 +6,7 @@ use crate::error::{SetupError, StepError};
 use crate::flow::{EXACT, Flow, FlowStats, Ledger, Multipliers};
 use crate::real::Real;
 use crate::vector::Vector;
+use num_traits::Float as _;
 
 /// The shortest span, in units of the state's round-off (weighted norm), over which
 /// [`StepDoubling`] measures its error per unit step: a step shorter than
@@ -253,7 +254,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for StepDoubling<V, F
         self.base.prepare(x);
     }
 
-    /// Estimated for the scheme's order.
+    /// Estimated for the scheme's order, at most [`AdaptiveOptions::resolve`].
     fn first_step(
         &mut self,
         ledger: &Ledger<V::Real>,
@@ -261,6 +262,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for StepDoubling<V, F
         span: V::Real,
         x: &V,
     ) -> (Option<V::Real>, u64) {
+        let resolve = self.control.options.resolve;
         let start = super::first_step::Start {
             tolerances: &self.control.options.tolerances,
             order: self.order,
@@ -269,7 +271,13 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for StepDoubling<V, F
             span,
             x,
         };
-        super::first_step::estimate(&mut self.base, &start)
+        let (h, steps) = super::first_step::estimate(&mut self.base, &start);
+        let h = match (h, resolve) {
+            (Some(h), Some(r)) => Some(h.min(r)),
+            (None, Some(r)) => Some(r.min(span)),
+            (h, None) => h,
+        };
+        (h, steps)
     }
 }
 

@@ -145,6 +145,18 @@ mod tests {
     }
 
     #[test]
+    fn the_round_off_is_epsilon_times_the_state_in_the_weighted_norm() {
+        let t = Tolerances::<f64>::new(1e-12, 1e-12).unwrap();
+        // |x| = 1 and 0: weights 2e-12 and 1e-12, sizes 1 and 0.
+        let r = t.roundoff(&[1.0, 0.0], &[-0.5, 0.0]);
+        let want = f64::EPSILON * (0.5 * (1.0 / 2e-12f64).powi(2)).sqrt();
+        assert!((r - want).abs() <= 1e-12 * want, "{r} {want}");
+        // At most ε / rtol, whatever the size.
+        assert!(t.roundoff(&[1e30], &[1e30]) <= f64::EPSILON / 1e-12);
+        assert_eq!(t.roundoff(&[], &[]), 0.0);
+    }
+
+    #[test]
     fn meaningless_tolerances_are_refused() {
         assert!(Tolerances::new(-1e-6, 1e-6).is_err());
         assert!(Tolerances::new(0.0, 0.0).is_err());

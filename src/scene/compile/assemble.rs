@@ -204,8 +204,10 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
         model.is_dissipative() && !backward,
         Some(&bodies),
     )?;
-    if let Raise::Adaptive(control) = &mut raise {
-        control.resolve = model.stiff_relaxation();
+    match &mut raise {
+        Raise::Adaptive(control) => control.resolve = model.stiff_relaxation(),
+        Raise::Doubling(control, _) => control.resolve = model.relaxation(),
+        _ => {}
     }
     let m = model.m;
     let mut initial_projection = None;

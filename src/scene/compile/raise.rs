@@ -53,7 +53,8 @@ pub struct Control {
     /// velocities alike.
     pub scales: Vec<f64>,
     /// The damping's shortest relaxation time, when the splitting's impulses act on damped
-    /// momenta: the sub-steps resolve it ([`AdaptiveOptions::resolve`]).
+    /// momenta: the sub-steps resolve it; under step doubling, any damping's: the first step
+    /// resolves it ([`AdaptiveOptions::resolve`]).
     pub resolve: Option<f64>,
 }
 
@@ -150,10 +151,13 @@ impl Raise {
                 ))
             ),
             Raise::Doubling(c, t) => format!(
-                "{}, steps by step doubling with a PI controller (rtol {:e}, atol {:e}, per unit step)",
+                "{}, steps by step doubling with a PI controller (rtol {:e}, atol {:e}, per unit step{})",
                 t.map_or(Raise::Base, Raise::Compose).describe(base),
                 c.rtol,
-                c.atol
+                c.atol,
+                c.resolve.map_or_else(String::new, |r| format!(
+                    "; the first step within the damping's relaxation time {r:.3e}"
+                ))
             ),
             Raise::Reversible(c, _, t) => format!(
                 "{}, reversible steps along the density (Hairer–Söderlind; ε set at rtol {:e}, atol {:e})",

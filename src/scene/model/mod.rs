@@ -256,6 +256,28 @@ impl<T: Real> SceneModel<T> {
             .reduce(|a, b| a.min(b))
     }
 
+    /// The damping's shortest relaxation time, whatever else acts: `m_b / c_b` of a body damped
+    /// against the ground, `μ / c` (`1/μ = 1/m_a + 1/m_b`) of two bodies joined by a dashpot.
+    /// `None` without either. The first step of a fixed-order scheme under step doubling
+    /// resolves it ([`AdaptiveOptions::resolve`](crate::flow::AdaptiveOptions::resolve)).
+    pub fn relaxation(&self) -> Option<T> {
+        let w = &self.inv_masses;
+        let ground = self.damping.iter().flat_map(|d| {
+            d.per_body
+                .iter()
+                .zip(w)
+                .filter(|(c, w)| **c > T::zero() && **w > T::zero())
+                .map(|(&c, &w)| T::one() / (c * w))
+        });
+        let pairs = self.dashpots.iter().flat_map(|d| {
+            d.pairs
+                .iter()
+                .filter(|&&(a, b, c)| c > T::zero() && w[a] + w[b] > T::zero())
+                .map(|&(a, b, c)| T::one() / (c * (w[a] + w[b])))
+        });
+        ground.chain(pairs).reduce(|a, b| a.min(b))
+    }
+
     /// `true` if the kick has terms: a potential that is not joined to the free flight.
     pub fn has_kick(&self) -> bool {
         self.potentials
