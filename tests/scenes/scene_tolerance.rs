@@ -372,6 +372,12 @@ fn the_scheme_says_when_its_sub_steps_resolve_the_damping() {
         "{}",
         c.assembly.scheme
     );
+    // And points at the scheme whose steps the motion sets.
+    assert!(
+        c.assembly.scheme.contains("scheme = \"petrov-galerkin\""),
+        "{}",
+        c.assembly.scheme
+    );
     let free = "version = 1\ndim = 2\n[[bodies]]\nname = \"a\"\nmass = 0.1\nposition = [0.0, 0.0]\n\
                 [[effects]]\ntype = \"gravity\"\ng = [0.0, -9.81]\n\
                 [[effects]]\ntype = \"damping\"\ncoefficient = 1e4\n\

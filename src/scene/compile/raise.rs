@@ -147,7 +147,7 @@ impl Raise {
                 c.rtol,
                 c.atol,
                 c.resolve.map_or_else(String::new, |r| format!(
-                    "; sub-steps within the damping's relaxation time {r:.3e}"
+                    "; sub-steps within the damping's relaxation time {r:.3e}, so the steps follow it: scheme = \"petrov-galerkin\" with the tolerance takes steps set by the motion"
                 ))
             ),
             Raise::Doubling(c, t) => format!(
