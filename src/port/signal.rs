@@ -170,6 +170,20 @@ impl<T: Real> Signal<T> {
         }
     }
 
+    /// Appends the times where `u` or its derivative jumps: a step's switch, a ramp's two
+    /// ends, a table's points. A smooth signal, a held one (it changes between the embedder's
+    /// steps, which land on them) or a function (whose kinks are not known) appends none. An
+    /// adaptive flow lands on them ([`AdaptiveOptions::breakpoints`](crate::flow::AdaptiveOptions::breakpoints)):
+    /// a step across one is not the smooth expansion its error estimate assumes.
+    pub fn breakpoints(&self, out: &mut Vec<T>) {
+        match self {
+            Self::Step { at, .. } => out.push(*at),
+            Self::Ramp { start, end, .. } => out.extend([*start, *end]),
+            Self::Table(points) => out.extend(points.iter().map(|p| p.0)),
+            Self::Constant(_) | Self::Sine { .. } | Self::Held(_) | Self::Function(_) => {}
+        }
+    }
+
     /// `∫_a^b u(t) dt` (negative when `b < a`).
     pub fn integral(&self, a: T, b: T) -> T {
         let half = T::lit(0.5);

@@ -3,7 +3,7 @@
 //! balance under variable steps (dissipation never negative, the constraints at round-off); a
 //! composition of order 4 is controlled at its order; a rejected step leaves nothing behind; a
 //! continuation from saved memory is bit-identical; an exact flow is refused; a tolerance near
-//! the round-off is met to rounding, not refused.
+//! the round-off is met to rounding, not refused; no step crosses a breakpoint.
 
 use crate::common::log_slope as slope;
 use lieflow::flow::{
@@ -226,4 +226,54 @@ fn an_exact_flow_is_refused() {
         Err(e) => e.to_string(),
     };
     assert!(e.contains("exact flow needs no step control"), "{e}");
+}
+
+#[test]
+fn no_step_crosses_a_breakpoint() {
+    // Breakpoints given in any order: every one inside the run is a step's end, to rounding,
+    // and the steps between are the controller's own (longer than the gaps would force).
+    let mut opts = options(1e-8);
+    opts.breakpoints = vec![0.7, 0.3, 5.0, -1.0];
+    let mut flow = StepDoubling::try_new(Counted::default(), (), opts).unwrap();
+    let (mut x, mut ledger) = (V::new(1.0, 0.0, 0.0, 0.0), Ledger::at(0.0));
+    let mut ends = Vec::new();
+    while ledger.t < 1.0 {
+        let left = 1.0 - ledger.t;
+        let before = ledger.t;
+        flow.step_own(&mut ledger, left, &mut x).unwrap().unwrap();
+        for b in [0.3, 0.7] {
+            assert!(
+                !(before < b - 1e-15 && ledger.t > b + 1e-15),
+                "a step from {before} to {} crosses {b}",
+                ledger.t
+            );
+        }
+        ends.push(ledger.t);
+    }
+    for b in [0.3, 0.7] {
+        assert!(
+            ends.iter().any(|&t| (t - b).abs() <= 4.0 * f64::EPSILON),
+            "{b} not landed on: {ends:?}"
+        );
+    }
+    // Backward: the same breakpoints from above.
+    let mut opts = options(1e-8);
+    opts.breakpoints = vec![0.3, 0.7];
+    let mut back = StepDoubling::try_new(Counted::default(), (), opts).unwrap();
+    let mut ledger = Ledger::at(1.0);
+    let mut ends = Vec::new();
+    while ledger.t > 0.0 {
+        let left = -ledger.t;
+        back.step_own(&mut ledger, left, &mut x).unwrap().unwrap();
+        ends.push(ledger.t);
+    }
+    for b in [0.3, 0.7] {
+        assert!(
+            ends.iter().any(|&t| (t - b).abs() <= 4.0 * f64::EPSILON),
+            "{b} not landed on backward: {ends:?}"
+        );
+    }
+    let mut bad = options(1e-8);
+    bad.breakpoints = vec![f64::NAN];
+    assert!(StepDoubling::try_new(Counted::default(), (), bad).is_err());
 }

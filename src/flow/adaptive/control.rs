@@ -35,7 +35,10 @@ pub(crate) struct Control<V: Vector> {
 }
 
 impl<V: Vector> Control<V> {
-    pub(crate) fn new(options: AdaptiveOptions<V::Real>) -> Self {
+    pub(crate) fn new(mut options: AdaptiveOptions<V::Real>) -> Self {
+        options
+            .breakpoints
+            .sort_by(|a, b| a.partial_cmp(b).unwrap_or(core::cmp::Ordering::Equal));
         Self {
             options,
             h_next: None,
@@ -75,6 +78,26 @@ impl<V: Vector> Control<V> {
         s.smallest = s.smallest.min(h);
         s.largest = s.largest.max(h);
         s.last_error = err;
+    }
+
+    /// `left` clipped to end on the first breakpoint ahead of `t` in the direction `sign`
+    /// (one within rounding of `t` is passed).
+    fn to_breakpoint(&self, t: V::Real, sign: V::Real, left: V::Real) -> V::Real {
+        let b = &self.options.breakpoints;
+        if b.is_empty() {
+            return left;
+        }
+        let near = |p: V::Real| {
+            (p - t).abs() <= V::Real::lit(8.0) * V::Real::epsilon() * (t.abs() + p.abs())
+        };
+        let ahead = if sign > V::Real::zero() {
+            let i = b.partition_point(|&p| p <= t);
+            b[i..].iter().copied().find(|&p| !near(p))
+        } else {
+            let i = b.partition_point(|&p| p < t);
+            b[..i].iter().rev().copied().find(|&p| !near(p))
+        };
+        ahead.map_or(left, |p| left.min((p - t).abs()))
     }
 
     /// Books a rejected step with estimate `err`.
@@ -251,6 +274,8 @@ fn until_accepted<V: Vector, M: MacroStep<V>>(
     left: V::Real,
     x: &mut V,
 ) -> Result<V::Real, StepError> {
+    // No step across a breakpoint: the interval ends on the next one.
+    let left = m.control().to_breakpoint(ledger.t, sign, left);
     loop {
         let longest = m.longest();
         let c = m.control();

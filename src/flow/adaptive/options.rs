@@ -41,6 +41,14 @@ pub struct AdaptiveOptions<T> {
     /// relaxation time the controller grows by at most 5× a step, and over a few relaxation
     /// times the whole step and its halves differ where the deviation remains.
     pub resolve: Option<T>,
+    /// Times no step crosses (default: none): each step ends on the next one ahead, as
+    /// DifferentialEquations.jl's `d_discontinuities` and SUNDIALS' stop time do — where the
+    /// forcing jumps or kinks ([`Signal::breakpoints`](crate::port::Signal::breakpoints)). A
+    /// step across one is not the smooth expansion its error estimate assumes: the estimate
+    /// can be small while the error is not (a step input inside a macro step of the adaptive
+    /// extrapolation: 500–60 000 × tol, docs/method.md §12d). Any order; a time within
+    /// rounding of the current one counts as passed.
+    pub breakpoints: Vec<T>,
 }
 
 impl<T: Real> AdaptiveOptions<T> {
@@ -53,6 +61,7 @@ impl<T: Real> AdaptiveOptions<T> {
             h_max: None,
             max_order: 2 * MAX_ROWS as u32,
             resolve: None,
+            breakpoints: Vec::new(),
         }
     }
 
@@ -69,6 +78,13 @@ impl<T: Real> AdaptiveOptions<T> {
                 name: "h_min, h_max".to_owned(),
                 value: h_min,
                 requirement: "0 ≤ h_min < h_max, both finite (h_max may be unbounded)",
+            });
+        }
+        if let Some(t) = self.breakpoints.iter().find(|t| !t.is_finite()) {
+            return Err(SetupError::InvalidParameter {
+                name: "breakpoints".to_owned(),
+                value: t.to_f64_lossy(),
+                requirement: "finite",
             });
         }
         for (name, h) in [("first_step", self.first_step), ("resolve", self.resolve)] {

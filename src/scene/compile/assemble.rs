@@ -205,8 +205,14 @@ pub(super) fn assemble(file: &SceneFile, backward: bool) -> Result<Assembled> {
         Some(&bodies),
     )?;
     match &mut raise {
-        Raise::Adaptive(control) => control.resolve = model.stiff_relaxation(),
-        Raise::Doubling(control, _) => control.resolve = model.relaxation(),
+        Raise::Adaptive(control) => {
+            control.resolve = model.stiff_relaxation();
+            control.breakpoints = model.breakpoints();
+        }
+        Raise::Doubling(control, _) => {
+            control.resolve = model.relaxation();
+            control.breakpoints = model.breakpoints();
+        }
         _ => {}
     }
     let m = model.m;

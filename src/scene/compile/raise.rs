@@ -56,6 +56,9 @@ pub struct Control {
     /// momenta: the sub-steps resolve it; under step doubling, any damping's: the first step
     /// resolves it ([`AdaptiveOptions::resolve`]).
     pub resolve: Option<f64>,
+    /// The times the inputs' signals jump or kink: no step crosses them
+    /// ([`AdaptiveOptions::breakpoints`]).
+    pub breakpoints: Vec<f64>,
 }
 
 impl Control {
@@ -72,6 +75,7 @@ impl Control {
         o.h_max = Some(T::lit(self.h_max));
         o.max_order = self.max_order;
         o.resolve = self.resolve.map(T::lit);
+        o.breakpoints = self.breakpoints.iter().map(|&t| T::lit(t)).collect();
         Ok(o)
     }
 }

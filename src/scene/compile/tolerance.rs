@@ -90,6 +90,7 @@ pub(super) fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
         max_order,
         scales: Vec::new(),
         resolve: None,
+        breakpoints: Vec::new(),
     }))
 }
 

@@ -278,6 +278,18 @@ impl<T: Real> SceneModel<T> {
         ground.chain(pairs).reduce(|a, b| a.min(b))
     }
 
+    /// The times where an input's signal jumps or kinks ([`Signal::breakpoints`](crate::port::Signal::breakpoints)),
+    /// sorted, without repeats: an adaptive run's steps land on them.
+    pub fn breakpoints(&self) -> Vec<T> {
+        let mut out = Vec::new();
+        for s in self.inputs.iter().flat_map(|i| i.signals()) {
+            s.breakpoints(&mut out);
+        }
+        out.sort_by(|a, b| a.partial_cmp(b).unwrap_or(core::cmp::Ordering::Equal));
+        out.dedup();
+        out
+    }
+
     /// `true` if the kick has terms: a potential that is not joined to the free flight.
     pub fn has_kick(&self) -> bool {
         self.potentials
