@@ -7,7 +7,7 @@ use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
 use crate::scene::watch::{EventRecord, Watch};
-use crate::stepper::{Checkpoint, Stepper};
+use crate::stepper::{Checkpoint, Events, Stepper};
 use crate::system::Reprojection;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
@@ -272,25 +272,38 @@ impl<V: Vector<Real = f64>, Sys> ModelRun<V, Sys> {
     }
 
     /// A step of `h` (`None`) or of `short`, locating the events if any.
+    ///
+    /// An adaptive flow's accepted steps are each watched: the events located at the
+    /// resolution it integrates at, the joint angles unwrapped at each (a report interval may
+    /// hold several crossings and turns).
     fn events_step(&mut self, short: Option<f64>) -> Result<(), StepError> {
-        let Some(Watch {
-            events: Some(events),
-            ..
-        }) = self.watch.as_mut()
-        else {
+        let adaptive = self.stepper.flow().adaptive_stats().is_some();
+        let (has_events, turns) = self.watch.as_ref().map_or((false, false), |w| {
+            (w.events.is_some(), adaptive && w.joints.reads_angles())
+        });
+        if !has_events && !turns {
             return match short {
                 None => self.stepper.step(),
                 Some(h) => self.stepper.step_off_grid(h),
             };
-        };
-        let hit = match short {
-            None => self.stepper.step_with_events(events)?,
-            Some(h) => self.stepper.step_by_with_events(h, events)?,
-        };
-        if let (Some(hit), Some(w)) = (hit, self.watch.as_mut()) {
-            w.record(hit, self.stepper.steps_taken());
         }
-        Ok(())
+        let Some(w) = self.watch.as_mut() else {
+            return Ok(());
+        };
+        let joints = w.joints.clone();
+        let mut events = w.events.take().unwrap_or_else(|| Events::new(Vec::new()));
+        let mut each = |x: &V| joints.advance(&x.as_slice()[..x.len() / 2]);
+        let stepped = self.stepper.step_watched(short, &mut events, &mut each);
+        let step = self.stepper.steps_taken();
+        if let Some(w) = self.watch.as_mut() {
+            for &hit in events.hits() {
+                w.record(hit, step);
+            }
+            if has_events {
+                w.events = Some(events);
+            }
+        }
+        stepped.map(|_| ())
     }
 }
 

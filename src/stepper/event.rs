@@ -101,6 +101,8 @@ pub struct EventHit<T> {
 #[derive(Debug)]
 pub struct Events<V: Vector> {
     events: Vec<Event<V>>,
+    /// Every event the last watched step found, in time order.
+    hits: Vec<EventHit<V::Real>>,
     previous: Vec<V::Real>,
     started: bool,
     scratch: Option<V>,
@@ -115,6 +117,8 @@ impl<V: Vector> Events<V> {
         let n = events.len();
         Self {
             events,
+            // A fixed-step flow's step records at most one: no allocation per step.
+            hits: Vec::with_capacity(n.max(1) * 2),
             previous: vec![V::Real::zero(); n],
             started: false,
             scratch: None,
@@ -125,6 +129,11 @@ impl<V: Vector> Events<V> {
     /// The state at the event the last watched step returned (`None` if it returned none).
     pub fn located(&self) -> Option<&V> {
         self.scratch.as_ref().filter(|_| self.located_valid)
+    }
+    /// Every event the last watched step found, in time order (the call returned the first):
+    /// an adaptive flow's step to a report time may hold several.
+    pub fn hits(&self) -> &[EventHit<V::Real>] {
+        &self.hits
     }
     /// The number of events.
     pub fn len(&self) -> usize {
@@ -172,17 +181,19 @@ where
     ///   its grid, so recording events does not change the trajectory; the state at the event
     ///   is [`Events::located`].
     ///
-    /// A sign change and back within one step is not seen.
+    /// A sign change and back within one step is not seen. An adaptive flow (one with steps
+    /// of its own, [`Flow::step_own`]) is watched at each of its accepted steps to the step's
+    /// end, not at the step's two ends, which may be a report interval apart: every event it
+    /// finds is in [`Events::hits`], the first returned (a terminal one ends the step there).
     ///
     /// # Errors
-    /// The step's [`StepError`] (the stepper is then at the start of the step).
+    /// The step's [`StepError`]: the stepper is then at the start of the step, or, for an
+    /// adaptive flow, at the end of its last accepted step before the failure.
     pub fn step_with_events(
         &mut self,
         events: &mut Events<V>,
     ) -> Result<Option<EventHit<V::Real>>, StepError> {
-        Ok(self
-            .watched_step(events, Take::Grid)?
-            .and_then(|(_, hit)| hit))
+        self.step_watched(None, events, &mut |_| {})
     }
 
     /// As [`step_with_events`](Self::step_with_events), with a step of size `h` off the grid
@@ -192,9 +203,68 @@ where
         h: V::Real,
         events: &mut Events<V>,
     ) -> Result<Option<EventHit<V::Real>>, StepError> {
-        Ok(self
-            .watched_step(events, Take::OffGrid(h))?
-            .and_then(|(_, hit)| hit))
+        self.step_watched(Some(h), events, &mut |_| {})
+    }
+
+    /// A step of the grid (`short = None`) or of `short` off it, watching `events` as
+    /// [`step_with_events`](Self::step_with_events) does, and passing the state after each
+    /// step the flow takes to `each` — one call for a fixed-step flow, one per accepted step
+    /// for an adaptive one (what must see every step, such as an angle unwrapped against the
+    /// last: less than half a turn a step).
+    ///
+    /// # Errors
+    /// As [`step_with_events`](Self::step_with_events).
+    pub fn step_watched(
+        &mut self,
+        short: Option<V::Real>,
+        events: &mut Events<V>,
+        each: &mut dyn FnMut(&V),
+    ) -> Result<Option<EventHit<V::Real>>, StepError> {
+        events.hits.clear();
+        let take = short.map_or(Take::Grid, Take::OffGrid);
+        if self.flow.adaptive_stats().is_none() {
+            let hit = self.watched_step(events, take)?.and_then(|(_, hit)| hit);
+            events.hits.extend(hit);
+            each(self.x.borrow());
+            return Ok(hit);
+        }
+        // The accepted steps to the step's end, each watched; then one step of the count, the
+        // grid where it was (or restarting from the end of an off-grid step, or from a
+        // terminal event).
+        let (k0, t_base0, k_base0) = (self.k, self.t_base, self.k_base);
+        let target = match short {
+            None => self.t_base + V::Real::lit((self.k + 1 - self.k_base) as f64) * self.h,
+            Some(h) => self.time() + h,
+        };
+        let mut terminal = false;
+        loop {
+            match self.watched_step(events, Take::Own(target)) {
+                Ok(None) => break,
+                Ok(Some((_, hit))) => {
+                    each(self.x.borrow());
+                    if let Some(hit) = hit {
+                        events.hits.push(hit);
+                        if hit.terminal {
+                            terminal = true;
+                            break;
+                        }
+                    }
+                }
+                Err(e) => {
+                    // At the end of the last accepted step (its time, from step_own).
+                    self.k = k0;
+                    self.k_base = k0;
+                    return Err(e);
+                }
+            }
+        }
+        self.k = k0 + 1;
+        match (short, terminal) {
+            (None, false) => (self.t_base, self.k_base) = (t_base0, k_base0),
+            (Some(_), false) => (self.t_base, self.k_base) = (target, self.k),
+            (_, true) => self.k_base = self.k,
+        }
+        Ok(events.hits.first().copied())
     }
 
     /// As [`step_with_events`](Self::step_with_events), with a step of the flow's own size

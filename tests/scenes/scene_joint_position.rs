@@ -193,3 +193,26 @@ fn a_joint_coordinate_names_a_named_hinge_or_slider() {
         assert!(e.to_string().contains(says), "{e}");
     }
 }
+
+#[test]
+fn an_adaptive_run_unwraps_the_angle_at_its_accepted_steps() {
+    // One report interval over the whole run (3.5 turns): the angle is unwrapped at each of
+    // the controller's accepted steps, not at the two ends of the interval, where it would be
+    // off by whole turns.
+    let t_end = 2.2;
+    let mut c = compile(&spinning(t_end, t_end, "tol = 1e-8"));
+    let mut out = Vec::new();
+    let s = run(c.simulation.as_mut(), &c.plan, &mut |s| {
+        out = s.outputs.to_vec()
+    });
+    assert!(s.error.is_none(), "{:?}", s.error);
+    let a = s.adaptive.as_ref().expect("the controller's report");
+    eprintln!(
+        "adaptive spin: angle {} (want {}), {} accepted steps, largest {:?}",
+        out[0],
+        OMEGA * t_end,
+        a.accepted,
+        a.largest_step
+    );
+    assert!((out[0] - OMEGA * t_end).abs() < 1e-6, "{out:?}");
+}

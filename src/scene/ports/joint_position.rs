@@ -53,6 +53,11 @@ impl JointTable {
         self.joints.iter().map(|(n, _)| n.as_str()).collect()
     }
 
+    /// Whether an output reads a hinge's angle (unwrapped step by step).
+    pub(crate) fn reads_angles(&self) -> bool {
+        (0..self.joints.len()).any(|j| self.read[j].load(Ordering::Relaxed) && self.is_angle(j))
+    }
+
     /// Whether joint `j` is a hinge (its coordinate an angle).
     pub(crate) fn is_angle(&self, j: usize) -> bool {
         matches!(self.joints[j].1, Coordinate::Angle(_))
