@@ -117,8 +117,9 @@ impl<V: Vector> Events<V> {
         let n = events.len();
         Self {
             events,
-            // A fixed-step flow's step records at most one: no allocation per step.
-            hits: Vec::with_capacity(n.max(1) * 2),
+            // A fixed-step flow's step records at most one: no allocation per step (and none at
+            // all without events).
+            hits: Vec::with_capacity(2 * n),
             previous: vec![V::Real::zero(); n],
             started: false,
             scratch: None,

@@ -95,11 +95,15 @@ impl<T: Real> Tolerances<T> {
         }
         let mut sum = T::zero();
         for i in 0..n {
-            let scale = self.atol(i) + self.rtol(i) * x0[i].abs().max(x1[i].abs());
-            let e = (a[i] - b[i]) / scale;
+            let e = (a[i] - b[i]) / self.weight(i, x0[i].abs().max(x1[i].abs()));
             sum = sum + e * e;
         }
         (sum / T::lit(n as f64)).sqrt()
+    }
+
+    /// `atolᵢ + rtolᵢ · size`: component `i`'s weight at magnitude `size`.
+    fn weight(&self, i: usize, size: T) -> T {
+        self.atol(i) + self.rtol(i) * size
     }
 
     /// `ε ‖max(|x₀|, |x₁|)‖`, the state's own round-off in the weighted norm: what two
@@ -113,7 +117,7 @@ impl<T: Real> Tolerances<T> {
         let mut sum = T::zero();
         for i in 0..n {
             let size = x0[i].abs().max(x1[i].abs());
-            let e = size / (self.atol(i) + self.rtol(i) * size);
+            let e = size / self.weight(i, size);
             sum = sum + e * e;
         }
         T::epsilon() * (sum / T::lit(n as f64)).sqrt()

@@ -238,7 +238,6 @@ impl<T: Real> SceneModel<T> {
     /// (docs/method.md §12d). `None` without damping, or when the flight is the whole motion
     /// (exact).
     pub fn stiff_relaxation(&self) -> Option<T> {
-        let damping = self.damping.as_ref()?;
         let impulses = self.m > 0
             || self.has_kick()
             || self.inputs.is_some()
@@ -247,13 +246,18 @@ impl<T: Real> SceneModel<T> {
         if !impulses {
             return None;
         }
-        damping
-            .per_body
-            .iter()
-            .zip(&self.inv_masses)
-            .filter(|(c, w)| **c > T::zero() && **w > T::zero())
-            .map(|(&c, &w)| T::one() / (c * w))
-            .reduce(|a, b| a.min(b))
+        self.ground_relaxations().reduce(|a, b| a.min(b))
+    }
+
+    /// `m_b / c_b` of every body damped against the ground.
+    fn ground_relaxations(&self) -> impl Iterator<Item = T> + '_ {
+        self.damping.iter().flat_map(|d| {
+            d.per_body
+                .iter()
+                .zip(&self.inv_masses)
+                .filter(|(c, w)| **c > T::zero() && **w > T::zero())
+                .map(|(&c, &w)| T::one() / (c * w))
+        })
     }
 
     /// The damping's shortest relaxation time, whatever else acts: `m_b / c_b` of a body damped
@@ -262,20 +266,15 @@ impl<T: Real> SceneModel<T> {
     /// resolves it ([`AdaptiveOptions::resolve`](crate::flow::AdaptiveOptions::resolve)).
     pub fn relaxation(&self) -> Option<T> {
         let w = &self.inv_masses;
-        let ground = self.damping.iter().flat_map(|d| {
-            d.per_body
-                .iter()
-                .zip(w)
-                .filter(|(c, w)| **c > T::zero() && **w > T::zero())
-                .map(|(&c, &w)| T::one() / (c * w))
-        });
         let pairs = self.dashpots.iter().flat_map(|d| {
             d.pairs
                 .iter()
                 .filter(|&&(a, b, c)| c > T::zero() && w[a] + w[b] > T::zero())
                 .map(|&(a, b, c)| T::one() / (c * (w[a] + w[b])))
         });
-        ground.chain(pairs).reduce(|a, b| a.min(b))
+        self.ground_relaxations()
+            .chain(pairs)
+            .reduce(|a, b| a.min(b))
     }
 
     /// The times where an input's signal jumps or kinks ([`Signal::breakpoints`](crate::port::Signal::breakpoints)),
