@@ -104,6 +104,10 @@ type Adaptive = AdaptiveExtrapolation<
 >;
 
 fn adaptive(tol: f64) -> (Adaptive, V) {
+    adaptive_with(AdaptiveOptions::new(Tolerances::new(tol, tol).unwrap()))
+}
+
+fn adaptive_with(options: AdaptiveOptions<f64>) -> (Adaptive, V) {
     let m = model();
     let x0: V = m.state(THETA0, 0.0);
     let b = base(&m, &x0);
@@ -118,7 +122,6 @@ fn adaptive(tol: f64) -> (Adaptive, V) {
         worst_phi: 0.0,
         accepted: 0,
     };
-    let options = AdaptiveOptions::new(Tolerances::new(tol, tol).unwrap());
     (
         AdaptiveExtrapolation::try_new(b, finish, options).unwrap(),
         x0,
@@ -227,6 +230,35 @@ fn communication_points_are_met_exactly_and_a_continuation_is_bit_identical() {
     assert_eq!(a, b);
     assert_eq!(la, lb);
     assert_eq!(la.t, 7.0);
+}
+
+#[test]
+fn a_report_interval_the_proposal_spans_is_one_step() {
+    // Steps to every 0.01 s with `h_max = 0.01` (a scene's report interval and its default
+    // longest step), 1 s in all: the controller proposes more than 0.01 after its first step,
+    // so each interval is one accepted step of 0.01 — not two halves of the ladder's rung
+    // 2^{-6.75} = 0.0093 just below it — and the state agrees with a run in steps of 0.1
+    // (its own h_max) within a few tolerances.
+    let run = |interval: f64| {
+        let mut options = AdaptiveOptions::new(Tolerances::new(1e-8, 1e-8).unwrap());
+        options.h_max = Some(interval);
+        let (mut flow, mut x) = adaptive_with(options);
+        let mut ledger = Ledger::at(0.0);
+        let n = (1.0 / interval).round() as usize;
+        for _ in 0..n {
+            flow.step_at(&mut ledger, interval, &mut x).unwrap();
+        }
+        (x, flow.adaptive_stats().unwrap())
+    };
+    let (x, fine) = run(0.01);
+    let (y, _) = run(0.1);
+    // The first step is estimated (below 0.01: no interval holds two), every later one
+    // reaches its interval's end.
+    assert_eq!(fine.accepted, 100, "{fine:?}");
+    assert_eq!(fine.rejected, 0);
+    assert!(fine.largest == 0.01, "{fine:?}");
+    let gap = (0..4).map(|i| (x[i] - y[i]).abs()).fold(0.0, f64::max);
+    assert!(gap <= 1e2 * 1e-8, "{gap:e}");
 }
 
 /// A base step that fails (a Newton failure, say) on sub-steps longer than `limit`.

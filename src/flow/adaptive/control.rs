@@ -295,16 +295,24 @@ fn until_accepted<V: Vector, M: MacroStep<V>>(
             None
         };
         let c = m.control();
-        // The controller's proposal taken down to the ladder 2^{k/4}: successive steps then
-        // often share a size, and so do their sub-steps, whose per-size work a base flow keeps
-        // (an exact linear flow's exponentials, a kept Newton matrix).
-        let proposal = c
+        let raw = c
             .h_next
-            .map(ladder)
             .or(c.options.first_step)
             .or(estimated)
-            .map_or(left, |v| v.abs())
-            .min(h_max);
+            .map_or(left, |v| v.abs());
+        // The controller's proposal taken down to the ladder 2^{k/4}: successive steps then
+        // often share a size, and so do their sub-steps, whose per-size work a base flow keeps
+        // (an exact linear flow's exponentials, a kept Newton matrix). Not below `h_max` or the
+        // interval's end when the proposal itself reaches them: steps bounded by `h_max` share
+        // its size, and an interval the proposal spans is one step, not two halves of a rung
+        // just short of it (a scene's report interval, `h_max` by default, would take two).
+        let proposal = if raw >= h_max {
+            h_max
+        } else if c.h_next.is_some() && raw < left {
+            ladder(raw)
+        } else {
+            raw
+        };
         // Up to the end of the interval: in one step when the proposal reaches it, in two equal
         // ones when it falls short by less than itself (not a step and a sliver).
         let big = if proposal >= left {
