@@ -90,3 +90,32 @@ fn the_stiff_governor_runs_at_a_resolving_step_and_stops_typed_at_a_coarse_one()
     assert!(s.steps < 50, "{}", s.steps);
     assert_eq!(c.simulation.state().len(), x0.len());
 }
+
+/// Under a tolerance `dt` is the report interval, not a step: a budget error above 1% of what
+/// the dampers take is blamed on the tolerance. At `tol = 1e-4` the governor's steps (~7 ms)
+/// are long for its 400 rad/s springs and the books are off by about what the dampers take;
+/// at `tol = 1e-8` they close within the warning's 1%.
+#[test]
+fn under_a_tolerance_the_budget_warning_asks_for_a_tighter_one() {
+    let run_at = |tol: &str| {
+        let mut c = with(&format!("0.2\ntol = {tol}"), "0.2")
+            .compile()
+            .unwrap_or_else(|e| panic!("{e}"));
+        let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
+        assert!(s.error.is_none(), "{:?}", s.error);
+        assert!(s.adaptive.is_some());
+        s
+    };
+    let loose = run_at("1e-4");
+    let warning = loose.energy_balance_warning.expect("flagged");
+    assert!(
+        warning.contains("a tighter tol") && !warning.contains("dt"),
+        "{warning}"
+    );
+    let tight = run_at("1e-8");
+    assert!(
+        tight.energy_balance_warning.is_none(),
+        "{:?}",
+        tight.energy_balance_warning
+    );
+}

@@ -326,6 +326,7 @@ pub fn run_until(
                     e.dissipated.unwrap_or(0.0),
                     e.supplied.unwrap_or(0.0),
                     e.initial.abs().max(e.last.abs()),
+                    sim.adaptive_stats().is_some(),
                 )
             }),
         effects,

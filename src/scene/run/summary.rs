@@ -196,12 +196,14 @@ pub const BUDGET_WARNING_FRACTION: f64 = 0.01;
 /// The warning of a budget error `error` against the energy exchanged, when above
 /// [`BUDGET_WARNING_FRACTION`] of it and above the rounding of the energies (`scale`: the
 /// largest `|H|` of the run), so that a run that exchanges nothing is not flagged for its
-/// round-off.
+/// round-off. Its advice is a smaller `dt`, or with a tolerance (`adaptive`, where `dt` is
+/// the report interval) a tighter one.
 pub(crate) fn budget_warning(
     error: f64,
     dissipated: f64,
     supplied: f64,
     scale: f64,
+    adaptive: bool,
 ) -> Option<String> {
     let exchanged = dissipated.abs() + supplied.abs();
     if exchanged == 0.0 && scale == 0.0 {
@@ -209,9 +211,14 @@ pub(crate) fn budget_warning(
         return None;
     }
     let rounding = 1e3 * f64::EPSILON * scale.max(exchanged);
+    let shrink = if adaptive {
+        "a tighter tol shrinks it"
+    } else {
+        "a smaller dt shrinks it as dt²"
+    };
     (error > BUDGET_WARNING_FRACTION * exchanged && error > rounding).then(|| {
         format!(
-            "the energy budget's error {error:.3e} exceeds 1% of the energy exchanged ({exchanged:.3e}): a smaller dt shrinks it as dt², scheme = \"petrov-galerkin\" closes it"
+            "the energy budget's error {error:.3e} exceeds 1% of the energy exchanged ({exchanged:.3e}): {shrink}, scheme = \"petrov-galerkin\" closes it"
         )
     })
 }
