@@ -250,7 +250,7 @@ const FALL_COEFFICIENTS: [f64; 15] = [
 
 /// `(x − 1 + e^{−x})/x²` for `|x| < 1/2` in a scalar no finer than `f64`: the Taylor
 /// polynomial by Horner's rule, with as many terms as `|x|` needs for the first one left out,
-/// `|x|^N/(N+2)!`, to fall below `ε/40` of the sum (≥ 0.42): multiplications only, where the
+/// `|x|^N/(N+2)!`, to fall below `ε/1000` of the sum (≥ 0.42): multiplications only, where the
 /// summed series divides once a term (a drift's coefficients are formed for every new step
 /// size, an extrapolation's every row).
 #[inline]
