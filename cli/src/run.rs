@@ -292,6 +292,9 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
             a.observe(s);
         }
     };
+    // The books are read through the energy diagnostic only (the summary, the CSV, the plot
+    // and the animation take them from it): without it the flows skip their work.
+    compiled.simulation.read_books(compiled.plan.energy);
     interrupt::catch_interrupt();
     let summary = run_until(
         compiled.simulation.as_mut(),

@@ -6,6 +6,7 @@ use crate::flow::{Flow, FlowStats};
 use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
+use crate::scene::ports::Read;
 use crate::scene::watch::{EventRecord, Watch};
 use crate::stepper::{Checkpoint, Events, Stepper};
 use crate::system::Reprojection;
@@ -80,6 +81,16 @@ pub trait Simulation {
     fn dissipated(&self) -> Option<f64> {
         None
     }
+    /// Tells the simulation whether its caller reads the energy books ([`dissipated`]) from
+    /// now on. Without a reader — its own outputs reading none either — a scene's flows skip
+    /// the books' work (see `Books` in the scene's model: on damped bodies under constraints,
+    /// the account on the motion the constraints allow), the motion being the same to the
+    /// bit, and [`dissipated`] is `None` for the rest of the simulation: a total with steps
+    /// missing is not one. A run that reads them only through its energy diagnostic passes
+    /// whether it has one. Nothing to skip by default.
+    ///
+    /// [`dissipated`]: Self::dissipated
+    fn read_books(&mut self, _read: bool) {}
     /// The names of the declared outputs.
     fn output_names(&self) -> Vec<String> {
         Vec::new()
@@ -207,6 +218,8 @@ pub(crate) struct ModelRun<V: Vector, Sys> {
     pub(crate) watch: Option<Watch<V>>,
     /// The scene's name and fingerprint ([`Simulation::set_identity`]).
     identity: Option<(String, u64)>,
+    /// Steps were taken with the books off ([`Simulation::read_books`]): no total dissipated.
+    unbooked: bool,
 }
 
 impl<V, Sys> ModelRun<V, Sys>
@@ -232,6 +245,7 @@ where
             gram: None,
             watch: None,
             identity: None,
+            unbooked: false,
         })
     }
 }
@@ -444,7 +458,23 @@ where
         let books = self.watch.as_ref().is_some_and(|w| w.supplied);
         (books || s != 0.0).then_some(s)
     }
+    fn read_books(&mut self, read: bool) {
+        let Some(model) = &self.model else {
+            return;
+        };
+        // The scene's own outputs read the books whatever the caller does.
+        let outputs_read = self
+            .watch
+            .as_ref()
+            .is_some_and(|w| w.outputs.iter().any(|o| o.read == Read::Dissipated));
+        let on = read || outputs_read;
+        model.books.set(on);
+        self.unbooked |= !on;
+    }
     fn dissipated(&self) -> Option<f64> {
+        if self.unbooked {
+            return None;
+        }
         let d = self.stepper.ledger().dissipated;
         let books = self.watch.as_ref().is_some_and(|w| w.dissipated);
         (books || d != 0.0).then_some(d)

@@ -15,6 +15,7 @@ mod mechanical_discrete_gradient;
 mod mechanical_form;
 mod scene;
 mod scene_accepted_steps;
+mod scene_books;
 mod scene_breakpoints;
 mod scene_bricard;
 mod scene_controllers;

@@ -199,8 +199,11 @@ fn timed_row(
     let mut times = Vec::with_capacity(repeats);
     'timed: for _ in 0..repeats {
         let Ok(mut c) = compile() else { break };
-        let start = std::time::Instant::now();
         let plan = c.plan;
+        // Nothing observed, so no books read: the flows skip their work, as in `lieflow run`
+        // without the energy diagnostic.
+        c.simulation.read_books(plan.energy);
+        let start = std::time::Instant::now();
         let done = advance_plan(c.simulation.as_mut(), &plan, &mut ());
         if done.error.is_some() {
             break 'timed;

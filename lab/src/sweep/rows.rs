@@ -80,6 +80,8 @@ pub fn run_member(sweep: &Sweep, m: &Member) -> MemberRow {
             return row;
         }
     };
+    // The row's `dissipated` comes from the energy diagnostic, the books' only reader here.
+    c.simulation.read_books(c.plan.energy);
     let s = run(c.simulation.as_mut(), &c.plan, &mut |_| {});
     row.t = s.t;
     row.steps = s.steps;

@@ -154,7 +154,12 @@ impl<T: Real> DashpotFlow<T> {
             dashpots.counter.hit();
         }
         self.last = Some(h);
-        let inconsistent = self.inconsistent_removed(h, x);
+        // The account's flows on a copy only when the run reads the books.
+        let inconsistent = if self.model.books.on() {
+            self.inconsistent_removed(h, x)
+        } else {
+            None
+        };
         let removed = self.advance_uncounted(h, x);
         match inconsistent {
             // The flows' own energy less that of the inconsistent part `p − p_c` (see

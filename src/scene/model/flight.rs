@@ -476,7 +476,9 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
         // The consistent account of a Newton iteration at the positions and sub-step of the
         // last evaluation is that evaluation's (see `consistent.rs`): looked up before the
         // flight moves `x`, computed after it otherwise.
-        let kept = match self.account.as_mut() {
+        // Nothing booked when the run reads no books: the account's work is skipped too.
+        let books = self.model.is_dissipative() && self.model.books.on();
+        let kept = match self.account.as_mut().filter(|_| books) {
             Some(Accounting {
                 account, before, ..
             }) => {
@@ -493,7 +495,7 @@ impl<T: Real, V: Vector<Real = T>> Flow<V> for FreeFlight<T> {
         let removed = self
             .model
             .free_flight_cached(h, x.as_mut_slice(), &mut self.cache);
-        if self.model.is_dissipative() {
+        if books {
             let booked = match kept {
                 None => removed,
                 Some(Some(booked)) => T::lit(booked),

@@ -18,6 +18,7 @@
 // Per-coordinate loops `for k in 0..d` index several arrays at once (q, p, a 3-vector).
 #![allow(clippy::needless_range_loop)]
 
+mod books;
 mod consistent;
 mod constraints;
 mod dashpot;
@@ -88,6 +89,8 @@ pub struct SceneModel<T = f64> {
     gravity_in_flight: bool,
     /// The declared inputs (`None`: no input, no input sub-flow).
     pub(crate) inputs: Option<crate::scene::ports::SceneInputs<T>>,
+    /// Whether the flows book the damping's energy (on unless the run reads no books).
+    pub(crate) books: books::Books,
 }
 
 impl<T: Real> SceneModel<T> {
@@ -161,6 +164,7 @@ impl<T: Real> SceneModel<T> {
             hinge_dampers: None,
             state_names: Vec::new(),
             multiplier_names: Vec::new(),
+            books: books::Books::default(),
         }
     }
 

@@ -25,7 +25,7 @@ pub use signal::SignalSpec;
 pub(crate) use event::{SceneEvents, compile_events};
 pub(crate) use input::InputTerm;
 pub(crate) use joint_position::{JointTable, joint_table};
-pub(crate) use output::{At, CompiledOutput, Scratch, check_joint_reads, compile_outputs};
+pub(crate) use output::{At, CompiledOutput, Read, Scratch, check_joint_reads, compile_outputs};
 pub(crate) use rows::ConstraintRows;
 
 use crate::port::{Held, InputMap, Signal};
