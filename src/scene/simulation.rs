@@ -81,15 +81,11 @@ pub trait Simulation {
     fn dissipated(&self) -> Option<f64> {
         None
     }
-    /// Tells the simulation whether its caller reads the energy books ([`dissipated`]) from
-    /// now on. Without a reader — its own outputs reading none either — a scene's flows skip
-    /// the books' work (see `Books` in the scene's model: on damped bodies under constraints,
-    /// the account on the motion the constraints allow), the motion being the same to the
-    /// bit, and [`dissipated`] is `None` for the rest of the simulation: a total with steps
-    /// missing is not one. A run that reads them only through its energy diagnostic passes
-    /// whether it has one. Nothing to skip by default.
-    ///
-    /// [`dissipated`]: Self::dissipated
+    /// Whether the caller reads [`dissipated`](Self::dissipated) from now on. Without a reader
+    /// (the scene's outputs reading none either) a scene's flows skip the books' work — on
+    /// damped bodies under constraints, the account on the motion they allow — the motion the
+    /// same to the bit, and `dissipated` is `None` from then on, also in a checkpoint's
+    /// continuation: a total with steps missing is not one.
     fn read_books(&mut self, _read: bool) {}
     /// The names of the declared outputs.
     fn output_names(&self) -> Vec<String> {
@@ -194,6 +190,8 @@ pub struct SimulationCheckpoint {
     events: Option<(Vec<f64>, usize)>,
     /// The joint angles' unwrapping state at the save.
     joints: Option<Vec<f64>>,
+    /// Steps before the save were taken with the books off: its ledger has no dissipated total.
+    unbooked: bool,
 }
 
 impl std::fmt::Debug for SimulationCheckpoint {
@@ -399,6 +397,7 @@ where
             identity: self.identity.clone(),
             events,
             joints: self.watch.as_ref().map(|w| w.joints.save()),
+            unbooked: self.unbooked,
         }
     }
     fn set_identity(&mut self, name: String, fingerprint: u64) {
@@ -426,6 +425,8 @@ where
         if let (Some(w), Some(saved)) = (self.watch.as_ref(), &checkpoint.joints) {
             w.joints.restore(saved);
         }
+        // A ledger without its total stays without one (also in a recompiled simulation).
+        self.unbooked |= checkpoint.unbooked;
         Ok(())
     }
     fn set_state(&mut self, x: &[f64], reproject: bool) -> Result<Option<Reprojection>, String> {

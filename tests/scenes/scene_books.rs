@@ -84,6 +84,12 @@ fn a_run_that_reads_no_books_moves_the_same_and_reports_no_total() {
         c.simulation.read_books(true);
         c.simulation.step().unwrap();
         assert_eq!(c.simulation.dissipated(), None, "{integrator}");
+        // Nor in a checkpoint's continuation, in a freshly compiled simulation.
+        let checkpoint = c.simulation.save();
+        let mut fresh = parse(&text).compile().unwrap();
+        fresh.simulation.restore(&checkpoint).unwrap();
+        fresh.simulation.step().unwrap();
+        assert_eq!(fresh.simulation.dissipated(), None, "{integrator}");
     }
 }
 
