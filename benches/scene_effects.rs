@@ -138,6 +138,22 @@ fn bench(c: &mut Criterion) {
     group.bench_function("scene", |b| {
         b.iter_custom(|iters| time_steps(&scene, iters, 1000))
     });
+    // The same scene for a caller that reads no energy books (`lieflow run --off energy`): the
+    // damping's account on the motion the rod allows is skipped, as the Rust model books none.
+    group.bench_function("scene_unbooked", |b| {
+        b.iter_custom(|iters| {
+            time_chunked(
+                iters,
+                1000,
+                || {
+                    let mut sim = scene.compile().expect("compiles").simulation;
+                    sim.read_books(false);
+                    sim
+                },
+                |sim| sim.step().expect("a step"),
+            )
+        })
+    });
     let model = DampedPendulum::try_new(0.5).expect("a model");
     let projected = || {
         let x: SVector<f64, 4> = model.state(std::f64::consts::FRAC_PI_3, 0.0);
