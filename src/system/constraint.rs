@@ -68,6 +68,20 @@ pub trait HolonomicConstraint<V: Vector> {
         let _ = (x, out);
         false
     }
+    /// Writes the derivative of the hidden constraint along a direction `d` that moves momenta
+    /// only, `G M ∇²H d`, into `out` and returns `true`, for a model whose `φ` is
+    /// [`hidden_constraint_direct`](Self::hidden_constraint_direct)'s `G_q W⁻¹ p`: linear in
+    /// `p`, so the derivative is the same map applied to `d`'s momenta, `G_q W⁻¹ d_p`, without
+    /// `∇²H` or `M`. The default returns `false` (a model must also for a `d` whose positions are
+    /// not all zero): the derivative is then formed from `∇²H`, `M` and `G`.
+    ///
+    /// The case it is for: a projection's `λ_{k+1}` system moves `x_{k+1}` along
+    /// `(h/2) M Gᵀ e_j = (0, −(h/2) G_qᵀ e_j)`, so its Jacobian's columns are these derivatives
+    /// (and the system is affine in `λ_{k+1}`).
+    fn hidden_derivative_direct(&self, x: &V, d: &V, out: &mut [V::Real]) -> bool {
+        let _ = (x, d, out);
+        false
+    }
     /// Writes the constraint force `M(x) G(x)ᵀ λ` into `out` and returns `true`, for a model
     /// that knows it without applying `M` (see
     /// [`hidden_constraint_direct`](Self::hidden_constraint_direct)); the default returns

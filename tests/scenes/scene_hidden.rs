@@ -1,7 +1,9 @@
 //! A compiled scene writes its hidden constraint `φ = G M ∇H` directly as the constraint
 //! velocities `G_q W⁻¹ p`, without `∇H`, and its constraint force `M Gᵀλ` as `(0, −G_qᵀλ)`,
-//! without `M`: each agrees with the generic form on scenes with every kind of constraint and
-//! every effect (damping, dashpots and a magnetic field in `M`, pair potentials in `H`).
+//! without `M`, and the hidden constraint's derivative along a momentum-only direction as
+//! `G_q W⁻¹ d_p`, without `∇²H` and `M`: each agrees with the generic form on scenes with every
+//! kind of constraint and every effect (damping, dashpots and a magnetic field in `M`, pair
+//! potentials in `H`).
 
 use faer::Col;
 use lieflow::scene::Scene;
@@ -67,6 +69,34 @@ fn check(text: &str) {
             direct_force[i]
         );
     }
+    // The hidden constraint's derivative along that force (momenta only): G M ∇²H d against
+    // the direct G_q W⁻¹ d_p, the same products in another order (∇²V meets d's zero
+    // positions); refused along a direction that moves positions.
+    let (mut hd, mut mhd) = (Col::<f64>::zeros(n), Col::<f64>::zeros(n));
+    assert!(model.hessian_apply(&x, &force, &mut hd));
+    model.apply(&x, &hd, &mut mhd);
+    let mut generic = vec![0.0; m];
+    model.jacobian_apply(&x, &mhd, &mut generic);
+    let mut direct = vec![f64::NAN; m];
+    assert!(HolonomicConstraint::<Col<f64>>::hidden_derivative_direct(
+        &model,
+        &x,
+        &force,
+        &mut direct
+    ));
+    let scale = generic.iter().fold(1.0f64, |a, b| a.max(b.abs()));
+    for (i, (a, b)) in generic.iter().zip(&direct).enumerate() {
+        assert!(
+            (a - b).abs() <= 16.0 * f64::EPSILON * scale,
+            "row {i}: derivative generic {a:e}, direct {b:e}"
+        );
+    }
+    assert!(!HolonomicConstraint::<Col<f64>>::hidden_derivative_direct(
+        &model,
+        &x,
+        &x,
+        &mut direct
+    ));
 }
 
 #[test]

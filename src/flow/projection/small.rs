@@ -354,6 +354,13 @@ where
     #[inline(always)]
     fn jacobian_column(&mut self, _z: &[V::Real], j: usize, out: &mut [V::Real]) -> bool {
         let sys = self.system;
+        // A model that knows it along momentum-only directions (a scene: `G_q W⁻¹ d_p`).
+        if sys
+            .constraint()
+            .hidden_derivative_direct(&*self.x_next, &self.d[j], out)
+        {
+            return true;
+        }
         if !sys
             .hamiltonian()
             .hessian_apply(&*self.x_next, &self.d[j], self.t1)

@@ -118,6 +118,21 @@ impl<T: Real, V: Vector<Real = T>> HolonomicConstraint<V> for Arc<SceneModel<T>>
         true
     }
 
+    /// `G_q W⁻¹ d_p` for a direction `d` with zero positions (see the trait method): `φ` is
+    /// linear in `p`.
+    #[inline(always)]
+    fn hidden_derivative_direct(&self, x: &V, d: &V, out: &mut [T]) -> bool {
+        let (x, d) = (x.as_slice(), d.as_slice());
+        let nq = x.len() / 2;
+        let (dq, dp) = d.split_at(nq);
+        if dq.iter().any(|&v| v != T::lit(0.0)) {
+            return false;
+        }
+        let _timer = self.timer(&self.constraint_counter);
+        self.for_each_row_dot(&x[..nq], dp, Some(&self.inv_masses), |row, s| out[row] = s);
+        true
+    }
+
     /// `M Gᵀλ = (0, −G_qᵀλ)`: the scene's constraints read positions and its `M` is
     /// `[[0, I], [−I, K − R]]` (see the trait's docs).
     #[inline(always)]
