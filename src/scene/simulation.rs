@@ -6,7 +6,6 @@ use crate::flow::{Flow, FlowStats};
 use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
-use crate::scene::ports::Read;
 use crate::scene::watch::{EventRecord, Watch};
 use crate::stepper::{Checkpoint, Events, Stepper};
 use crate::system::Reprojection;
@@ -82,10 +81,8 @@ pub trait Simulation {
         None
     }
     /// Whether the caller reads [`dissipated`](Self::dissipated) from now on. Without a reader
-    /// (the scene's outputs reading none either) a scene's flows skip the books' work — on
-    /// damped bodies under constraints, the account on the motion they allow — the motion the
-    /// same to the bit, and `dissipated` is `None` from then on, also in a checkpoint's
-    /// continuation: a total with steps missing is not one.
+    /// (nor an output of the scene) its flows skip the books' work (`Books`), the motion the
+    /// same to the bit, and `dissipated` is `None` from then on, in a checkpoint's too.
     fn read_books(&mut self, _read: bool) {}
     /// The names of the declared outputs.
     fn output_names(&self) -> Vec<String> {
@@ -464,11 +461,7 @@ where
             return;
         };
         // The scene's own outputs read the books whatever the caller does.
-        let outputs_read = self
-            .watch
-            .as_ref()
-            .is_some_and(|w| w.outputs.iter().any(|o| o.read == Read::Dissipated));
-        let on = read || outputs_read;
+        let on = read || self.watch.as_ref().is_some_and(Watch::reads_dissipated);
         model.books.set(on);
         self.unbooked |= !on;
     }

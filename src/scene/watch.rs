@@ -2,7 +2,7 @@
 //! the energies its flow books exactly (supplied through inputs, removed by damping).
 
 use crate::scene::model::SceneModel;
-use crate::scene::ports::{At, CompiledOutput, Scratch};
+use crate::scene::ports::{At, CompiledOutput, Read, Scratch};
 use crate::stepper::{EventHit, Events};
 use crate::vector::Vector;
 use serde::Serialize;
@@ -40,6 +40,11 @@ pub(crate) struct Watch<V: Vector> {
 }
 
 impl<V: Vector<Real = f64>> Watch<V> {
+    /// Whether a declared output reads the energy dissipated (the books must then be kept).
+    pub(crate) fn reads_dissipated(&self) -> bool {
+        self.outputs.iter().any(|o| o.read == Read::Dissipated)
+    }
+
     /// Records `hit` (of the step numbered `step`).
     pub(crate) fn record(&mut self, hit: EventHit<f64>, step: usize) {
         self.log.push(EventRecord {
