@@ -446,3 +446,56 @@ fn step_doubling_under_stiff_damping_starts_within_the_relaxation_time() {
         );
     }
 }
+
+#[test]
+fn an_overdamped_chain_s_error_follows_the_tolerance_over_its_creep() {
+    // The chain under damping c = 10 per bob: a relaxation rate c/m = 100 /s against the
+    // creep it settles into, τ ≈ c L / (m g) ≈ 5 s — ratio ~500, stiff for an explicit solver
+    // (its stability bounds its step by a few m/c whatever the tolerance). Over the creep
+    // (T = 5 s: the lowest bob's x from 0.71 to 0.43) the sub-steps resolve m/c = 0.01 s,
+    // which at loose tolerances is about the step the tolerance asks for, not far below it: the
+    // error follows the tolerance at a log–log slope within 0.8 … 1.2 from 1e-4 to 1e-12 and
+    // stays below it, above tol/50 (each step's local error below tol, contracted by the
+    // damping); the constraints at round-off and the energy never rising at every tolerance,
+    // the orders rising as it falls. (Stiffer, c = 100 and 1e4, the relaxation bounds the
+    // steps far below what the tolerance asks: the error is below tol but not proportional,
+    // `a_stiffly_damped_chain_meets_every_tolerance_with_its_constraints_at_round_off`.)
+    let text =
+        |dt: f64, extra: &str| stiff_chain("10", dt, extra).replace("t_end = 1.0", "t_end = 5.0");
+    // Order 12 at 1e-3; the same at 5e-4 agrees with it to 2.6e-13.
+    let reference = run_scene(&parse(&text(1e-3, "order = 12")));
+    // Positions and velocities (m = 0.1: a velocity is its momentum × 10), as `atol` weighs them.
+    let gap = |s: &lieflow::scene::RunSummary| {
+        (0..40)
+            .map(|k| (s.x[k] - reference.x[k]).abs() * if k < 20 { 1.0 } else { 10.0 })
+            .fold(0.0, f64::max)
+    };
+    let tols = [1e-4, 1e-6, 1e-8, 1e-10, 1e-12];
+    let (mut errs, mut top_orders) = (Vec::new(), Vec::new());
+    for &tol in &tols {
+        let s = run_scene(&parse(&text(0.5, &format!("tol = {tol}"))));
+        assert!(s.error.is_none(), "{:?}", s.error);
+        assert!(s.max_abs_g.unwrap() <= 64.0 * f64::EPSILON);
+        assert!(s.max_energy_increase.unwrap() <= 1e-12);
+        let a = s.adaptive.as_ref().expect("the controller's report");
+        let err = gap(&s);
+        eprintln!(
+            "overdamped chain, tol {tol:e}: error {err:.3e} ({:.2e} tol), {} accepted, {} rejected, {} base steps, orders {:?}",
+            err / tol,
+            a.accepted,
+            a.rejected,
+            a.base_steps,
+            a.orders
+        );
+        assert!(
+            err <= tol && err >= tol / 50.0,
+            "tol {tol:e}: error {err:e}"
+        );
+        errs.push(err);
+        top_orders.push(a.orders.iter().map(|o| o[0]).max().unwrap());
+    }
+    let p = slope(&tols, &errs);
+    eprintln!("overdamped chain: slope {p:.3}, highest orders {top_orders:?}");
+    assert!((0.8..=1.2).contains(&p), "slope {p}");
+    assert!(top_orders.windows(2).all(|w| w[1] > w[0]), "{top_orders:?}");
+}
