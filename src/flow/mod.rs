@@ -310,6 +310,19 @@ pub trait Flow<V: Vector> {
     fn adaptive_stats(&self) -> Option<AdaptiveStats> {
         None
     }
+    /// Dense output from an interpolant of the flow's last accepted step (the adaptive
+    /// extrapolation with [`AdaptiveOptions::dense_output`]): the state at `ledger.t` into
+    /// `out`, projected as the step's end is, and `ledger`'s energies there. `None` when the
+    /// flow keeps no interpolant or its last step does not cover `ledger.t` (the default):
+    /// the caller takes a partial step instead ([`Stepper::dense`](crate::Stepper::dense)).
+    fn interpolate(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        out: &mut V,
+    ) -> Option<Result<(), StepError>> {
+        let _ = (ledger, out);
+        None
+    }
 }
 
 /// `n` calls of [`Flow::step_at`] with step `h`: the default [`Flow::step_repeated`], and the
@@ -404,6 +417,13 @@ macro_rules! forward_flow {
             }
             fn adaptive_stats(&self) -> Option<AdaptiveStats> {
                 (**self).adaptive_stats()
+            }
+            fn interpolate(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                out: &mut V,
+            ) -> Option<Result<(), StepError>> {
+                (**self).interpolate(ledger, out)
             }
             fn tangent_apply(&mut self, v: &V, out: &mut V) -> bool {
                 (**self).tangent_apply(v, out)

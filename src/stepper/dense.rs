@@ -14,17 +14,23 @@ where
 {
     /// The state at time `t` between the last two step points, into `out`: one step of the
     /// scheme itself from the previous point to `t` (`θ h`, `0 ≤ θ ≤ 1`). It has the scheme's
-    /// order and its geometry — a projected flow's dense state is on `g = 0` at round-off,
-    /// which no interpolant between step points would be. Costs one step per evaluation; the
-    /// flow's memory (warm starts) is kept as it was, so the run continues unchanged, except
-    /// that kept Newton matrices are rebuilt at the next step. Before the first step, `t` is
-    /// measured from the initial point. Returns the ledger at `t`.
+    /// order and its geometry — a projected flow's dense state is on `g = 0` at round-off.
+    /// Costs one step per evaluation; the flow's memory (warm starts) is kept as it was, so
+    /// the run continues unchanged, except that kept Newton matrices are rebuilt at the next
+    /// step. Before the first step, `t` is measured from the initial point. Returns the ledger
+    /// at `t`. An adaptive extrapolation with [`dense_output`](crate::flow::AdaptiveOptions::dense_output)
+    /// answers from the polynomial of its last accepted step instead, projected onto the
+    /// manifold as the step's end is ([`Flow::interpolate`]), when that step covers `t`.
     ///
     /// # Errors
     /// The step's [`StepError`] (a `t` outside the last step is extrapolated, not refused:
     /// the map is defined for any `θ`, accurate for `θ` in `[0, 1]`).
     pub fn dense(&mut self, t: V::Real, out: &mut V) -> Result<Ledger<V::Real>, StepError> {
         let mut ledger = self.last_ledger;
+        let mut at = Ledger { t, ..ledger };
+        if let Some(r) = self.flow.interpolate(&mut at, out) {
+            return r.map(|()| at);
+        }
         let h = t - ledger.t;
         out.copy_from(&self.last);
         self.memory.clear();

@@ -12,12 +12,12 @@ use lieflow::models::DampedPendulum;
 use lieflow::prelude::*;
 use nalgebra::SVector;
 
-type V = SVector<f64, 4>;
-const THETA0: f64 = std::f64::consts::FRAC_PI_2;
+pub(crate) type V = SVector<f64, 4>;
+pub(crate) const THETA0: f64 = std::f64::consts::FRAC_PI_2;
 const C: f64 = 0.1;
 
 /// The projection after each accepted step, recording the residuals it leaves.
-struct Watched<P> {
+pub(crate) struct Watched<P> {
     inner: P,
     worst_g: f64,
     worst_phi: f64,
@@ -37,7 +37,7 @@ impl<P: AcceptStep<V>> AcceptStep<V> for Watched<P> {
 }
 
 /// The base step, counting its sub-steps by sign.
-struct Signed<F> {
+pub(crate) struct Signed<F> {
     inner: F,
     negative: u64,
     positive: u64,
@@ -72,7 +72,7 @@ impl<F: Flow<V>> Flow<V> for Signed<F> {
     }
 }
 
-fn model() -> DampedPendulum<f64> {
+pub(crate) fn model() -> DampedPendulum<f64> {
     DampedPendulum::try_new(C).unwrap()
 }
 
@@ -88,7 +88,7 @@ fn base(m: &DampedPendulum<f64>, x0: &V) -> Signed<impl Flow<V> + use<>> {
     }
 }
 
-type Adaptive = AdaptiveExtrapolation<
+pub(crate) type Adaptive = AdaptiveExtrapolation<
     V,
     Signed<Box<dyn Flow<V>>>,
     Watched<
@@ -107,7 +107,7 @@ fn adaptive(tol: f64) -> (Adaptive, V) {
     adaptive_with(AdaptiveOptions::new(Tolerances::new(tol, tol).unwrap()))
 }
 
-fn adaptive_with(options: AdaptiveOptions<f64>) -> (Adaptive, V) {
+pub(crate) fn adaptive_with(options: AdaptiveOptions<f64>) -> (Adaptive, V) {
     let m = model();
     let x0: V = m.state(THETA0, 0.0);
     let b = base(&m, &x0);

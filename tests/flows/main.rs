@@ -8,6 +8,7 @@
 mod common;
 
 mod adaptive;
+mod adaptive_dense;
 mod brackets;
 mod chain;
 mod check_model;

@@ -142,6 +142,16 @@ pub(crate) trait MacroStep<V: Vector> {
     fn longest(&self) -> V::Real {
         V::Real::infinity()
     }
+    /// Dense output from the flow's interpolant of its last accepted step at `ledger.t`
+    /// ([`Flow::interpolate`](crate::flow::Flow::interpolate)); `None`: no interpolant covers it.
+    fn interpolate(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        out: &mut V,
+    ) -> Option<Result<(), StepError>> {
+        let _ = (ledger, out);
+        None
+    }
 }
 
 /// The [`Flow`](crate::flow::Flow) of an error-controlled flow `$ty<V, F, P>` with fields `base:
@@ -204,6 +214,13 @@ macro_rules! controlled_flow {
             }
             fn adaptive_stats(&self) -> Option<AdaptiveStats> {
                 Some(self.control.stats)
+            }
+            fn interpolate(
+                &mut self,
+                ledger: &mut Ledger<V::Real>,
+                out: &mut V,
+            ) -> Option<Result<(), StepError>> {
+                MacroStep::interpolate(self, ledger, out)
             }
         }
     };

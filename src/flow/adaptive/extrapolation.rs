@@ -2,6 +2,7 @@
 //! controller around the projected Strang step (RATTLE), every sub-step forward.
 
 use super::control::{Control, Outcome};
+use super::interpolant::{Interpolant, run_row};
 use super::{AcceptStep, AdaptiveOptions};
 use crate::error::{SetupError, StepError};
 use crate::flow::{Flow, Ledger, MAX_ROWS};
@@ -65,6 +66,8 @@ pub struct AdaptiveExtrapolation<V: Vector, F, P = ()> {
     prev_l: [[V::Real; 2]; MAX_ROWS],
     cur_l: [[V::Real; 2]; MAX_ROWS],
     memory: Vec<V::Real>,
+    /// The interpolant of the last accepted step ([`AdaptiveOptions::dense_output`]).
+    dense: Option<Interpolant<V::Real>>,
 }
 
 impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
@@ -119,6 +122,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             prev_l: [[zero; 2]; MAX_ROWS],
             cur_l: [[zero; 2]; MAX_ROWS],
             memory: Vec::new(),
+            dense: None,
         })
     }
 
@@ -158,6 +162,9 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         }
         self.base.restore_memory(from);
         self.finish.forget();
+        if let Some(d) = self.dense.as_mut() {
+            d.forget();
+        }
     }
 
     /// One macro step of size `big` from `x`: on acceptance `x` and `ledger` advance and the
@@ -170,6 +177,9 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         x: &mut V,
     ) -> Result<Outcome<V::Real>, StepError> {
         let l0 = *ledger;
+        if let Some(d) = self.dense.as_mut() {
+            d.forget();
+        }
         self.start.copy_from(x);
         self.memory.clear();
         self.base.save_memory(&mut self.memory);
@@ -187,9 +197,23 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             }
             let mut lj = l0;
             self.cur[0].copy_from(&self.start);
-            let n = j as u32;
-            let sub = big / V::Real::lit(j as f64);
-            let stepped = self.base.step_repeated(&mut lj, sub, n, &mut self.cur[0]);
+            // n_j = j, or 2j with dense output (rows j ≤ jmax − 1 recorded whole, the last
+            // one within jmax − 1 sub-steps of its midpoint: what μ = 2κ − 3 ≤ 2 jmax − 3 needs).
+            let n = self.sub_steps(j);
+            let sub = big / V::Real::lit(f64::from(n));
+            let stepped = match self.dense.as_mut() {
+                Some(d) => run_row(
+                    &mut self.base,
+                    d,
+                    &mut lj,
+                    &l0,
+                    sub,
+                    j,
+                    j.min(jmax - 1),
+                    &mut self.cur[0],
+                ),
+                None => self.base.step_repeated(&mut lj, sub, n, &mut self.cur[0]),
+            };
             self.control.stats.base_steps += u64::from(n);
             if let Err(e) = stepped {
                 self.restore_base();
@@ -242,8 +266,9 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             h_opt[j] = hf * fac;
             if let Some(r) = self.control.options.resolve {
                 // Column j's finest sub-steps resolve the time asked for (its work follows).
-                h_opt[j] = h_opt[j].min(j as f64 * r.to_f64_lossy());
+                h_opt[j] = h_opt[j].min(f64::from(self.sub_steps(j)) * r.to_f64_lossy());
             }
+            // A_j = j(j+1)/2 base steps (twice that with n_j = 2j: the same choices).
             work[j] = (j * (j + 1) / 2) as f64 / h_opt[j];
             // Rows are tested in the window k − 1 … k + 1 only; above `hopeless` the estimate
             // cannot fall below 1 by the window's last row (ODEX), so the step is rejected now.
@@ -257,7 +282,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
                 _ => 1.0,
             };
             if err <= 1.0 {
-                return self.accept(ledger, l0, big, j, &h_opt, &work, err, x);
+                return self.accept(ledger, l0, big, j, &mut h_opt, &mut work, err, x);
             }
             if err > hopeless || j == jmax {
                 self.restore_base();
@@ -275,6 +300,11 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         unreachable!("the last row decides (err = {err})")
     }
 
+    /// Row `j`'s sub-steps: `j`, or `2j` with dense output.
+    fn sub_steps(&self, j: usize) -> u32 {
+        (if self.dense.is_some() { 2 * j } else { j }) as u32
+    }
+
     /// The base flow's memory as the macro step found it.
     fn restore_base(&mut self) {
         let mut from = self.memory.as_slice();
@@ -289,8 +319,8 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         l0: Ledger<V::Real>,
         big: V::Real,
         j: usize,
-        h_opt: &[f64],
-        work: &[f64],
+        h_opt: &mut [f64],
+        work: &mut [f64],
         err: f64,
         x: &mut V,
     ) -> Result<Outcome<V::Real>, StepError> {
@@ -305,6 +335,44 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         ledger.t = l0.t + big;
         ledger.supplied = l0.supplied + self.prev_l[j - 1][0];
         ledger.dissipated = l0.dissipated + self.prev_l[j - 1][1];
+        let hf = big.to_f64_lossy().abs();
+        // With dense output the polynomial's error is held too (ODEX): a step whose estimate
+        // is above 10 is redone shorter, and each column's step is no longer than its
+        // polynomial allows (docs/method.md §12d, "Dense output").
+        let mut dense_cap = [f64::INFINITY; MAX_ROWS + 2];
+        if let Some(d) = self.dense.as_mut() {
+            let inc = self.prev_l[j - 1];
+            let (x0, x1) = (self.start.as_slice(), x.as_slice());
+            d.build(j, &l0, big, x0, x1, inc);
+            let tolerances = &self.control.options.tolerances;
+            for c in (j - 1).max(2)..=(j + 1).min(self.kmax) {
+                let e = d.error_estimate(c, tolerances, x0, x1);
+                let fac = if e > 0.0 {
+                    0.94 * e.powf(-1.0 / (2 * c) as f64)
+                } else {
+                    4.0
+                };
+                let fac = if fac.is_nan() {
+                    0.2
+                } else {
+                    fac.clamp(0.2, 4.0)
+                };
+                if c == j && e > 10.0 {
+                    d.forget();
+                    *ledger = l0;
+                    x.copy_from(&self.start);
+                    self.restore_base();
+                    self.finish.forget();
+                    self.control.book_rejected(e);
+                    return Ok(Outcome::Rejected(V::Real::lit(hf * fac)));
+                }
+                dense_cap[c] = hf * fac;
+                if c <= j {
+                    h_opt[c] = h_opt[c].min(dense_cap[c]);
+                    work[c] = (c * (c + 1) / 2) as f64 / h_opt[c];
+                }
+            }
+        }
         let kc = self.kc;
         let mut k = j;
         if j < kc + 1 {
@@ -316,7 +384,6 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         } else if work[j] >= 0.9 * work[j - 1] {
             k = j - 1;
         }
-        let hf = big.to_f64_lossy().abs();
         let mut next = if k <= j {
             h_opt[k]
         } else {
@@ -331,6 +398,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         if let Some(h_max) = c.options.h_max {
             next = next.min(h_max.to_f64_lossy());
         }
+        next = next.min(dense_cap[k]);
         self.kc = k.clamp(2, self.kmax);
         c.rejected_last = false;
         c.h_next = Some(V::Real::lit(next));

@@ -5,6 +5,7 @@ use super::AdaptiveExtrapolation;
 use crate::error::StepError;
 use crate::flow::adaptive::control::{Control, MacroStep, Outcome, controlled_flow};
 use crate::flow::adaptive::first_step;
+use crate::flow::adaptive::interpolant::Interpolant;
 use crate::flow::adaptive::{AcceptStep, AdaptiveStats};
 use crate::flow::{Flow, FlowStats, Ledger, Multipliers};
 use crate::real::Real;
@@ -41,7 +42,32 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for AdaptiveExtrapola
             self.prev = (0..self.kmax).map(|_| x.zeros_like()).collect();
             self.cur = (0..self.kmax).map(|_| x.zeros_like()).collect();
         }
+        if self.control.options.dense_output
+            && !self
+                .dense
+                .as_ref()
+                .is_some_and(|d| d.fits(x.len(), self.kmax))
+        {
+            self.dense = Some(Interpolant::new(x.len(), self.kmax));
+        }
         self.base.prepare(x);
+    }
+
+    /// The polynomial of the last accepted step at `ledger.t`, projected by `finish`.
+    fn interpolate(
+        &mut self,
+        ledger: &mut Ledger<V::Real>,
+        out: &mut V,
+    ) -> Option<Result<(), StepError>> {
+        let d = self.dense.as_ref()?;
+        if out.len() != self.start.len() || !d.eval(ledger, out.as_mut_slice()) {
+            return None;
+        }
+        let projected = super::super::accept::finish_accepted(&mut self.finish, out);
+        // What the projection kept from this point is not the run's: its next accepted step
+        // rebuilds it, as after a dense output by a partial step.
+        self.finish.forget();
+        Some(projected)
     }
 
     /// Estimated for the order the controller starts at, `2 k_c`.
@@ -63,12 +89,14 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> MacroStep<V> for AdaptiveExtrapola
         first_step::estimate(&mut self.base, &start)
     }
 
-    /// `k_c · resolve`: the finest row's sub-steps resolve the time asked for.
+    /// `n_{k_c} · resolve`: the finest row's sub-steps resolve the time asked for.
     fn longest(&self) -> V::Real {
         self.control
             .options
             .resolve
-            .map_or_else(V::Real::infinity, |r| r * V::Real::lit(self.kc as f64))
+            .map_or_else(V::Real::infinity, |r| {
+                r * V::Real::lit(f64::from(self.sub_steps(self.kc)))
+            })
     }
 }
 

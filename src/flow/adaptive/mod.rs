@@ -17,7 +17,8 @@
 //! base step, ODEX's controller), `step_doubling.rs` ([`StepDoubling`]: step-size control of a
 //! fixed-order scheme by step doubling and a PI controller), `control.rs` (the state and the
 //! stepping every error-controlled flow shares), `first_step.rs` (the first step when none is
-//! given, estimated from the base step), `reversible.rs` ([`ReversibleSteps`]: time-reversible
+//! given, estimated from the base step), `interpolant.rs` (the dense output of an accepted
+//! extrapolation step), `reversible.rs` ([`ReversibleSteps`]: time-reversible
 //! variable steps along a [`StepDensity`] (`step_density.rs`), for conservative symmetric
 //! schemes), `accept.rs` ([`AcceptStep`]: what runs after each accepted
 //! step — the projection onto the manifold, or nothing).
@@ -26,6 +27,7 @@ mod accept;
 mod control;
 mod extrapolation;
 mod first_step;
+mod interpolant;
 mod options;
 mod reversible;
 mod step_density;

@@ -49,6 +49,13 @@ pub struct AdaptiveOptions<T> {
     /// extrapolation: 500–60 000 × tol, docs/method.md §12d). Any order; a time within
     /// rounding of the current one counts as passed.
     pub breakpoints: Vec<T>,
+    /// Keep an interpolant of each accepted step ([`AdaptiveExtrapolation`](super::AdaptiveExtrapolation)
+    /// only; default `false`): dense output — [`Stepper::dense`](crate::Stepper::dense),
+    /// events, report times inside a step — from a polynomial instead of a partial step. The
+    /// table then runs the even sequence `n_j = 2j` (every row's midpoint one of its points;
+    /// the same work per unit time as `n_j = j` at each order, its steps twice as long) and
+    /// keeps each row's points around the midpoint (docs/method.md §12d, "Dense output").
+    pub dense_output: bool,
 }
 
 impl<T: Real> AdaptiveOptions<T> {
@@ -62,6 +69,7 @@ impl<T: Real> AdaptiveOptions<T> {
             max_order: 2 * MAX_ROWS as u32,
             resolve: None,
             breakpoints: Vec::new(),
+            dense_output: false,
         }
     }
 
