@@ -42,6 +42,7 @@ pub(crate) mod bodies;
 mod compile;
 pub mod constraints;
 mod counter;
+mod effect_report;
 pub mod effects;
 mod error;
 mod gram;
@@ -73,8 +74,8 @@ pub use model::{
 };
 pub use run::{
     AdaptiveSummary, Advanced, BUDGET_WARNING_FRACTION, EffectReport, RunFailure, RunPlan,
-    RunSummary, Sample, Simulation, SimulationCheckpoint, advance, advance_own_until, advance_plan,
-    advance_plan_until, advance_until, run, run_until,
+    RunSummary, Sample, Simulation, SimulationCheckpoint, advance, advance_dense_until,
+    advance_own_until, advance_plan, advance_plan_until, advance_until, run, run_until,
 };
 pub use schema::SceneFile;
 pub use watch::EventRecord;

@@ -294,6 +294,11 @@ pub struct IntegratorSpec {
     /// With a tolerance: the highest order the controller may choose (even, 4 … 16; default 16).
     #[serde(default)]
     pub max_order: Option<u32>,
+    /// With a tolerance (the adaptive extrapolation): report at every `dt` from the
+    /// polynomial of the accepted step that holds it (dense output), the steps the
+    /// controller's own — not landing on every report time — and `h_max` unbounded by default.
+    #[serde(default)]
+    pub dense: bool,
     /// Final time, positive (`t_end / dt` steps, rounded to the nearest integer).
     pub t_end: f64,
     /// Diagnostics computed after every step: `"energy"`, `"constraints"` (`|g|`, `|φ|`),

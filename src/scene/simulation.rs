@@ -3,6 +3,7 @@
 
 use crate::error::{IntegrateError, StepError};
 use crate::flow::{Flow, FlowStats};
+pub use crate::scene::effect_report::EffectReport;
 use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
@@ -11,23 +12,8 @@ use crate::stepper::{Checkpoint, Events, Stepper};
 use crate::system::Reprojection;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
-use serde::Serialize;
 use std::any::Any;
 use std::sync::Arc;
-
-/// One assembled term and what it cost in a run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct EffectReport {
-    /// The label (the effect's `name`, or its type).
-    pub name: String,
-    /// The kind (`gravity`, `spring`, …).
-    pub kind: &'static str,
-    /// Evaluations of the term (energy, gradient, Hessian products, flows, `M` products).
-    pub evaluations: u64,
-    /// Share of the run's time (stepping and the diagnostics after each step) spent in the
-    /// term (with the `profile` diagnostic).
-    pub time_share: Option<f64>,
-}
 
 /// A simulation ready to step: a compiled scene or a built-in model.
 pub trait Simulation {
@@ -50,6 +36,20 @@ pub trait Simulation {
     fn step_own(&mut self, t_end: f64) -> Result<Option<f64>, StepError> {
         let _ = t_end;
         Ok(None)
+    }
+    /// Calls `observe` with the simulation showing its state at `t` inside its last step —
+    /// the adaptive extrapolation's polynomial with `dense = true`, projected — then returns
+    /// to the step's end, from where the run goes on. `Ok(false)`, nothing called, without.
+    ///
+    /// # Errors
+    /// The dense output's projection failing (the state is the step's end).
+    fn observe_at(
+        &mut self,
+        t: f64,
+        observe: &mut dyn FnMut(&mut dyn Simulation),
+    ) -> Result<bool, StepError> {
+        let _ = (t, observe);
+        Ok(false)
     }
     /// `H(x)`.
     fn energy(&self) -> f64;
@@ -339,6 +339,20 @@ where
             self.unwrap_joints();
         }
         Ok(taken)
+    }
+    fn observe_at(
+        &mut self,
+        t: f64,
+        observe: &mut dyn FnMut(&mut dyn Simulation),
+    ) -> Result<bool, StepError> {
+        if self.stepper.flow().adaptive_stats().is_none() {
+            return Ok(false);
+        }
+        let mut shown = self.stepper.state().clone();
+        let kept = self.stepper.show(t, &mut shown)?;
+        observe(self);
+        self.stepper.resume(kept, &mut shown);
+        Ok(true)
     }
     fn input_names(&self) -> Vec<String> {
         self.model

@@ -6,6 +6,14 @@ use crate::flow::{Flow, Ledger};
 use crate::vector::Vector;
 use std::borrow::BorrowMut;
 
+/// What [`Stepper::show`] set aside besides the state: the step end's ledger and time base.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Shown<T> {
+    ledger: Ledger<T>,
+    t_base: T,
+    k_base: usize,
+}
+
 impl<V, F, S> Stepper<V, F, S>
 where
     V: Vector,
@@ -38,6 +46,31 @@ where
         let r = self.flow.step_at(&mut ledger, h, out);
         self.flow.restore_memory(&mut self.memory.as_slice());
         r.map(|()| ledger)
+    }
+
+    /// Shows the dense output at `t` as the stepper's state, time and ledger (the step's end
+    /// into `end`), until [`resume`](Self::resume) puts the end back: observers read a report
+    /// time inside a step while the run goes on from the step's end. Nothing may step between.
+    pub(crate) fn show(&mut self, t: V::Real, end: &mut V) -> Result<Shown<V::Real>, StepError> {
+        let ledger = self.dense(t, end)?;
+        core::mem::swap(self.x.borrow_mut(), end);
+        let kept = Shown {
+            ledger: self.ledger,
+            t_base: self.t_base,
+            k_base: self.k_base,
+        };
+        self.ledger = ledger;
+        self.t_base = t;
+        self.k_base = self.k;
+        Ok(kept)
+    }
+
+    /// Puts back the step's end [`show`](Self::show) set aside.
+    pub(crate) fn resume(&mut self, kept: Shown<V::Real>, end: &mut V) {
+        core::mem::swap(self.x.borrow_mut(), end);
+        self.ledger = kept.ledger;
+        self.t_base = kept.t_base;
+        self.k_base = kept.k_base;
     }
 
     /// The time of the previous step point (the start of the dense output's interval).

@@ -20,6 +20,7 @@ mod scene_breakpoints;
 mod scene_bricard;
 mod scene_controllers;
 mod scene_damping_account;
+mod scene_dense;
 mod scene_errors;
 mod scene_flight;
 mod scene_governor;

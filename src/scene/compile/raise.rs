@@ -59,6 +59,8 @@ pub struct Control {
     /// The times the inputs' signals jump or kink: no step crosses them
     /// ([`AdaptiveOptions::breakpoints`]).
     pub breakpoints: Vec<f64>,
+    /// Keep each accepted step's polynomial ([`AdaptiveOptions::dense_output`]).
+    pub dense: bool,
 }
 
 impl Control {
@@ -76,6 +78,7 @@ impl Control {
         o.max_order = self.max_order;
         o.resolve = self.resolve.map(T::lit);
         o.breakpoints = self.breakpoints.iter().map(|&t| T::lit(t)).collect();
+        o.dense_output = self.dense;
         Ok(o)
     }
 }

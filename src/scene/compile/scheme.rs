@@ -144,6 +144,7 @@ pub(super) fn plan(integ: &IntegratorSpec, flags: &Flags) -> Result<(RunPlan, bo
             residuals: residuals && flags.residuals,
             multipliers: false,
             own_steps: false,
+            dense: integ.dense,
         },
         profile,
     ))

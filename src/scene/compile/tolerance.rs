@@ -22,6 +22,7 @@ pub(super) fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
             ("max_order", integ.max_order.is_some()),
             ("controller", integ.controller.is_some()),
             ("density", integ.density.is_some()),
+            ("dense", integ.dense),
         ] {
             if set {
                 return Err(err(
@@ -69,6 +70,7 @@ pub(super) fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
         }
     };
     let h_max = match integ.h_max {
+        None if integ.dense => f64::INFINITY,
         None => dt,
         Some(h) => positive(h, &path.key("h_max"), "largest step")?,
     };
@@ -91,6 +93,7 @@ pub(super) fn control(integ: &IntegratorSpec) -> Result<Option<Control>> {
         scales: Vec::new(),
         resolve: None,
         breakpoints: Vec::new(),
+        dense: integ.dense,
     }))
 }
 
@@ -133,6 +136,13 @@ pub(super) fn controlled(
             SceneErrorKind::Value,
             path.key("max_order"),
             "`max_order` bounds the adaptive extrapolation (`scheme = \"auto\"` or `\"extrapolation\"` with the error controller); this scheme keeps its order",
+        ));
+    }
+    if integ.dense && !(extrapolates && controller == Controller::Error) {
+        return Err(err(
+            SceneErrorKind::Unsupported,
+            path.key("dense"),
+            "dense output is the adaptive extrapolation's (`scheme = \"auto\"` or `\"extrapolation\"` with the error controller)",
         ));
     }
     if integ.density.is_some() && controller != Controller::Reversible {

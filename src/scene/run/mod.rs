@@ -7,7 +7,10 @@
 //!
 //! [`Stepper`]: crate::stepper::Stepper
 
+mod dense;
 mod summary;
+
+pub use dense::advance_dense_until;
 
 pub(crate) use crate::scene::simulation::ModelRun;
 pub use crate::scene::simulation::{EffectReport, Simulation, SimulationCheckpoint};
@@ -194,6 +197,9 @@ pub fn advance_plan_until(
 ) -> Advanced {
     if plan.own_steps && sim.adaptive_stats().is_some() {
         return advance_own_until(sim, plan.t_end, observer, interrupt);
+    }
+    if plan.dense && sim.adaptive_stats().is_some() {
+        return advance_dense_until(sim, plan, observer, interrupt);
     }
     let done = advance_until(sim, plan.steps, observer, interrupt);
     if done.error.is_some()

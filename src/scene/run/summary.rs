@@ -24,6 +24,11 @@ pub struct RunPlan {
     /// tolerance, `dt` is the interval its states are reported at, each report time a step
     /// lands on). A scheme without steps of its own takes the steps of `dt`.
     pub own_steps: bool,
+    /// Report at every `dt` from the dense output of the scheme's own steps (a scene with
+    /// `dense = true`): the observer sees the state at each report time, read from the
+    /// polynomial of the accepted step that holds it, while the steps go on from their own
+    /// ends ([`advance_dense_until`](crate::scene::advance_dense_until)).
+    pub dense: bool,
     /// Pass the step's multipliers `(λ_k + λ_{k+1})/2` to the observer (a copy per step: for
     /// writing them out, off by default).
     pub multipliers: bool,

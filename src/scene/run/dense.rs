@@ -1,0 +1,88 @@
+//! A run that reports at every `dt` from the dense output of its own steps.
+
+use super::{Advanced, RunPlan, Simulation, failure};
+use crate::scene::observe::RunObserver;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Takes the scheme's own steps to `plan.t_end` and reports at the plan's times (`k dt`, and
+/// `t_end` when `dt` does not divide it): each report time inside an accepted step is shown
+/// from its dense output ([`Simulation::observe_at`]) while the steps go on from their own
+/// ends, so the reports do not shorten them; a report time a step ends on is observed as it
+/// is. The observer's step number is the report's. Stops before the next step once
+/// `interrupt` is raised, and after an event that stops the run (its state the last report).
+/// A scheme without dense output reports by [`advance_plan_until`](super::advance_plan_until)'s
+/// steps.
+pub fn advance_dense_until(
+    sim: &mut dyn Simulation,
+    plan: &RunPlan,
+    observer: &mut dyn RunObserver,
+    interrupt: &AtomicBool,
+) -> Advanced {
+    let reports = plan.total_steps();
+    let t0 = sim.time();
+    let at = |k: usize| {
+        if k >= reports {
+            plan.t_end
+        } else {
+            t0 + k as f64 * sim_dt(plan, t0)
+        }
+    };
+    let slack = |a: f64, b: f64| 8.0 * f64::EPSILON * (a.abs() + b.abs());
+    let mut done = 0;
+    while done < reports && sim.stopped().is_none() {
+        let t = sim.time();
+        let next = at(done + 1);
+        if (next - t).abs() <= slack(next, t) {
+            done += 1;
+            observer.observe(done, sim);
+            continue;
+        }
+        if next < t {
+            let shown = sim.observe_at(next, &mut |s| observer.observe(done + 1, s));
+            match shown {
+                Ok(true) => {
+                    done += 1;
+                    continue;
+                }
+                Ok(false) => break,
+                Err(e) => {
+                    return Advanced {
+                        steps: done,
+                        error: Some(failure(done, sim, &e)),
+                        interrupted: false,
+                    };
+                }
+            }
+        }
+        if interrupt.load(Ordering::Relaxed) {
+            return Advanced {
+                steps: done,
+                error: None,
+                interrupted: true,
+            };
+        }
+        match sim.step_own(plan.t_end) {
+            Ok(Some(_)) => {}
+            Ok(None) => break,
+            Err(e) => {
+                return Advanced {
+                    steps: done,
+                    error: Some(failure(done, sim, &e)),
+                    interrupted: false,
+                };
+            }
+        }
+    }
+    Advanced {
+        steps: done,
+        error: None,
+        interrupted: false,
+    }
+}
+
+/// The report interval: `t_end / steps` rounded as the plan's grid is (`t_end` is `steps · dt`
+/// plus the shorter last step).
+fn sim_dt(plan: &RunPlan, t0: f64) -> f64 {
+    let full = plan.t_end - t0 - plan.last_step.unwrap_or(0.0);
+    full / plan.steps.max(1) as f64
+}
