@@ -42,6 +42,10 @@ fn headline(a: &Assembly, plan: &RunPlan, dt: f64) -> String {
     };
     let steps = match plan.last_step {
         _ if plan.own_steps => format!("steps chosen to t_end = {}", num(plan.t_end, 12)),
+        _ if plan.dense => format!(
+            "{} from the dense output of the steps chosen",
+            count(plan.total_steps(), "report", "reports")
+        ),
         None => count(plan.steps, "step", "steps"),
         Some(last) => format!(
             "{} (the last {} long, to end at t_end = {})",
@@ -88,6 +92,11 @@ pub(crate) struct RunArgs {
     /// and plot point at each accepted step, instead of stepping to every `dt`.
     #[arg(long)]
     accepted_steps: bool,
+    /// Report every `dt` from the dense output of the controller's own steps (a scene with a
+    /// tolerance, as `[integrator] dense = true`): the steps are not shortened to land on
+    /// the report times.
+    #[arg(long, conflicts_with = "accepted_steps")]
+    dense: bool,
     /// Plot energy and constraint residual over time (and the paths, for 2D scenes) as SVG
     /// (the file must end in `.svg`; it is checked writable before the run).
     #[arg(long, value_name = "FILE.svg")]
@@ -146,6 +155,9 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     }
     if let Some(t) = args.t_end {
         scene.file.integrator.t_end = t;
+    }
+    if args.dense {
+        scene.file.integrator.dense = true;
     }
     let (dt, t_end) = (scene.file.integrator.step(), scene.file.integrator.t_end);
     if (args.dt.is_some() || args.t_end.is_some()) && dt > t_end {

@@ -149,13 +149,18 @@ impl Raise {
             Raise::Base => base.to_owned(),
             Raise::Compose(t) => format!("{base} composed by {} ({} stages)", t.name, t.stages),
             Raise::Adaptive(c) => format!(
-                "{base}, extrapolated adaptively (orders 4 to {}, rtol {:e}, atol {:e}{}; any constraints projected after every accepted step)",
+                "{base}, extrapolated adaptively (orders 4 to {}, rtol {:e}, atol {:e}{}; any constraints projected after every accepted step{})",
                 c.max_order,
                 c.rtol,
                 c.atol,
                 c.resolve.map_or_else(String::new, |r| format!(
                     "; sub-steps within the damping's relaxation time {r:.3e}, so the steps follow it: scheme = \"petrov-galerkin\" with the tolerance takes steps set by the motion"
-                ))
+                )),
+                if c.dense {
+                    "; reports from each step's polynomial (dense output, its error held to the tolerance too)"
+                } else {
+                    ""
+                }
             ),
             Raise::Doubling(c, t) => format!(
                 "{}, steps by step doubling with a PI controller (rtol {:e}, atol {:e}, per unit step{})",
