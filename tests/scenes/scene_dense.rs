@@ -78,3 +78,50 @@ fn dense_output_goes_with_the_adaptive_extrapolation() {
     let e = refused("tol = 1e-8\nscheme = \"strang\"\ndense = true", "dense");
     assert_eq!(e.kind, SceneErrorKind::Unsupported);
 }
+
+#[test]
+fn events_are_located_on_the_polynomial() {
+    // scenes/forced_pendulum.toml (a rod, damping, a motor; nine passes through the bottom
+    // and a stop when the bob rises above a plane) at tol 1e-9, reporting every 0.05 s from
+    // the dense output, the steps bounded by 0.045 s (the stop's excursion above its plane
+    // lasts 0.15 s; a crossing is seen as a sign change between a step's ends). Each event
+    // is located on the step's polynomial — no partial step — where a fixed order-8 run at
+    // dt = 2e-3 (error below 1e-12) finds it, to 1e-8, and the run stops there.
+    let text = include_str!("../../scenes/forced_pendulum.toml");
+    let dense = parse(&text.replace(
+        "dt = 0.001",
+        "dt = 0.05\ntol = 1e-9\nh_max = 0.045\ndense = true",
+    ));
+    let (d, rows) = observed(&dense);
+    let (fixed, _) = observed(&parse(&text.replace("dt = 0.001", "dt = 0.002\norder = 8")));
+    assert!(d.error.is_none() && fixed.error.is_none(), "{:?}", d.error);
+    assert_eq!(d.stopped_by.as_deref(), Some("high"));
+    assert_eq!(d.events.len(), fixed.events.len());
+    for (a, f) in d.events.iter().zip(&fixed.events) {
+        assert_eq!(a.name, f.name);
+        assert!((a.t - f.t).abs() <= 1e-8, "{}: {} vs {}", a.name, a.t, f.t);
+    }
+    // Rows at the report times up to the stop, then the stop's, each on the constraint.
+    let stop = d.events.last().unwrap().t;
+    assert_eq!(rows.last().unwrap().0, stop);
+    assert_eq!(d.t, stop);
+    assert_eq!(rows.len(), (stop / 0.05).floor() as usize + 2);
+    for (k, r) in rows.iter().enumerate() {
+        if k + 1 < rows.len() {
+            assert!((r.0 - 0.05 * k as f64).abs() <= 1e-12, "row {k}: t {}", r.0);
+        }
+        assert!(r.0 <= stop);
+        assert!(
+            r.2.unwrap() <= 64.0 * f64::EPSILON,
+            "t {}: {:e}",
+            r.0,
+            r.2.unwrap()
+        );
+    }
+    eprintln!(
+        "forced pendulum, dense: {} events, {} rows, {:?}",
+        d.events.len(),
+        rows.len(),
+        d.adaptive
+    );
+}

@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// from its dense output ([`Simulation::observe_at`]) while the steps go on from their own
 /// ends, so the reports do not shorten them; a report time a step ends on is observed as it
 /// is. The observer's step number is the report's. Stops before the next step once
-/// `interrupt` is raised, and after an event that stops the run (its state the last report).
+/// `interrupt` is raised, and at an event that stops the run (its state the last row).
 /// A scheme without dense output reports by [`advance_plan_until`](super::advance_plan_until)'s
 /// steps.
 pub fn advance_dense_until(
@@ -29,19 +29,22 @@ pub fn advance_dense_until(
     };
     let slack = |a: f64, b: f64| 8.0 * f64::EPSILON * (a.abs() + b.abs());
     let mut done = 0;
-    while done < reports && sim.stopped().is_none() {
+    // The time of the last row (the caller observed the initial state).
+    let mut seen = t0;
+    while done < reports {
         let t = sim.time();
         let next = at(done + 1);
         if (next - t).abs() <= slack(next, t) {
             done += 1;
+            seen = t;
             observer.observe(done, sim);
             continue;
         }
         if next < t {
-            let shown = sim.observe_at(next, &mut |s| observer.observe(done + 1, s));
-            match shown {
+            match sim.observe_at(next, &mut |s| observer.observe(done + 1, s)) {
                 Ok(true) => {
                     done += 1;
+                    seen = next;
                     continue;
                 }
                 Ok(false) => break,
@@ -53,6 +56,15 @@ pub fn advance_dense_until(
                     };
                 }
             }
+        }
+        if sim.stopped().is_some() {
+            // Stopped by an event inside the step, after the report times before it: its
+            // state is the last row, as when the steps land on the report times.
+            if seen != t {
+                done += 1;
+                observer.observe(done, sim);
+            }
+            break;
         }
         if interrupt.load(Ordering::Relaxed) {
             return Advanced {
