@@ -56,6 +56,7 @@ mod run;
 pub mod schema;
 mod shape;
 pub(crate) mod simulation;
+mod simulation_checkpoint;
 pub mod sketch;
 pub(crate) mod validate;
 mod watch;

@@ -7,12 +7,12 @@ pub use crate::scene::effect_report::EffectReport;
 use crate::scene::effects::dissipated_power;
 use crate::scene::gram::MassGram;
 use crate::scene::model::SceneModel;
+pub use crate::scene::simulation_checkpoint::SimulationCheckpoint;
 use crate::scene::watch::{EventRecord, Watch};
 use crate::stepper::{Checkpoint, Events, Stepper};
 use crate::system::Reprojection;
 use crate::system::{Hamiltonian, HolonomicConstraint, Model};
 use crate::vector::{Vector, ops};
-use std::any::Any;
 use std::sync::Arc;
 
 /// A simulation ready to step: a compiled scene or a built-in model.
@@ -175,27 +175,6 @@ pub trait Simulation {
     /// scene and scheme — so that a checkpoint of another one is refused at
     /// [`restore`](Self::restore) (set by [`compile`](crate::scene::compile)).
     fn set_identity(&mut self, _name: String, _fingerprint: u64) {}
-}
-
-/// A saved [`Simulation`] (opaque: restored into the simulation it came from, or one compiled
-/// from the same scene).
-pub struct SimulationCheckpoint {
-    state: Box<dyn Any + Send>,
-    /// The scene's name and fingerprint it was saved from.
-    identity: Option<(String, u64)>,
-    /// Events' values at the save, and how many had happened.
-    events: Option<(Vec<f64>, usize)>,
-    /// The joint angles' unwrapping state at the save.
-    joints: Option<Vec<f64>>,
-    /// Steps before the save were taken with the books off: its ledger has no dissipated total.
-    unbooked: bool,
-}
-
-impl std::fmt::Debug for SimulationCheckpoint {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SimulationCheckpoint")
-            .finish_non_exhaustive()
-    }
 }
 
 /// A [`Stepper`] and the flow's system: the [`Simulation`] of a scene and of the built-in

@@ -357,7 +357,8 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
                 } else {
                     fac.clamp(0.2, 4.0)
                 };
-                if c == j && e > 10.0 {
+                // (A NaN estimate, a polynomial that blew up, is redone as one above 10.)
+                if c == j && (e.is_nan() || e > 10.0) {
                     d.forget();
                     *ledger = l0;
                     x.copy_from(&self.start);
