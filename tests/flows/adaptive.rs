@@ -207,7 +207,21 @@ fn communication_points_are_met_exactly_and_a_continuation_is_bit_identical() {
     // `step(1, x)` lands on each whole second (the last macro step clipped); saving the
     // flow's memory (the controller's proposal and column with the base step's warm starts)
     // and the state after 3 s and restoring them gives the same 4 s after, bit for bit.
-    let (mut flow, mut x) = adaptive(1e-9);
+    let (mut flow, x) = adaptive(1e-9);
+    let ((a, la), (b, lb)) = continued_twice(&mut flow, x, |_, _| ());
+    assert_eq!(a, b);
+    assert_eq!(la, lb);
+    assert_eq!(la.t, 7.0);
+}
+
+/// `flow` stepped from `x` by whole seconds to 3 s, its memory saved, then on to 7 s twice: as
+/// it is, and from the restored memory and the state at 3 s, `between` called on the restored
+/// flow (and that state) before it runs on. The two ends with their ledgers.
+pub(crate) fn continued_twice(
+    flow: &mut Adaptive,
+    mut x: V,
+    between: impl FnOnce(&mut Adaptive, &V),
+) -> ((V, Ledger<f64>), (V, Ledger<f64>)) {
     let mut ledger = Ledger::at(0.0);
     for _ in 0..3 {
         flow.step_at(&mut ledger, 1.0, &mut x).unwrap();
@@ -222,14 +236,12 @@ fn communication_points_are_met_exactly_and_a_continuation_is_bit_identical() {
         }
         (x, l)
     };
-    let (a, la) = run_on(&mut flow, x, ledger);
+    let first = run_on(flow, x, ledger);
     let mut from = memory.as_slice();
     flow.restore_memory(&mut from);
     assert!(from.is_empty());
-    let (b, lb) = run_on(&mut flow, saved, saved_ledger);
-    assert_eq!(a, b);
-    assert_eq!(la, lb);
-    assert_eq!(la.t, 7.0);
+    between(flow, &saved);
+    (first, run_on(flow, saved, saved_ledger))
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! Dense output of the adaptive extrapolation (`AdaptiveOptions::dense_output`): the
 //! polynomial of each accepted step between its ends, against the damped pendulum's reference.
 
-use crate::adaptive::{Adaptive, THETA0, V, adaptive_with, model};
+use crate::adaptive::{Adaptive, THETA0, V, adaptive_with, continued_twice, model};
 use crate::common::log_slope as slope;
 use lieflow::flow::{AdaptiveOptions, Flow, Ledger, Tolerances};
 use lieflow::prelude::*;
@@ -116,30 +116,14 @@ fn reading_the_interpolant_leaves_the_run_as_it_was_and_a_continuation_is_bit_id
     eprintln!("read against not read: {gap:e}");
     assert!(gap <= 1e-13, "{gap:e}");
 
-    let (mut flow, mut x) = dense(1e-9);
-    let mut ledger = Ledger::at(0.0);
-    for _ in 0..3 {
-        flow.step_at(&mut ledger, 1.0, &mut x).unwrap();
-    }
-    let mut memory = Vec::new();
-    flow.save_memory(&mut memory);
-    let (saved, saved_ledger) = (x, ledger);
-    let run_on = |flow: &mut Adaptive, mut x: V, mut l: Ledger<f64>| {
-        for _ in 0..4 {
-            flow.step_at(&mut l, 1.0, &mut x).unwrap();
-        }
-        (x, l)
-    };
-    let (a, la) = run_on(&mut flow, x, ledger);
-    let mut from = memory.as_slice();
-    flow.restore_memory(&mut from);
-    assert!(from.is_empty());
-    let mut probe = saved;
-    let mut at = Ledger::at(3.5);
-    assert!(flow.interpolate(&mut at, &mut probe).is_none());
-    let (b, lb) = run_on(&mut flow, saved, saved_ledger);
+    let (mut flow, x) = dense(1e-9);
+    let ((a, la), (b, lb)) = continued_twice(&mut flow, x, |flow, saved| {
+        let (mut probe, mut at) = (*saved, Ledger::at(3.5));
+        assert!(flow.interpolate(&mut at, &mut probe).is_none());
+    });
     assert_eq!(a, b);
     assert_eq!(la, lb);
+    let mut probe = a;
     let mut at = Ledger::at(6.99);
     assert!(flow.interpolate(&mut at, &mut probe).unwrap().is_ok());
     let (g, phi) = residuals(&probe);

@@ -252,18 +252,8 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
                     a.as_slice(),
                 )
                 .to_f64_lossy();
-            let fac = if err > 0.0 {
-                0.94 * (0.65 / err).powf(1.0 / (2 * j - 1) as f64)
-            } else {
-                4.0
-            };
             // A NaN estimate (a row blew up) shrinks as far as the clamp allows.
-            let fac = if fac.is_nan() {
-                0.02
-            } else {
-                fac.clamp(0.02, 4.0)
-            };
-            h_opt[j] = hf * fac;
+            h_opt[j] = hf * step_factor(err, 0.65, 2 * j - 1, 0.02);
             if let Some(r) = self.control.options.resolve {
                 // Column j's finest sub-steps resolve the time asked for (its work follows).
                 h_opt[j] = h_opt[j].min(f64::from(self.sub_steps(j)) * r.to_f64_lossy());
@@ -347,16 +337,7 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
             let tolerances = &self.control.options.tolerances;
             for c in (j - 1).max(2)..=(j + 1).min(self.kmax) {
                 let e = d.error_estimate(c, tolerances, x0, x1);
-                let fac = if e > 0.0 {
-                    0.94 * e.powf(-1.0 / (2 * c) as f64)
-                } else {
-                    4.0
-                };
-                let fac = if fac.is_nan() {
-                    0.2
-                } else {
-                    fac.clamp(0.2, 4.0)
-                };
+                let fac = step_factor(e, 1.0, 2 * c, 0.2);
                 // (A NaN estimate, a polynomial that blew up, is redone as one above 10.)
                 if c == j && (e.is_nan() || e > 10.0) {
                     d.forget();
@@ -405,6 +386,22 @@ impl<V: Vector, F: Flow<V>, P: AcceptStep<V>> AdaptiveExtrapolation<V, F, P> {
         c.h_next = Some(V::Real::lit(next));
         c.book_accepted(hf, j, err);
         Ok(Outcome::Accepted)
+    }
+}
+
+/// The factor `0.94 (aim/e)^{1/p}` of a step whose error estimate is `e` (tolerances) for an
+/// error in `H^p`, aiming at `aim`: `4` for a zero estimate, within `[least, 4]`, `least` for a
+/// NaN one.
+fn step_factor(e: f64, aim: f64, p: usize, least: f64) -> f64 {
+    let fac = if e > 0.0 {
+        0.94 * (aim / e).powf(1.0 / p as f64)
+    } else {
+        4.0
+    };
+    if fac.is_nan() {
+        least
+    } else {
+        fac.clamp(least, 4.0)
     }
 }
 

@@ -1,6 +1,7 @@
 //! A run that reports at every `dt` from the dense output of its own steps.
 
 use super::{Advanced, RunPlan, Simulation, failure};
+use crate::error::StepError;
 use crate::scene::observe::RunObserver;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -48,13 +49,7 @@ pub fn advance_dense_until(
                     continue;
                 }
                 Ok(false) => break,
-                Err(e) => {
-                    return Advanced {
-                        steps: done,
-                        error: Some(failure(done, sim, &e)),
-                        interrupted: false,
-                    };
-                }
+                Err(e) => return failed(done, sim, &e),
             }
         }
         if sim.stopped().is_some() {
@@ -76,18 +71,21 @@ pub fn advance_dense_until(
         match sim.step_own(plan.t_end) {
             Ok(Some(_)) => {}
             Ok(None) => break,
-            Err(e) => {
-                return Advanced {
-                    steps: done,
-                    error: Some(failure(done, sim, &e)),
-                    interrupted: false,
-                };
-            }
+            Err(e) => return failed(done, sim, &e),
         }
     }
     Advanced {
         steps: done,
         error: None,
+        interrupted: false,
+    }
+}
+
+/// The run ended by a failed step or dense output after `done` reports.
+fn failed(done: usize, sim: &dyn Simulation, e: &StepError) -> Advanced {
+    Advanced {
+        steps: done,
+        error: Some(failure(done, sim, e)),
         interrupted: false,
     }
 }
