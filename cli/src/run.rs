@@ -332,6 +332,9 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     }
     let io_error = csv.and_then(|rows| rows.finish(&final_sample));
     print_summary(&summary);
+    if let Some(hint) = dense_hint(&scene, &compiled.plan, &summary, dt) {
+        println!("  note: {hint}");
+    }
     let mut code = ExitCode::SUCCESS;
     let animated = animation.map(|a| a.write(&summary));
     if let Some(Err(e)) = &animated {
@@ -392,6 +395,28 @@ pub(crate) fn run_scene(args: &RunArgs) -> ExitCode {
     }
     println!("{json}");
     code
+}
+
+/// A run of the adaptive extrapolation whose every step ended on a report time (the steps
+/// bounded by `dt`, as `h_max` is by default): the dense output would let them be longer.
+fn dense_hint(
+    scene: &lieflow::scene::Scene,
+    plan: &RunPlan,
+    s: &RunSummary,
+    dt: f64,
+) -> Option<String> {
+    use lieflow::scene::schema::{Controller, Method};
+    let i = &scene.file.integrator;
+    let extrapolates = matches!(i.scheme, Method::Auto | Method::Extrapolation)
+        && i.controller.unwrap_or(Controller::Error) == Controller::Error;
+    let a = s.adaptive.as_ref()?;
+    let bound = a.largest_step? >= dt * (1.0 - 1e-9) && a.accepted <= s.steps as u64 + a.rejected;
+    (extrapolates && !plan.dense && !plan.own_steps && s.steps >= 20 && bound).then(|| {
+        format!(
+            "every step ended on a report time (dt = {}); `--dense` (`[integrator] dense = true`) reads the reports from the steps' dense output and lets the controller take its own",
+            num(dt, 6)
+        )
+    })
 }
 
 pub(crate) fn print_summary(s: &RunSummary) {

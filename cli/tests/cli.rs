@@ -394,3 +394,32 @@ fn check_says_a_non_polynomial_potential_keeps_two_more_points() {
         "{out}"
     );
 }
+
+#[test]
+fn a_tolerance_run_bound_by_its_reports_points_at_dense_output() {
+    // The damped pendulum at tol 1e-8 reporting every 0.01 s: every step ends on a report
+    // time, and the run says `--dense` would lift that; with it, the rows are the same 1000
+    // and the steps the controller's own (tens), and nothing is suggested.
+    let text = std::fs::read_to_string(repo("scenes/damped_pendulum.toml"))
+        .unwrap()
+        .replace("dt = 0.01", "dt = 0.01\ntol = 1e-8");
+    let path = scratch("pendulum_tol.toml");
+    std::fs::write(&path, text).unwrap();
+    let landed = lieflow(&["run", path.to_str().unwrap()]);
+    assert!(landed.status.success(), "{}", stderr(&landed));
+    assert!(stdout(&landed).contains("`--dense`"), "{}", stdout(&landed));
+    let dense = lieflow(&["run", path.to_str().unwrap(), "--dense"]);
+    assert!(dense.status.success(), "{}", stderr(&dense));
+    assert!(!stdout(&dense).contains("`--dense`"), "{}", stdout(&dense));
+    let (l, d) = (summary(&landed), summary(&dense));
+    assert_eq!(l["steps"], 1000);
+    assert_eq!(d["steps"], 1000);
+    assert_eq!(l["adaptive"]["accepted"], 1000);
+    assert!(
+        d["adaptive"]["accepted"].as_u64().unwrap() < 100,
+        "{}",
+        d["adaptive"]
+    );
+    assert!(d["max_abs_g"].as_f64().unwrap() < 1e-13);
+    assert!(stdout(&dense).contains("reports from the dense output"));
+}
