@@ -194,6 +194,8 @@ pub(crate) struct ModelRun<V: Vector, Sys> {
     identity: Option<(String, u64)>,
     /// Steps were taken with the books off ([`Simulation::read_books`]): no total dissipated.
     unbooked: bool,
+    /// Where the step's end waits while a dense state is shown ([`Simulation::observe_at`]).
+    end: Option<V>,
 }
 
 impl<V, Sys> ModelRun<V, Sys>
@@ -220,6 +222,7 @@ where
             watch: None,
             identity: None,
             unbooked: false,
+            end: None,
         })
     }
 }
@@ -327,10 +330,15 @@ where
         if self.stepper.flow().adaptive_stats().is_none() {
             return Ok(false);
         }
-        let mut shown = self.stepper.state().clone();
-        let kept = self.stepper.show(t, &mut shown)?;
+        // Allocated once and kept (what it holds is overwritten; a failed show drops it).
+        let mut end = self
+            .end
+            .take()
+            .unwrap_or_else(|| self.stepper.state().clone());
+        let kept = self.stepper.show(t, &mut end)?;
         observe(self);
-        self.stepper.resume(kept, &mut shown);
+        self.stepper.resume(kept, &mut end);
+        self.end = Some(end);
         Ok(true)
     }
     fn input_names(&self) -> Vec<String> {

@@ -191,7 +191,7 @@ impl<T: Real> Interpolant<T> {
     /// For the column above the built one, `a_{2c−1}` is continued geometrically from
     /// `a_{2c−5}` and `a_{2c−3}`.
     pub(crate) fn error_estimate(
-        &mut self,
+        &self,
         c: usize,
         tolerances: &Tolerances<T>,
         x0: &[T],
@@ -202,12 +202,9 @@ impl<T: Real> Interpolant<T> {
         let m = (2 * c - 2) as f64;
         let peak = 0.5 * (m / (m + 2.0)).sqrt();
         let bound = peak.powf(m) / (2.0 * (m + 2.0));
-        let zeros = &mut self.points[..n];
-        zeros.fill(T::zero());
-        let zeros = &self.points[..n];
         let norm = |l: usize| {
             tolerances
-                .error(&self.coef[l * s..][..n], zeros, x0, x1)
+                .norm(&self.coef[l * s..][..n], x0, x1)
                 .to_f64_lossy()
         };
         let l = 2 * c - 1;

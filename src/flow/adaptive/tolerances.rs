@@ -89,14 +89,28 @@ impl<T: Real> Tolerances<T> {
 
     /// `‖a − b‖` in the weighted norm, the weights from `x0` and `x1`.
     pub fn error(&self, a: &[T], b: &[T], x0: &[T], x1: &[T]) -> T {
-        let n = a.len();
+        Self::rms(a.len(), |i| {
+            (a[i] - b[i]) / self.weight(i, x0[i].abs().max(x1[i].abs()))
+        })
+    }
+
+    /// `‖a‖` in the weighted norm, the weights from `x0` and `x1`.
+    pub fn norm(&self, a: &[T], x0: &[T], x1: &[T]) -> T {
+        Self::rms(a.len(), |i| {
+            a[i] / self.weight(i, x0[i].abs().max(x1[i].abs()))
+        })
+    }
+
+    /// `√(Σ eᵢ² / n)` of the `n` weighted components `e(i)` (0 for none).
+    #[inline(always)]
+    fn rms(n: usize, e: impl Fn(usize) -> T) -> T {
         if n == 0 {
             return T::zero();
         }
         let mut sum = T::zero();
         for i in 0..n {
-            let e = (a[i] - b[i]) / self.weight(i, x0[i].abs().max(x1[i].abs()));
-            sum = sum + e * e;
+            let v = e(i);
+            sum = sum + v * v;
         }
         (sum / T::lit(n as f64)).sqrt()
     }
@@ -110,17 +124,11 @@ impl<T: Real> Tolerances<T> {
     /// computations of the same step may differ by when each is exact to rounding. At most
     /// `ε / min rtol`.
     pub fn roundoff(&self, x0: &[T], x1: &[T]) -> T {
-        let n = x0.len();
-        if n == 0 {
-            return T::zero();
-        }
-        let mut sum = T::zero();
-        for i in 0..n {
-            let size = x0[i].abs().max(x1[i].abs());
-            let e = size / self.weight(i, size);
-            sum = sum + e * e;
-        }
-        T::epsilon() * (sum / T::lit(n as f64)).sqrt()
+        T::epsilon()
+            * Self::rms(x0.len(), |i| {
+                let size = x0[i].abs().max(x1[i].abs());
+                size / self.weight(i, size)
+            })
     }
 }
 

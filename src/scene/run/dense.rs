@@ -21,11 +21,12 @@ pub fn advance_dense_until(
 ) -> Advanced {
     let reports = plan.total_steps();
     let t0 = sim.time();
+    let dt = sim_dt(plan, t0);
     let at = |k: usize| {
         if k >= reports {
             plan.t_end
         } else {
-            t0 + k as f64 * sim_dt(plan, t0)
+            t0 + k as f64 * dt
         }
     };
     let slack = |a: f64, b: f64| 8.0 * f64::EPSILON * (a.abs() + b.abs());
